@@ -1,0 +1,1 @@
+#include "cutter/Mesh.h"

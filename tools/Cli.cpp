@@ -1,0 +1,130 @@
+#include "tools/Cli.h"
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <unistd.h>
+
+namespace mtcut::cli {
+
+namespace {
+std::map<std::string, Command>& registry()
+{
+    static std::map<std::string, Command> r;
+    return r;
+}
+std::atomic<bool> gInterrupted{false};
+extern "C" void onSigint(int) { gInterrupted = true; }
+} // namespace
+
+CommandRegistrar::CommandRegistrar(Command command)
+{
+    registry().emplace(command.name, std::move(command));
+}
+const std::map<std::string, Command>& commands() { return registry(); }
+
+std::string Args::get(const std::string& name, const std::string& fallback) const
+{
+    auto it = options.find(name);
+    return it == options.end() ? fallback : it->second;
+}
+
+double Args::getDouble(const std::string& name, double fallback) const
+{
+    auto it = options.find(name);
+    if (it == options.end()) return fallback;
+    char* end = nullptr;
+    const double v = std::strtod(it->second.c_str(), &end);
+    if (it->second.empty() || *end != '\0') {
+        throw InputError("--" + name + " " + it->second + ": expected a number");
+    }
+    return v;
+}
+
+long long Args::getInt(const std::string& name, long long fallback) const
+{
+    auto it = options.find(name);
+    if (it == options.end()) return fallback;
+    char* end = nullptr;
+    const long long v = std::strtoll(it->second.c_str(), &end, 10);
+    if (it->second.empty() || *end != '\0') {
+        throw InputError("--" + name + " " + it->second + ": expected an integer");
+    }
+    return v;
+}
+
+const std::vector<std::string> kInputOptions = {"series", "grid", "air", "dims", "type",
+                                                "endian", "spacing", "origin", "offset"};
+
+vdb::ReadOptions readOptions(const Args& args)
+{
+    vdb::ReadOptions options;
+    options.seriesUid = args.get("series");
+    options.gridName = args.get("grid");
+    if (args.has("air")) options.sparse.airThreshold = float(args.getDouble("air", 0.0));
+    std::string spec;
+    for (const char* key : {"dims", "type", "endian", "spacing", "origin", "offset"}) {
+        if (args.has(key)) spec += std::string(key) + "=" + args.get(key) + " ";
+    }
+    if (!spec.empty()) options.raw = vdb::parseRawOptions(spec);
+    return options;
+}
+
+vdb::Volume readInput(const std::string& path, const Args& args)
+{
+    ProgressBar progress;
+    return vdb::readVolume(path, readOptions(args), &progress);
+}
+
+ProgressBar::ProgressBar() : mTty(::isatty(2) != 0)
+{
+    gInterrupted = false;
+    std::signal(SIGINT, onSigint);
+}
+
+ProgressBar::~ProgressBar() { std::signal(SIGINT, SIG_DFL); }
+
+void ProgressBar::start(const char* name)
+{
+    std::lock_guard<std::mutex> lock(mMutex);
+    mName = name ? name : "";
+    mLast = -1;
+}
+
+void ProgressBar::end()
+{
+    std::lock_guard<std::mutex> lock(mMutex);
+    if (mTty && mLast >= 0) std::fprintf(stderr, "\r\033[K");
+    mLast = -1;
+}
+
+bool ProgressBar::wasInterrupted(int percent)
+{
+    if (mTty && percent >= 0 && percent != mLast.load()) {
+        std::unique_lock<std::mutex> lock(mMutex, std::try_to_lock);
+        if (lock.owns_lock() && percent > mLast) {
+            mLast = percent;
+            constexpr int kWidth = 30;
+            const int filled = percent * kWidth / 100;
+            std::fprintf(stderr, "\r%-28.28s [%s%s] %3d%%", mName.c_str(), std::string(size_t(filled), '#').c_str(),
+                         std::string(size_t(kWidth - filled), ' ').c_str(), percent);
+            std::fflush(stderr);
+        }
+    }
+    return gInterrupted.load();
+}
+
+std::string humanBytes(double bytes)
+{
+    const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+    int u = 0;
+    while (bytes >= 1024.0 && u < 4) {
+        bytes /= 1024.0;
+        ++u;
+    }
+    char buf[64];
+    std::snprintf(buf, sizeof buf, u == 0 ? "%.0f %s" : "%.1f %s", bytes, units[u]);
+    return buf;
+}
+
+} // namespace mtcut::cli

@@ -1,0 +1,80 @@
+// The `mtcut` command line: argument parsing, the command registry, the
+// progress bar. Each command lives in its own cmd_*.cpp and registers itself.
+#pragma once
+
+#include "vdb/Progress.h"
+#include "vdb/VolumeIO.h"
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace mtcut::cli {
+
+/// Parsed arguments of one command. Options are "--name value" or "--name=value";
+/// flags are "--name" alone. Which is which is declared by the command.
+struct Args
+{
+    std::vector<std::string> positional;
+    std::map<std::string, std::string> options;
+    std::set<std::string> flags;
+
+    bool has(const std::string& name) const { return options.count(name) || flags.count(name); }
+    std::string get(const std::string& name, const std::string& fallback = {}) const;
+    double getDouble(const std::string& name, double fallback) const;
+    long long getInt(const std::string& name, long long fallback) const;
+};
+
+struct Command
+{
+    std::string name;
+    std::string usage;   ///< one line: "info INPUT [input options]"
+    std::string summary; ///< one line: what it does
+    std::vector<std::string> valueOptions; ///< names without "--"
+    std::vector<std::string> flagOptions;
+    size_t minPositional = 0, maxPositional = 0;
+    std::function<int(const Args&)> run;
+};
+
+/// Registers a command at static-initialisation time (one per cmd_*.cpp).
+struct CommandRegistrar
+{
+    explicit CommandRegistrar(Command command);
+};
+const std::map<std::string, Command>& commands();
+
+/// Options every command that reads an INPUT accepts.
+extern const std::vector<std::string> kInputOptions;
+/// Builds ReadOptions from --series, --grid, --air and the raw layout options
+/// (--dims --type --endian --spacing --origin --offset).
+vdb::ReadOptions readOptions(const Args& args);
+
+/// Reads INPUT with a progress bar; prints nothing else.
+vdb::Volume readInput(const std::string& path, const Args& args);
+
+/// Draws "name [#####     ]  42%" on stderr when it is a terminal; Ctrl+C
+/// cancels the running operation (which throws Cancelled).
+class ProgressBar : public Interrupter
+{
+public:
+    ProgressBar();
+    ~ProgressBar() override;
+    void start(const char* name = nullptr) override;
+    void end() override;
+    bool wasInterrupted(int percent = -1) override;
+
+private:
+    bool mTty;
+    std::string mName;
+    std::atomic<int> mLast{-1};
+    std::mutex mMutex;
+};
+
+/// "1.23 GiB", "45.6 MiB", ...
+std::string humanBytes(double bytes);
+
+} // namespace mtcut::cli

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# The README's two commands. Installs what is missing (Debian packages, as
+# root), builds in Release, then either runs the main job on the built-in
+# phantom (demo) or runs every test (test). Quiet when nothing is missing.
+#
+#   bash tools/setup.sh demo     install, build, run the main job
+#   bash tools/setup.sh test     install, build, run all tests
+#   bash tools/setup.sh deps     only install what is missing
+#   bash tools/setup.sh build    install and build
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+BUILD=${MTCUT_BUILD_DIR:-$ROOT/build}
+JOBS=${MTCUT_JOBS:-$(nproc)}
+
+PACKAGES=(
+  cmake ninja-build g++ pkg-config zlib1g-dev
+  libopenvdb-dev libboost-iostreams-dev libtbb-dev
+  libopenmesh-dev libopenexr-dev libimath-dev libglm-dev
+  libgdcm-dev libnifti2-dev libteem-dev
+  libglfw3-dev libepoxy-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
+  libgtest-dev libbenchmark-dev xvfb clang libclang-rt-14-dev
+)
+
+deps() {
+  local missing=() p
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  ((${#missing[@]})) || return 0
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo=sudo
+  echo "setup: installing ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+}
+
+build() {
+  if [ ! -f "$BUILD/CMakeCache.txt" ]; then
+    cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+  fi
+  # Ninja's per-file progress lines are noise here; errors still show.
+  local log
+  log=$(mktemp)
+  if ! cmake --build "$BUILD" -j "$JOBS" >"$log" 2>&1; then
+    grep -vE '^\[[0-9]+/[0-9]+\] ' "$log" >&2 || true
+    rm -f "$log"
+    echo "setup: build failed" >&2
+    exit 1
+  fi
+  grep -iE 'warning' "$log" >&2 || true
+  rm -f "$log"
+}
+
+demo() {
+  local out="$BUILD/demo" mtcut="$BUILD/tools/mtcut"
+  mkdir -p "$out"
+  "$mtcut" phantom "$out/phantom.vdb"
+  "$mtcut" info "$out/phantom.vdb"
+}
+
+run_tests() {
+  ctest --test-dir "$BUILD" --output-on-failure -j "$JOBS" --timeout 1200
+  if [ -f "$ROOT/tests/fuzz/run.sh" ]; then
+    bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"
+  fi
+}
+
+case "${1:-}" in
+  deps) deps ;;
+  build) deps; build ;;
+  demo) deps; build; demo ;;
+  test) deps; build; run_tests ;;
+  *) echo "usage: bash tools/setup.sh demo|test|deps|build" >&2; exit 2 ;;
+esac
