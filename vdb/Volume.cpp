@@ -282,8 +282,8 @@ DenseScan toDense(const Volume& volume)
     scan.geometry.origin = volume.origin();
     scan.units = volume.units;
     scan.values.assign(volume.voxelCount(), volume.grid->background());
-    // LayoutXYZ would be x slowest; LayoutZYX is z slowest, i.e. x fastest.
-    openvdb::tools::Dense<float, openvdb::tools::LayoutZYX> dense(volume.indexBox(),
+    // LayoutXYZ: x changes fastest, as in our scans.
+    openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(volume.indexBox(),
                                                                    scan.values.data());
     openvdb::tools::copyToDense(*volume.grid, dense);
     return scan;
