@@ -1,0 +1,416 @@
+#include "cutter/BladePath.h"
+
+#include "vdb/Error.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace mtcut::cutter {
+
+glm::ivec3 IndexFrame::cellCount() const
+{
+    return glm::max(dims - glm::ivec3(1), glm::ivec3(0));
+}
+
+glm::ivec3 IndexFrame::cellOf(const glm::dvec3& ijk) const
+{
+    constexpr double kLimit = double(1 << 30);
+    glm::ivec3 c;
+    for (int a = 0; a < 3; ++a) c[a] = int(std::floor(std::clamp(ijk[a], -kLimit, kLimit)));
+    return c;
+}
+
+namespace {
+
+double maxAbs(const glm::dvec3& v)
+{
+    return std::max({std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+}
+
+bool finite3(const glm::dvec3& v)
+{
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+/// Largest distance of a corner from the quad's plane (0 for degenerate quads).
+double planarityError(const Quad& q)
+{
+    if (q.degenerate) return 0.0;
+    double e = 0.0;
+    for (uint32_t i = 0; i < q.cornerCount; ++i)
+        e = std::max(e, std::abs(glm::dot(q.normal, q.corners[i]) - q.offset));
+    return e;
+}
+
+double extent(const Quad& q)
+{
+    glm::dvec3 lo = q.corners[0], hi = q.corners[0];
+    for (uint32_t i = 1; i < q.cornerCount; ++i) {
+        lo = glm::min(lo, q.corners[i]);
+        hi = glm::max(hi, q.corners[i]);
+    }
+    return maxAbs(hi - lo);
+}
+
+} // namespace
+
+Quad makeQuad(const glm::dvec3* corners, uint32_t count, uint32_t stick)
+{
+    Quad q;
+    q.cornerCount = count;
+    q.stick = stick;
+    for (uint32_t i = 0; i < count; ++i) q.corners[i] = corners[i];
+    for (uint32_t i = count; i < 4; ++i) q.corners[i] = corners[count - 1];
+    // Normal from the largest corner triangle (robust for darts and triangles).
+    glm::dvec3 best(0.0);
+    double bestLen = 0.0;
+    for (uint32_t i = 0; i < count; ++i)
+        for (uint32_t j = i + 1; j < count; ++j)
+            for (uint32_t k = j + 1; k < count; ++k) {
+                const glm::dvec3 c = glm::cross(corners[j] - corners[i], corners[k] - corners[i]);
+                const double len = glm::length(c);
+                if (len > bestLen) {
+                    bestLen = len;
+                    best = c;
+                }
+            }
+    const double ext = extent(q);
+    if (!(bestLen > 1e-12 * (ext * ext + 1.0))) {
+        q.degenerate = true;
+        return q;
+    }
+    glm::dvec3 n = best / bestLen;
+    // Orientation: along (tip0 - base0) x (base1 - base0) (corners 0,1 and the last).
+    const glm::dvec3 ref =
+        glm::cross(corners[1] - corners[0], corners[count - 1] - corners[0]);
+    if (glm::dot(n, ref) < 0.0) n = -n;
+    q.normal = n;
+    // Offset: mean over corners, so the plane is the least-biased fit.
+    double d = 0.0;
+    for (uint32_t i = 0; i < count; ++i) d += glm::dot(n, corners[i]);
+    q.offset = d / count;
+    return q;
+}
+
+// ---------------------------------------------------------------------------
+
+PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options)
+    : mFrame(frame), mOptions(options)
+{
+}
+
+void PathFilter::endStroke()
+{
+    mSticks.clear();
+    mPoseCount = 0;
+    mHaveTime = false;
+}
+
+bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
+{
+    auto fail = [&](const std::string& what) {
+        std::ostringstream s;
+        s << "pose " << mPoseCount << " of the stroke: " << what;
+        throw InputError(s.str());
+    };
+    if (!std::isfinite(pose.time)) fail("time is not a finite number");
+    if (!finite3(pose.base)) fail("base point (x,y,z) is not finite");
+    if (!finite3(pose.direction)) fail("direction (dx,dy,dz) is not finite");
+    if (!std::isfinite(pose.length)) fail("length is not a finite number");
+    if (!(pose.length > 0.0)) fail("blade length must be > 0 mm");
+    const double dirLen = glm::length(pose.direction);
+    if (!(dirLen >= 1e-9) || !std::isfinite(dirLen)) fail("direction (dx,dy,dz) is zero");
+    if (mHaveTime && pose.time < mLastTime) {
+        std::ostringstream s;
+        s << "time goes backwards (" << pose.time << " s after " << mLastTime << " s)";
+        fail(s.str());
+    }
+    mHaveTime = true;
+    mLastTime = pose.time;
+    const uint32_t poseIndex = mPoseCount++;
+
+    Stick s1;
+    s1.time = pose.time;
+    s1.base = pose.base;
+    s1.direction = pose.direction / dirLen;
+    s1.length = pose.length;
+    s1.poseIndex = poseIndex;
+
+    if (mSticks.empty()) {
+        mSticks.push_back(s1);
+        return true;
+    }
+    const Stick& s0 = mSticks.back();
+    if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base)))
+        return false;
+
+    const uint32_t stickIndex = uint32_t(mSticks.size() - 1);
+    auto quadOf = [&](const Stick& a, const Stick& b) {
+        const glm::dvec3 c[4] = {a.base, a.tip(), b.tip(), b.base};
+        return makeQuad(c, 4, stickIndex);
+    };
+    auto planar = [&](const Quad& q) {
+        return planarityError(q) <= mOptions.planarTolerance * (extent(q) + 1.0);
+    };
+
+    // (a) already coplanar (includes collinear motion)
+    Quad q = quadOf(s0, s1);
+    if (planar(q)) {
+        mSticks.push_back(s1);
+        quads.push_back(q);
+        return true;
+    }
+    // (b) rotate the new stick into span(dir0, m)
+    const glm::dvec3 m = s1.base - s0.base;
+    const glm::dvec3 nu = glm::cross(s0.direction, m);
+    const double nuLen = glm::length(nu);
+    if (nuLen > 0.0) {
+        const glm::dvec3 nuHat = nu / nuLen;
+        const glm::dvec3 projected = s1.direction - glm::dot(s1.direction, nuHat) * nuHat;
+        const double pLen = glm::length(projected);
+        if (pLen > 0.5) { // rotation below 60 degrees; the angle test below decides
+            Stick s1r = s1;
+            s1r.direction = projected / pLen;
+            const double angle =
+                std::asin(std::min(1.0, std::abs(glm::dot(s1.direction, nuHat))));
+            s1r.adjustAngle = angle;
+            if (angle <= mOptions.maxTwist) {
+                const Quad qr = quadOf(s0, s1r);
+                if (planar(qr)) {
+                    mSticks.push_back(s1r);
+                    quads.push_back(qr);
+                    return true;
+                }
+            }
+        }
+    }
+    // (c) split into two planar triangles
+    const glm::dvec3 t0[3] = {s0.base, s0.tip(), s1.tip()};
+    const glm::dvec3 t1[3] = {s0.base, s1.tip(), s1.base};
+    quads.push_back(makeQuad(t0, 3, stickIndex));
+    quads.push_back(makeQuad(t1, 3, stickIndex));
+    mSticks.push_back(s1);
+    return true;
+}
+
+std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame& frame,
+                               const PathFilterOptions& options, std::vector<Stick>* sticks)
+{
+    PathFilter filter(frame, options);
+    std::vector<Quad> quads;
+    for (const Pose& p : poses) filter.push(p, quads);
+    if (sticks) *sticks = filter.sticks();
+    return quads;
+}
+
+// ---------------------------------------------------------------------------
+// Voxelisation
+
+QuadRegion::QuadRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
+    : mCellCount(frame.cellCount())
+{
+    const uint32_t n = quad.cornerCount;
+    glm::dvec3 u[4];
+    for (uint32_t i = 0; i < n; ++i) u[i] = frame.toIndex(quad.corners[i]);
+    glm::dvec3 h(0.0);
+    if (!quad.degenerate && kerfMm > 0.0) h = (0.5 * kerfMm) * quad.normal / frame.spacing;
+
+    // Edge directions of K_q: corner differences and h (Minkowski-sum edges).
+    std::vector<glm::dvec3> edges;
+    for (uint32_t i = 0; i < n; ++i)
+        for (uint32_t j = i + 1; j < n; ++j) {
+            const glm::dvec3 e = u[j] - u[i];
+            if (e != glm::dvec3(0.0)) edges.push_back(e);
+        }
+    if (h != glm::dvec3(0.0)) edges.push_back(h);
+
+    std::vector<glm::dvec3> axes;
+    // World plane n.x = d is (n * spacing).u = d - n.origin in index space.
+    mHasPlane = !quad.degenerate;
+    if (mHasPlane) axes.push_back(quad.normal * frame.spacing);
+    for (int a = 0; a < 3; ++a) {
+        glm::dvec3 e(0.0);
+        e[a] = 1.0;
+        axes.push_back(e);
+    }
+    for (size_t i = 0; i < edges.size(); ++i) {
+        for (size_t j = i + 1; j < edges.size(); ++j) axes.push_back(glm::cross(edges[i], edges[j]));
+        for (int a = 0; a < 3; ++a) {
+            glm::dvec3 e(0.0);
+            e[a] = 1.0;
+            axes.push_back(glm::cross(edges[i], e));
+        }
+    }
+
+    double scale = maxAbs(glm::abs(h)) + 1.0;
+    for (uint32_t i = 0; i < n; ++i) scale = std::max(scale, maxAbs(u[i]) + maxAbs(glm::abs(h)) + 1.0);
+
+    mLower = u[0];
+    mUpper = u[0];
+    for (uint32_t i = 1; i < n; ++i) {
+        mLower = glm::min(mLower, u[i]);
+        mUpper = glm::max(mUpper, u[i]);
+    }
+    mLower -= glm::abs(h);
+    mUpper += glm::abs(h);
+
+    for (const glm::dvec3& a : axes) {
+        const double a1 = std::abs(a.x) + std::abs(a.y) + std::abs(a.z);
+        if (!(a1 > 0.0) || !std::isfinite(a1)) continue;
+        double lo = glm::dot(a, u[0]), hi = lo;
+        for (uint32_t i = 1; i < n; ++i) {
+            const double p = glm::dot(a, u[i]);
+            lo = std::min(lo, p);
+            hi = std::max(hi, p);
+        }
+        const double ah = std::abs(glm::dot(a, h));
+        const double tol = 1e-12 * a1 * scale;
+        const double r = 0.5 * a1; // box half-extent along a
+        // The cell [c, c+1] with centre x = c + 0.5 overlaps when
+        // dot(a, x) in [lo - ah - r - tol, hi + ah + r + tol].
+        mAxes.push_back({a, lo - ah - r - tol, hi + ah + r + tol});
+    }
+}
+
+bool QuadRegion::touchesCell(const glm::ivec3& cell) const
+{
+    const glm::dvec3 c = glm::dvec3(cell) + 0.5;
+    for (const Axis& ax : mAxes) {
+        const double p = glm::dot(ax.a, c);
+        if (p < ax.lo || p > ax.hi) return false;
+    }
+    return true;
+}
+
+void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
+{
+    // Cell range from the bounding box, with the box axes' tolerance, clipped
+    // to the volume. [c, c+1] meets [lo, hi] iff ceil(lo) - 1 <= c <= floor(hi).
+    glm::ivec3 lo, hi;
+    for (int a = 0; a < 3; ++a) {
+        const double t = 1e-12 * (std::max(std::abs(mLower[a]), std::abs(mUpper[a])) + 1.0);
+        const double l = std::max(mLower[a] - t, -1.0);
+        const double u = std::min(mUpper[a] + t, double(mCellCount[a]));
+        lo[a] = std::max(int(std::ceil(l)) - 1, 0);
+        hi[a] = std::min(int(std::floor(u)), mCellCount[a] - 1);
+        if (hi[a] < lo[a]) return;
+    }
+    // Inner axis: the one the plane normal is most aligned with, so the slab
+    // test gives a short interval per column.
+    int inner = 2;
+    glm::dvec3 nrm(0.0);
+    const bool havePlane = mHasPlane;
+    if (havePlane) {
+        nrm = mAxes[0].a;
+        const glm::dvec3 an = glm::abs(nrm);
+        inner = an.x >= an.y && an.x >= an.z ? 0 : (an.y >= an.z ? 1 : 2);
+    }
+    const int o1 = (inner + 1) % 3, o2 = (inner + 2) % 3;
+    const int outer = std::min(o1, o2), middle = std::max(o1, o2);
+    glm::ivec3 c;
+    for (c[outer] = lo[outer]; c[outer] <= hi[outer]; ++c[outer])
+        for (c[middle] = lo[middle]; c[middle] <= hi[middle]; ++c[middle]) {
+            int kLo = lo[inner], kHi = hi[inner];
+            if (havePlane && nrm[inner] != 0.0) {
+                // dot(nrm, centre) in [lo, hi] solved for the inner coordinate.
+                const Axis& ax = mAxes[0];
+                const double rest = nrm[outer] * (c[outer] + 0.5) + nrm[middle] * (c[middle] + 0.5);
+                double x0 = (ax.lo - rest) / nrm[inner] - 0.5;
+                double x1 = (ax.hi - rest) / nrm[inner] - 0.5;
+                if (x0 > x1) std::swap(x0, x1);
+                // Widen by one cell against rounding in the division; the
+                // full test below decides.
+                const double l0 = kLo, h0 = kHi;
+                kLo = int(std::clamp(std::floor(x0) - 1.0, l0, h0 + 1.0));
+                kHi = int(std::clamp(std::ceil(x1) + 1.0, l0 - 1.0, h0));
+            }
+            for (c[inner] = kLo; c[inner] <= kHi; ++c[inner])
+                if (touchesCell(c)) cells.push_back(c);
+        }
+}
+
+void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
+                  std::vector<glm::ivec3>& cells)
+{
+    QuadRegion(quad, kerfMm, frame).appendCells(cells);
+}
+
+// ---------------------------------------------------------------------------
+// Generators
+
+std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& o)
+{
+    const glm::dvec3 lo = frame.toWorld(glm::dvec3(0.0));
+    const glm::dvec3 hi = frame.toWorld(glm::dvec3(glm::max(frame.dims - 1, glm::ivec3(0))));
+    const glm::dvec3 size = hi - lo;
+    const double cx = lo.x + 0.5 * size.x;
+    const double cy = lo.y + o.faceFraction * size.y;
+    const double z = lo.z + o.zFraction * size.z;
+    const double ax = o.halfWidthFraction * size.x, ay = o.depthFraction * size.y;
+    // Half ellipse over the face side (y < cy): angle from pi (left, -x) .. 2 pi.
+    const double arc = 3.14159265358979 * 0.5 * (ax + ay); // approx half perimeter
+    const int count = std::max(2, int(arc / o.speed * o.rate));
+    std::mt19937 rng(o.seed);
+    std::normal_distribution<double> noise(0.0, o.jitter);
+    std::vector<Pose> poses;
+    poses.reserve(size_t(count));
+    for (int i = 0; i < count; ++i) {
+        const double s = double(i) / double(count - 1);
+        const double phi = 3.14159265358979 * (1.0 + s);
+        // Ellipse point, sin(phi) <= 0 so y <= cy: the front of the face.
+        glm::dvec3 p(cx + ax * std::cos(phi), cy + ay * std::sin(phi), z);
+        // The base stays a blade-length outside the bone, pointing inward.
+        glm::dvec3 inward = glm::normalize(glm::dvec3(cx - p.x, cy + 0.6 * ay - p.y, 0.0));
+        const glm::dvec3 outward = -inward;
+        Pose pose;
+        pose.time = double(i) / o.rate;
+        pose.base = p + 0.3 * o.bladeLength * outward +
+                    glm::dvec3(noise(rng), noise(rng), noise(rng));
+        pose.direction = inward;
+        pose.length = o.bladeLength;
+        poses.push_back(pose);
+    }
+    return poses;
+}
+
+std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32_t seed,
+                                                 int strokes, int steps, double stepMm,
+                                                 double bladeLength)
+{
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    const glm::dvec3 lo = frame.toWorld(glm::dvec3(0.0));
+    const glm::dvec3 hi = frame.toWorld(glm::dvec3(glm::max(frame.dims - 1, glm::ivec3(0))));
+    auto randomUnit = [&] {
+        glm::dvec3 v(gauss(rng), gauss(rng), gauss(rng));
+        const double l = glm::length(v);
+        return l > 1e-9 ? v / l : glm::dvec3(0, 0, 1);
+    };
+    std::vector<std::vector<Pose>> out(size_t(std::max(strokes, 0)));
+    for (auto& stroke : out) {
+        glm::dvec3 p(lo.x + uni(rng) * (hi.x - lo.x), lo.y + uni(rng) * (hi.y - lo.y),
+                     lo.z + uni(rng) * (hi.z - lo.z));
+        glm::dvec3 dir = randomUnit();
+        glm::dvec3 vel = glm::normalize(glm::cross(dir, randomUnit()) + 1e-9);
+        double t = uni(rng);
+        for (int i = 0; i < steps; ++i) {
+            Pose pose;
+            pose.time = t;
+            pose.base = p;
+            pose.direction = dir;
+            pose.length = bladeLength;
+            stroke.push_back(pose);
+            t += 0.001;
+            vel = glm::normalize(vel + 0.05 * randomUnit());
+            dir = glm::normalize(dir + 0.01 * randomUnit());
+            p += stepMm * vel;
+        }
+    }
+    return out;
+}
+
+} // namespace mtcut::cutter

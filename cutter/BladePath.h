@@ -1,0 +1,247 @@
+// The blade and its path (MTCut paper, section 3: the haptic thread turns tool
+// poses into sticks, sticks into a quad strip, the quad strip into cut cells).
+//
+// Everything here is plain geometry on GLM + std (no OpenVDB), so the input
+// thread and the ThreadSanitizer build (tests/tsan) use it as is. The sparse
+// mask that stores the cut cells is cutter/CutMask.h.
+//
+// Spaces: poses, sticks and quads are in WORLD millimetres (LPS, as
+// vdb::Volume). Cells are in INDEX space: cell (i,j,k) is the marching-
+// tetrahedra cell with corners at index (i..i+1, j..j+1, k..k+1), i.e. between
+// the voxel centres of the scan; a scan of dims voxels has dims-1 cells per axis.
+#pragma once
+
+#include <glm/vec3.hpp>
+#include <glm/ext/vector_int3.hpp>
+
+#include <array>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace mtcut::cutter {
+
+/// Index <-> world map of a canonical vdb::Volume (scale + translation, see
+/// vdb/Volume.h) plus its size. Build one with frameOf(volume) (CutMask.h).
+struct IndexFrame
+{
+    glm::dvec3 origin{0.0};  ///< world mm of the centre of voxel (0,0,0)
+    glm::dvec3 spacing{1.0}; ///< mm between voxel centres along x, y, z; all > 0
+    glm::ivec3 dims{0};      ///< voxels along x, y, z
+
+    glm::dvec3 toIndex(const glm::dvec3& worldPos) const { return (worldPos - origin) / spacing; }
+    glm::dvec3 toWorld(const glm::dvec3& ijk) const { return origin + ijk * spacing; }
+    /// Cells per axis: dims - 1 (0 when dims is 0 or 1).
+    glm::ivec3 cellCount() const;
+    /// The cell containing index point ijk (floor), clamped to +-2^30 so far
+    /// away or huge inputs cannot overflow. Not clamped to the volume.
+    glm::ivec3 cellOf(const glm::dvec3& ijk) const;
+};
+
+/// One tool sample. World mm, seconds.
+struct Pose
+{
+    double time = 0.0;        ///< seconds; non-decreasing along a stroke
+    glm::dvec3 base{0.0};     ///< the blade's base point, world mm
+    glm::dvec3 direction{0.0, 0.0, -1.0}; ///< from base to tip; normalised by the filter
+    double length = 0.0;      ///< blade length, mm, > 0
+};
+
+/// A kept blade position: the segment [base, base + length * direction].
+struct Stick
+{
+    double time = 0.0;
+    glm::dvec3 base{0.0};      ///< world mm
+    glm::dvec3 direction{0.0}; ///< unit
+    double length = 0.0;       ///< mm
+    uint32_t poseIndex = 0;    ///< which pose of the stroke (0-based, counting every push) gave it
+    /// Angle (radians) between the kept direction and the user's (normalised)
+    /// direction: 0 unless the path filter rotated the stick to make its quad
+    /// planar; always <= PathFilterOptions::maxTwist.
+    double adjustAngle = 0.0;
+
+    glm::dvec3 tip() const { return base + length * direction; }
+};
+
+/// The planar piece of swept surface between two consecutive sticks.
+///
+/// Corners (world mm): a quad is {base0, tip0, tip1, base1}; when the filter
+/// had to split a non-planar step (see PathFilter) each half is a triangle
+/// {base0, tip0, tip1} / {base0, tip1, base1} with cornerCount 3.
+/// The removed region K_q with kerf w is the convex hull of the corners,
+/// thickened by w/2 on both sides along the unit normal (a prism). With w = 0
+/// (or for a degenerate quad) it is the hull itself. The hull equals the quad
+/// when the quad is convex; a non-convex (dart-shaped) quad, from a blade that
+/// pivots about a point inside its length, is conservatively replaced by its hull.
+struct Quad
+{
+    std::array<glm::dvec3, 4> corners{};
+    uint32_t cornerCount = 4; ///< 4 (quad) or 3 (triangle: corners[3] unused)
+    /// Unit normal of the corners' plane (world); (0,0,0) when degenerate.
+    /// Oriented along (tip0 - base0) x (base1 - base0) where that is not zero.
+    glm::dvec3 normal{0.0};
+    double offset = 0.0;        ///< plane: dot(normal, x) == offset (mm)
+    bool degenerate = false;    ///< zero area (corners collinear or equal): a segment or a point
+    uint32_t stick = 0;         ///< joins sticks `stick` and `stick + 1` of its stroke
+};
+
+/// Builds a Quad/triangle from its corners (count 3 or 4), fitting the plane
+/// through them (largest corner triangle; degenerate when twice its area is
+/// below 1e-12 * (extent^2 + 1) mm^2).
+Quad makeQuad(const glm::dvec3* corners, uint32_t count, uint32_t stick);
+
+// ---------------------------------------------------------------------------
+// Path filter
+
+struct PathFilterOptions
+{
+    /// Largest rotation (radians) the filter applies to a user's stick to make
+    /// its quad planar. Beyond it the step is split into two triangles instead.
+    double maxTwist = 0.035; // 2 degrees
+    /// Relative planarity tolerance: a quad counts as planar when each corner
+    /// lies within planarTolerance * (quad extent + 1 mm) of the fitted plane.
+    double planarTolerance = 1e-9;
+};
+
+/// The paper's path filter, for one stroke at a time (section 3), exactly:
+///
+/// 1. Validation (throws InputError, message names the field): every number
+///    finite; length > 0; direction non-zero (|d| >= 1e-9), then NORMALISED
+///    (any length is accepted); time >= the previous pose's time.
+/// 2. One stick per voxel: a pose whose base lies in the same cell as the
+///    last KEPT stick's base is dropped (the first pose of a stroke is always
+///    kept). So consecutive sticks never share a cell; a stroke that returns
+///    to a cell later (sawing back and forth) gets a new stick there. What this
+///    changes: the swept surface follows the kept sticks only, so a blade that
+///    pivots about its base without the base leaving the cell cuts nothing new,
+///    and the stroke ends at its last kept stick (base within one cell
+///    diagonal of the last pose's base).
+/// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
+///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
+///    kept as is - this includes collinear motion (m parallel to S0), where
+///    any S1 is coplanar. (b) Otherwise S1's direction is projected onto the
+///    plane span(dir0, m); when the rotation this applies is <= maxTwist the
+///    rotated stick is kept (Stick::adjustAngle) and the quad is planar.
+///    The rotation is measured against the user's own direction every time, so
+///    it never accumulates along a stroke. (c) Otherwise (a fast twist) the
+///    user's stick is kept unchanged and the step is emitted as two planar
+///    triangles {base0,tip0,tip1}, {base0,tip1,base1}.
+///    Bound: every kept stick has the user's base and length, and a direction
+///    within maxTwist of the user's; every emitted polygon is planar within
+///    planarTolerance; the strip has no gap (consecutive pieces share edges).
+/// 4. Poses outside the volume are kept (the geometry stays exact); the
+///    voxelisation clips cut cells to the volume.
+///
+/// Cost: O(1) per pose.
+class PathFilter
+{
+public:
+    explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
+
+    /// Feeds the next pose of the current stroke; appends the quads it makes
+    /// (0, 1 or 2) to `quads`. Returns true when the pose was kept as a stick.
+    /// Throws InputError on a bad pose (the filter state is unchanged).
+    bool push(const Pose& pose, std::vector<Quad>& quads);
+    /// Ends the current stroke; the next push starts a new one.
+    void endStroke();
+
+    /// Sticks kept in the current stroke, in order.
+    const std::vector<Stick>& sticks() const { return mSticks; }
+    /// Poses pushed in the current stroke (kept or not).
+    uint32_t posesSeen() const { return mPoseCount; }
+    const IndexFrame& frame() const { return mFrame; }
+
+private:
+    IndexFrame mFrame;
+    PathFilterOptions mOptions;
+    std::vector<Stick> mSticks;
+    uint32_t mPoseCount = 0;
+    double mLastTime = 0.0;
+    bool mHaveTime = false;
+};
+
+/// Convenience: filters a whole stroke; returns its quads (and, if given, its sticks).
+std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame& frame,
+                               const PathFilterOptions& options = {},
+                               std::vector<Stick>* sticks = nullptr);
+
+// ---------------------------------------------------------------------------
+// Conservative voxelisation (DESIGN invariant 5)
+
+/// A quad's removed region K_q in index space, ready for exact box tests.
+///
+/// K_q (see Quad) is mapped to index space by the volume's scale+translate,
+/// which keeps it a convex polytope: hull(corners) + [-h, h] with
+/// h = (kerf/2) * normal / spacing (anisotropic spacing handled exactly).
+/// touchesCell() is the separating-axis test of the closed cell box against
+/// K_q with every candidate axis (box normals, K_q's face normals, edge x edge
+/// crosses), so it is exact up to a tolerance of about 1e-12 * (|coord| + 1)
+/// voxel in the conservative direction: a box that touches K_q (also exactly
+/// on a face, edge or vertex: quads on grid planes, through grid vertices) is
+/// always reported; one farther than ~1e-9 voxel never is. A degenerate quad
+/// (segment or point) cuts the cells its segment/point touches; kerf is not
+/// applied to it (it has no plane).
+class QuadRegion
+{
+public:
+    /// kerfMm >= 0, world mm (full width; the slab is kerf/2 each side).
+    QuadRegion(const Quad& quad, double kerfMm, const IndexFrame& frame);
+
+    /// Does the closed box [c, c+1] (index space) touch K_q? ~50 ns..0.3 us.
+    bool touchesCell(const glm::ivec3& cell) const;
+    /// Appends every cell of the volume (0 <= cell < frame.cellCount()) that
+    /// touches K_q, in lexicographic order of (outer, middle, inner) axes with
+    /// the inner axis along the dominant normal. Cost: O(cells near the quad).
+    void appendCells(std::vector<glm::ivec3>& cells) const;
+
+    /// Index-space bounding box of K_q (before clipping to the volume).
+    glm::dvec3 lower() const { return mLower; }
+    glm::dvec3 upper() const { return mUpper; }
+
+private:
+    struct Axis
+    {
+        glm::dvec3 a;
+        double lo, hi; ///< projection of K_q, widened by the tolerance and the box radius
+    };
+    std::vector<Axis> mAxes; ///< the first one is the plane normal when mHasPlane
+    bool mHasPlane = false;
+    glm::dvec3 mLower{0.0}, mUpper{0.0};
+    glm::ivec3 mCellCount{0};
+};
+
+/// Appends the cells cut by `quad` (QuadRegion(quad, kerf, frame).appendCells).
+void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
+                  std::vector<glm::ivec3>& cells);
+
+// ---------------------------------------------------------------------------
+// Path generators (tests and benchmarks)
+
+/// A LeFort I-like osteotomy: one horizontal stroke around the front (-y
+/// side, the face) of the maxilla, the blade pointing posteriorly (+y) and
+/// slightly inward, cutting a horizontal plane above the teeth. Geometry is a
+/// fraction of the scan box so it lands on the head phantom: the stroke is
+/// a half ellipse centred at x = box centre, in the plane z = zFraction of the
+/// box height, from the left to the right side of the face.
+struct LeFortOptions
+{
+    double zFraction = 0.32;   ///< height of the cut in the box, 0 = bottom
+    double halfWidthFraction = 0.16; ///< x half-axis of the ellipse / box width
+    double depthFraction = 0.16;     ///< y half-axis / box depth
+    double faceFraction = 0.30;      ///< y of the ellipse centre / box depth from -y
+    double bladeLength = 30.0;       ///< mm
+    double speed = 10.0;             ///< mm/s of the base
+    double rate = 1000.0;            ///< poses per second
+    double jitter = 0.05;            ///< mm of hand tremor (seeded)
+    uint32_t seed = 1;
+};
+std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& options = {});
+
+/// Seeded random strokes inside the scan box: smooth random walks of the base
+/// with a slowly turning blade. `steps` poses per stroke, base moving about
+/// `stepMm` per pose.
+std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32_t seed,
+                                                 int strokes, int steps, double stepMm = 0.3,
+                                                 double bladeLength = 20.0);
+
+} // namespace mtcut::cutter

@@ -1,0 +1,622 @@
+// Blade path filter and conservative voxelisation, against an independent
+// brute force: Sutherland-Hodgman clipping of K_q's faces against each cell
+// box (not the production separating-axis test).
+#include "cutter/BladePath.h"
+#include "vdb/Error.h"
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+#include <tuple>
+#include <vector>
+
+using namespace mtcut::cutter;
+using glm::dvec3;
+using glm::ivec3;
+
+namespace {
+
+IndexFrame testFrame()
+{
+    IndexFrame f;
+    f.origin = dvec3(-10.25, 3.5, -40.0); // dyadic: index <-> world exact
+    f.spacing = dvec3(0.5, 0.5, 2.0);     // anisotropic, as CT
+    f.dims = ivec3(40, 40, 16);
+    return f;
+}
+
+using CellSet = std::set<std::tuple<int, int, int>>;
+std::tuple<int, int, int> key(const ivec3& c) { return {c.x, c.y, c.z}; }
+
+// --- brute force -------------------------------------------------------------
+
+using Poly = std::vector<dvec3>;
+
+/// Clips a convex polygon (or segment / point) by x[axis] >= v (sign +1) or <= v (sign -1).
+Poly clip(const Poly& in, int axis, double v, double sign)
+{
+    Poly out;
+    const size_t n = in.size();
+    for (size_t i = 0; i < n; ++i) {
+        const dvec3& cur = in[i];
+        const dvec3& prev = in[(i + n - 1) % n];
+        const double dc = sign * (cur[axis] - v), dp = sign * (prev[axis] - v);
+        if (dc >= 0) {
+            if (dp < 0) out.push_back(prev + (cur - prev) * (dp / (dp - dc)));
+            out.push_back(cur);
+        } else if (dp >= 0 && n > 1) {
+            out.push_back(prev + (cur - prev) * (dp / (dp - dc)));
+        }
+    }
+    return out;
+}
+
+bool polyTouchesBox(Poly p, const dvec3& lo, const dvec3& hi)
+{
+    for (int a = 0; a < 3 && !p.empty(); ++a) {
+        p = clip(p, a, lo[a], 1.0);
+        if (!p.empty()) p = clip(p, a, hi[a], -1.0);
+    }
+    return !p.empty();
+}
+
+/// K in index space: hull(u) + [-h, h], given by the faces (as a union of
+/// polygons covering its boundary) and a point-membership test.
+struct BruteRegion
+{
+    std::vector<Poly> faces;
+    std::vector<dvec3> u;
+    dvec3 h{0.0};
+    dvec3 m{0.0}; // plane normal (index space), zero when degenerate
+    bool flat = false;
+
+    bool inTriangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c) const
+    {
+        const dvec3 n = glm::cross(b - a, c - a);
+        const double nn = glm::dot(n, n);
+        if (nn == 0.0) return false;
+        const double w0 = glm::dot(glm::cross(b - p, c - p), n) / nn;
+        const double w1 = glm::dot(glm::cross(c - p, a - p), n) / nn;
+        return w0 >= 0 && w1 >= 0 && 1 - w0 - w1 >= 0;
+    }
+    bool contains(const dvec3& x) const
+    {
+        if (!flat || glm::dot(m, h) == 0.0) return false; // measure zero: faces decide
+        const double t = glm::dot(m, x - u[0]) / glm::dot(m, h);
+        if (std::abs(t) > 1.0) return false;
+        const dvec3 p = x - t * h;
+        for (size_t i = 0; i < u.size(); ++i)
+            for (size_t j = i + 1; j < u.size(); ++j)
+                for (size_t k = j + 1; k < u.size(); ++k)
+                    if (inTriangle(p, u[i], u[j], u[k])) return true;
+        return false;
+    }
+    bool touches(const dvec3& lo, const dvec3& hi) const
+    {
+        for (const Poly& f : faces)
+            if (polyTouchesBox(f, lo, hi)) return true;
+        return contains(lo); // box inside K (then no face meets it)
+    }
+};
+
+BruteRegion bruteRegion(const Quad& q, double kerf, const IndexFrame& f)
+{
+    BruteRegion r;
+    for (uint32_t i = 0; i < q.cornerCount; ++i) r.u.push_back(f.toIndex(q.corners[i]));
+    if (!q.degenerate) {
+        r.flat = true;
+        r.m = q.normal * f.spacing;
+        r.h = 0.5 * kerf * q.normal / f.spacing;
+    }
+    const size_t n = r.u.size();
+    std::vector<dvec3> offsets = {dvec3(0.0)};
+    if (r.h != dvec3(0.0)) offsets = {r.h, -r.h};
+    // Faces: every corner triangle (covers the hull), every edge, every point,
+    // at +h and -h; and the side parallelograms edge x [-h, h].
+    for (const dvec3& o : offsets) {
+        for (size_t i = 0; i < n; ++i) {
+            r.faces.push_back({r.u[i] + o});
+            for (size_t j = i + 1; j < n; ++j) {
+                r.faces.push_back({r.u[i] + o, r.u[j] + o});
+                for (size_t k = j + 1; k < n; ++k) r.faces.push_back({r.u[i] + o, r.u[j] + o, r.u[k] + o});
+            }
+        }
+    }
+    if (r.h != dvec3(0.0))
+        for (size_t i = 0; i < n; ++i)
+            for (size_t j = i + 1; j < n; ++j)
+                r.faces.push_back({r.u[i] - r.h, r.u[j] - r.h, r.u[j] + r.h, r.u[i] + r.h});
+    return r;
+}
+
+struct Bracket
+{
+    CellSet sure, possible;
+};
+
+/// sure: cells whose box shrunk by delta (per axis; negative = enlarged) touches K;
+/// possible: cells whose box enlarged by delta touches K.
+Bracket bruteCells(const Quad& q, double kerf, const IndexFrame& f, dvec3 shrink, double delta)
+{
+    const BruteRegion r = bruteRegion(q, kerf, f);
+    dvec3 lo = r.u[0], hi = r.u[0];
+    for (const dvec3& p : r.u) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    lo -= glm::abs(r.h);
+    hi += glm::abs(r.h);
+    const ivec3 n = f.cellCount();
+    Bracket b;
+    ivec3 c;
+    for (c.x = std::max(0, int(std::floor(lo.x)) - 2); c.x <= std::min(n.x - 1, int(hi.x) + 2); ++c.x)
+        for (c.y = std::max(0, int(std::floor(lo.y)) - 2); c.y <= std::min(n.y - 1, int(hi.y) + 2); ++c.y)
+            for (c.z = std::max(0, int(std::floor(lo.z)) - 2); c.z <= std::min(n.z - 1, int(hi.z) + 2);
+                 ++c.z) {
+                const dvec3 bl(c), bh = dvec3(c) + 1.0;
+                if (r.touches(bl + shrink, bh - shrink)) {
+                    b.sure.insert(key(c));
+                    b.possible.insert(key(c));
+                } else if (r.touches(bl - delta, bh + delta)) {
+                    b.possible.insert(key(c));
+                }
+            }
+    return b;
+}
+
+struct CompareStats
+{
+    size_t quads = 0, cells = 0, ambiguous = 0;
+};
+
+void compareWithBrute(const Quad& q, double kerf, const IndexFrame& f, CompareStats& stats,
+                      dvec3 shrink = dvec3(1e-7), double delta = 1e-7)
+{
+    std::vector<ivec3> cells;
+    voxelizeQuad(q, kerf, f, cells);
+    CellSet got;
+    const ivec3 n = f.cellCount();
+    for (const ivec3& c : cells) {
+        ASSERT_TRUE(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < n.x && c.y < n.y && c.z < n.z);
+        ASSERT_TRUE(got.insert(key(c)).second) << "duplicate cell";
+    }
+    const Bracket b = bruteCells(q, kerf, f, shrink, delta);
+    for (const auto& c : b.sure)
+        ASSERT_TRUE(got.count(c)) << "missed cell " << std::get<0>(c) << "," << std::get<1>(c) << ","
+                                  << std::get<2>(c) << " quad stick " << q.stick;
+    for (const auto& c : got)
+        ASSERT_TRUE(b.possible.count(c)) << "extra cell " << std::get<0>(c) << "," << std::get<1>(c)
+                                         << "," << std::get<2>(c);
+    ++stats.quads;
+    stats.cells += got.size();
+    stats.ambiguous += b.possible.size() - b.sure.size();
+}
+
+dvec3 randomUnit(std::mt19937_64& rng)
+{
+    std::normal_distribution<double> g;
+    while (true) {
+        const dvec3 v(g(rng), g(rng), g(rng));
+        const double l = glm::length(v);
+        if (l > 1e-3) return v / l;
+    }
+}
+
+/// A random planar quad/triangle in world mm around centre c (world), size up to `size` mm.
+Quad randomPlanarQuad(std::mt19937_64& rng, const dvec3& c, double size, uint32_t count)
+{
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    const dvec3 e1 = randomUnit(rng);
+    const dvec3 e2 = glm::normalize(glm::cross(e1, randomUnit(rng)));
+    dvec3 p[4];
+    for (uint32_t i = 0; i < count; ++i) p[i] = c + size * (uni(rng) * e1 + uni(rng) * e2);
+    return makeQuad(p, count, 0);
+}
+
+} // namespace
+
+// --- voxelisation ------------------------------------------------------------
+
+TEST(Voxelize, RandomQuadsMatchBruteForce)
+{
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(1234);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    CompareStats stats;
+    for (int i = 0; i < 2500; ++i) {
+        const dvec3 c = f.toWorld(dvec3(uni(rng) * 39, uni(rng) * 39, uni(rng) * 15));
+        const double kerf = (i % 3 == 0) ? 0.0 : (i % 3 == 1 ? 0.3 : 1.5);
+        const Quad q = randomPlanarQuad(rng, c, 0.3 + 2.5 * uni(rng), i % 4 == 0 ? 3 : 4);
+        compareWithBrute(q, kerf, f, stats);
+        if (HasFatalFailure()) return;
+    }
+    EXPECT_EQ(stats.quads, 2500u);
+    EXPECT_GT(stats.cells, 2500u * 5);
+    // The ambiguity band (cells within 1e-7 voxel of K) is tiny for random input.
+    EXPECT_LT(stats.ambiguous, stats.cells / 1000 + 5);
+}
+
+TEST(Voxelize, QuadsOnGridPlanesCutBothLayers)
+{
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(77);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    CompareStats stats;
+    for (int i = 0; i < 1000; ++i) {
+        const int axis = i % 3;
+        const int k0 = 2 + int(uni(rng) * (f.dims[axis] - 5));
+        // Random polygon in the plane index[axis] == k0 (exact in world too).
+        dvec3 p[4];
+        const uint32_t count = i % 5 == 0 ? 3 : 4;
+        const dvec3 centre(5 + uni(rng) * 28, 5 + uni(rng) * 28, 4 + uni(rng) * 8);
+        for (uint32_t v = 0; v < count; ++v) {
+            dvec3 ijk = centre + dvec3(uni(rng) * 6 - 3, uni(rng) * 6 - 3, uni(rng) * 6 - 3);
+            if (i % 2 == 0) ijk = glm::floor(ijk); // through grid vertices, edges on grid lines
+            ijk[axis] = k0;
+            ijk = glm::clamp(ijk, dvec3(1.0), dvec3(f.dims - 2));
+            p[v] = f.toWorld(ijk);
+        }
+        const Quad q = makeQuad(p, count, 0);
+        // The plane contact along `axis` is exact: sure = box shrunk in the
+        // other axes only (enlarged along `axis`), so both layers must be cut.
+        dvec3 shrink(1e-7);
+        shrink[axis] = -1e-7;
+        compareWithBrute(q, i % 4 == 1 ? 0.5 : 0.0, f, stats, shrink);
+        if (HasFatalFailure()) return;
+    }
+    EXPECT_EQ(stats.quads, 1000u);
+}
+
+TEST(Voxelize, AxisAlignedRectangleOnGridPlaneExactCount)
+{
+    const IndexFrame f = testFrame();
+    for (int x0 = 2; x0 < 6; ++x0)
+        for (int w = 0; w < 4; ++w) {
+            // Rectangle [x0, x0+w] x [3, 7] at z = 5 (index), corners on grid vertices.
+            const dvec3 p[4] = {f.toWorld(dvec3(x0, 3, 5)), f.toWorld(dvec3(x0 + w, 3, 5)),
+                                f.toWorld(dvec3(x0 + w, 7, 5)), f.toWorld(dvec3(x0, 7, 5))};
+            const Quad q = makeQuad(p, 4, 0);
+            EXPECT_EQ(q.degenerate, w == 0);
+            std::vector<ivec3> cells;
+            voxelizeQuad(q, 0.0, f, cells);
+            // Cells i in [x0-1, x0+w], j in [2, 7], k in {4, 5}.
+            EXPECT_EQ(cells.size(), size_t((w + 2) * 6 * 2)) << "x0 " << x0 << " w " << w;
+            for (const ivec3& c : cells) {
+                EXPECT_TRUE(c.x >= x0 - 1 && c.x <= x0 + w && c.y >= 2 && c.y <= 7 &&
+                            (c.z == 4 || c.z == 5));
+            }
+        }
+}
+
+TEST(Voxelize, QuadsThroughGridVerticesCutAllEightCells)
+{
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(99);
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    CompareStats stats;
+    for (int i = 0; i < 1000; ++i) {
+        const ivec3 g(3 + int((uni(rng) + 1) * 16), 3 + int((uni(rng) + 1) * 16),
+                      3 + int((uni(rng) + 1) * 4));
+        const dvec3 gw = f.toWorld(dvec3(g));
+        const dvec3 e1 = randomUnit(rng);
+        const dvec3 e2 = glm::normalize(glm::cross(e1, randomUnit(rng)));
+        dvec3 p[4];
+        if (i % 2 == 0) {
+            // The grid vertex is a corner.
+            p[0] = gw;
+            for (int v = 1; v < 4; ++v) p[v] = gw + 2.0 * (uni(rng) * e1 + uni(rng) * e2);
+        } else {
+            // The grid vertex is inside the quad.
+            p[0] = gw + 1.5 * (-e1 - e2);
+            p[1] = gw + 1.5 * (e1 - e2);
+            p[2] = gw + 1.5 * (e1 + e2);
+            p[3] = gw + 1.5 * (-e1 + e2);
+        }
+        const Quad q = makeQuad(p, 4, 0);
+        std::vector<ivec3> cells;
+        voxelizeQuad(q, 0.0, f, cells);
+        CellSet got;
+        for (const ivec3& c : cells) got.insert(key(c));
+        for (int dx = -1; dx <= 0; ++dx)
+            for (int dy = -1; dy <= 0; ++dy)
+                for (int dz = -1; dz <= 0; ++dz)
+                    ASSERT_TRUE(got.count(key(g + ivec3(dx, dy, dz)))) << "quad " << i;
+        compareWithBrute(q, 0.0, f, stats);
+        if (HasFatalFailure()) return;
+    }
+}
+
+TEST(Voxelize, DegenerateQuadsCutTheCellsTheirSegmentTouches)
+{
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    CompareStats stats;
+    for (int i = 0; i < 1000; ++i) {
+        const dvec3 a = f.toWorld(dvec3(3 + uni(rng) * 30, 3 + uni(rng) * 30, 3 + uni(rng) * 9));
+        const dvec3 d = randomUnit(rng) * (uni(rng) * 3.0);
+        dvec3 p[4];
+        if (i % 3 == 0) {
+            p[0] = p[1] = p[2] = p[3] = a; // a point
+        } else {
+            // Collinear motion along the blade: base0, tip0, tip1, base1 on one line.
+            p[0] = a;
+            p[1] = a + d;
+            p[2] = a + 1.5 * d;
+            p[3] = a + 0.5 * d;
+        }
+        const Quad q = makeQuad(p, 4, 0);
+        ASSERT_TRUE(q.degenerate);
+        compareWithBrute(q, 1.0, f, stats); // kerf is not applied to degenerate quads
+        if (HasFatalFailure()) return;
+    }
+    // A segment along a grid line cuts the four cells around it.
+    const dvec3 p[4] = {f.toWorld(dvec3(4, 6, 7)), f.toWorld(dvec3(9, 6, 7)), f.toWorld(dvec3(9, 6, 7)),
+                        f.toWorld(dvec3(4, 6, 7))};
+    std::vector<ivec3> cells;
+    voxelizeQuad(makeQuad(p, 4, 0), 0.0, f, cells);
+    EXPECT_EQ(cells.size(), size_t(7 * 2 * 2));
+}
+
+TEST(Voxelize, OutsideAndHugeQuadsAreClipped)
+{
+    const IndexFrame f = testFrame();
+    std::vector<ivec3> cells;
+    const dvec3 far[4] = {dvec3(1e6, 1e6, 1e6), dvec3(1e6 + 5, 1e6, 1e6), dvec3(1e6 + 5, 1e6 + 5, 1e6),
+                          dvec3(1e6, 1e6 + 5, 1e6)};
+    voxelizeQuad(makeQuad(far, 4, 0), 0.0, f, cells);
+    EXPECT_TRUE(cells.empty());
+    // A huge quad through the whole volume: the plane z = index 5.5 cuts exactly one layer.
+    const double z = f.toWorld(dvec3(0, 0, 5.5)).z;
+    const dvec3 huge[4] = {dvec3(-1e12, -1e12, z), dvec3(1e12, -1e12, z), dvec3(1e12, 1e12, z),
+                           dvec3(-1e12, 1e12, z)};
+    voxelizeQuad(makeQuad(huge, 4, 0), 0.0, f, cells);
+    const ivec3 n = f.cellCount();
+    EXPECT_EQ(cells.size(), size_t(n.x) * size_t(n.y));
+    for (const ivec3& c : cells) EXPECT_EQ(c.z, 5);
+}
+
+// --- path filter -------------------------------------------------------------
+
+namespace {
+
+/// Random strokes with a controllable twist rate (radians per pose).
+std::vector<Pose> twistingStroke(std::mt19937_64& rng, const IndexFrame& f, int steps, double twist)
+{
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    std::vector<Pose> poses;
+    dvec3 p = f.toWorld(dvec3(5 + uni(rng) * 30, 5 + uni(rng) * 30, 3 + uni(rng) * 10));
+    dvec3 dir = randomUnit(rng), vel = glm::normalize(glm::cross(dir, randomUnit(rng)));
+    double t = 0;
+    for (int i = 0; i < steps; ++i) {
+        Pose pose;
+        pose.time = t;
+        pose.base = p;
+        pose.direction = dir * (0.5 + uni(rng)); // non-unit on purpose: normalised
+        pose.length = 5.0 + 10 * uni(rng);
+        poses.push_back(pose);
+        t += (i % 7 == 0) ? 0.0 : 0.001; // equal times are allowed
+        vel = glm::normalize(vel + 0.2 * randomUnit(rng));
+        dir = glm::normalize(dir + twist * randomUnit(rng));
+        p += (0.05 + 0.6 * uni(rng)) * vel;
+        if (i % 50 == 0) p += dir * 0.7; // some motion along the blade (plunge)
+    }
+    return poses;
+}
+
+} // namespace
+
+TEST(PathFilter, GuaranteesOnThousandsOfPoses)
+{
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(2024);
+    const PathFilterOptions opt;
+    size_t kept = 0, dropped = 0, adjusted = 0, split = 0, quadsTotal = 0;
+    double maxAdjust = 0;
+    for (int s = 0; s < 60; ++s) {
+        const double twist = s % 3 == 0 ? 0.001 : (s % 3 == 1 ? 0.02 : 0.2);
+        const std::vector<Pose> poses = twistingStroke(rng, f, 500, twist);
+        PathFilter filter(f, opt);
+        std::vector<Quad> quads;
+        for (size_t i = 0; i < poses.size(); ++i) {
+            const size_t before = filter.sticks().size();
+            const size_t quadsBefore = quads.size();
+            const bool k = filter.push(poses[i], quads);
+            ASSERT_EQ(filter.sticks().size(), before + (k ? 1 : 0));
+            if (!k) {
+                ++dropped;
+                // Dropped only when in the same cell as the last kept stick.
+                ASSERT_EQ(f.cellOf(f.toIndex(poses[i].base)),
+                          f.cellOf(f.toIndex(filter.sticks().back().base)));
+                ASSERT_EQ(quads.size(), quadsBefore);
+                continue;
+            }
+            ++kept;
+            const Stick& st = filter.sticks().back();
+            // Base, length and time are the user's; direction within maxTwist.
+            ASSERT_EQ(st.base, poses[i].base);
+            ASSERT_EQ(st.length, poses[i].length);
+            ASSERT_NEAR(glm::length(st.direction), 1.0, 1e-12);
+            const dvec3 user = glm::normalize(poses[i].direction);
+            const double angle = std::acos(std::clamp(glm::dot(user, st.direction), -1.0, 1.0));
+            ASSERT_NEAR(angle, st.adjustAngle, 1e-6);
+            ASSERT_LE(st.adjustAngle, opt.maxTwist + 1e-12);
+            maxAdjust = std::max(maxAdjust, st.adjustAngle);
+            if (st.adjustAngle > 0) ++adjusted;
+            if (before == 0) {
+                ASSERT_EQ(quads.size(), quadsBefore);
+                continue;
+            }
+            const Stick& s0 = filter.sticks()[before - 1];
+            // One stick per cell: consecutive sticks in different cells.
+            ASSERT_NE(f.cellOf(f.toIndex(s0.base)), f.cellOf(f.toIndex(st.base)));
+            const size_t made = quads.size() - quadsBefore;
+            ASSERT_TRUE(made == 1 || made == 2);
+            if (made == 2) ++split;
+            for (size_t qi = quadsBefore; qi < quads.size(); ++qi) {
+                const Quad& q = quads[qi];
+                ASSERT_EQ(q.stick, uint32_t(before - 1));
+                // Planar within the stated tolerance.
+                if (!q.degenerate) {
+                    double ext = 0;
+                    for (uint32_t a = 0; a < q.cornerCount; ++a)
+                        for (uint32_t b = 0; b < q.cornerCount; ++b)
+                            ext = std::max(ext, glm::length(q.corners[a] - q.corners[b]));
+                    for (uint32_t a = 0; a < q.cornerCount; ++a)
+                        ASSERT_LE(std::abs(glm::dot(q.normal, q.corners[a]) - q.offset),
+                                  opt.planarTolerance * (ext + 1.0));
+                }
+            }
+            // The pieces join the two sticks: no gap in the strip.
+            if (made == 1) {
+                const Quad& q = quads.back();
+                ASSERT_EQ(q.corners[0], s0.base);
+                ASSERT_EQ(q.corners[1], s0.tip());
+                ASSERT_EQ(q.corners[2], st.tip());
+                ASSERT_EQ(q.corners[3], st.base);
+            } else {
+                const Quad& a = quads[quads.size() - 2];
+                const Quad& b = quads.back();
+                ASSERT_EQ(a.corners[0], s0.base);
+                ASSERT_EQ(a.corners[1], s0.tip());
+                ASSERT_EQ(a.corners[2], st.tip());
+                ASSERT_EQ(b.corners[0], s0.base);
+                ASSERT_EQ(b.corners[1], st.tip());
+                ASSERT_EQ(b.corners[2], st.base);
+            }
+        }
+        quadsTotal += quads.size();
+    }
+    EXPECT_GT(kept, 10000u);
+    EXPECT_GT(dropped, 1000u);
+    EXPECT_GT(adjusted, 100u); // case (b) exercised
+    EXPECT_GT(split, 100u);    // case (c) exercised
+    EXPECT_LE(maxAdjust, opt.maxTwist);
+    EXPECT_GT(quadsTotal, kept - 60);
+}
+
+TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
+{
+    const IndexFrame f = testFrame();
+    PathFilter filter(f);
+    std::vector<Quad> quads;
+    Pose ok;
+    ok.time = 1.0;
+    ok.base = f.toWorld(dvec3(10, 10, 5));
+    ok.direction = dvec3(0, 0, -3); // non-unit: normalised
+    ok.length = 10;
+    ASSERT_TRUE(filter.push(ok, quads));
+    EXPECT_EQ(filter.sticks().back().direction, dvec3(0, 0, -1));
+
+    auto expectThrow = [&](Pose p, const char* what) {
+        const size_t n = filter.sticks().size();
+        try {
+            filter.push(p, quads);
+            ADD_FAILURE() << "no exception for " << what;
+        } catch (const mtcut::InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+        }
+        EXPECT_EQ(filter.sticks().size(), n);
+    };
+    Pose p = ok;
+    p.base.x = std::nan("");
+    expectThrow(p, "base");
+    p = ok;
+    p.direction = dvec3(0.0);
+    expectThrow(p, "direction");
+    p = ok;
+    p.direction.y = INFINITY;
+    expectThrow(p, "direction");
+    p = ok;
+    p.length = 0;
+    expectThrow(p, "length");
+    p = ok;
+    p.length = -2;
+    expectThrow(p, "length");
+    p = ok;
+    p.time = std::nan("");
+    expectThrow(p, "time");
+    p = ok;
+    p.time = 0.5;
+    expectThrow(p, "time goes backwards");
+    // Outside the volume: kept, no crash, nothing cut outside.
+    p = ok;
+    p.time = 2.0;
+    p.base = dvec3(1e300, -1e300, 1e300);
+    EXPECT_TRUE(filter.push(p, quads));
+    for (const Quad& q : quads) {
+        std::vector<ivec3> cells;
+        voxelizeQuad(q, 0.5, f, cells);
+        const ivec3 n = f.cellCount();
+        for (const ivec3& c : cells) EXPECT_TRUE(c.x >= 0 && c.x < n.x && c.y >= 0 && c.y < n.y);
+    }
+}
+
+TEST(PathFilter, NoGapsAlongTheSweptSurface)
+{
+    // Every point of the swept surface (and of the kerf slab) lies in a cut
+    // cell, so any segment crossing the surface passes through a cut cell.
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(31337);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    for (double kerf : {0.0, 0.8}) {
+        size_t checked = 0;
+        for (int s = 0; s < 20; ++s) {
+            const std::vector<Pose> poses = twistingStroke(rng, f, 300, 0.05);
+            const std::vector<Quad> quads = filterStroke(poses, f);
+            CellSet cut;
+            for (const Quad& q : quads) {
+                std::vector<ivec3> cells;
+                voxelizeQuad(q, kerf, f, cells);
+                for (const ivec3& c : cells) cut.insert(key(c));
+            }
+            const ivec3 n = f.cellCount();
+            for (const Quad& q : quads) {
+                for (int k = 0; k < 20; ++k) {
+                    // Random point of the quad (a random corner triangle), plus a
+                    // random offset within the kerf along the normal.
+                    const uint32_t a = 0, b = 1 + uint32_t(uni(rng) * (q.cornerCount - 2)), c = b + 1;
+                    double w0 = uni(rng), w1 = uni(rng);
+                    if (w0 + w1 > 1) {
+                        w0 = 1 - w0;
+                        w1 = 1 - w1;
+                    }
+                    dvec3 x = q.corners[a] + w0 * (q.corners[b] - q.corners[a]) +
+                              w1 * (q.corners[c] - q.corners[a]);
+                    x += (uni(rng) - 0.5) * kerf * q.normal;
+                    const ivec3 cell = f.cellOf(f.toIndex(x));
+                    if (glm::any(glm::lessThan(cell, ivec3(0))) || glm::any(glm::greaterThanEqual(cell, n)))
+                        continue;
+                    ASSERT_TRUE(cut.count(key(cell)));
+                    ++checked;
+                }
+            }
+        }
+        EXPECT_GT(checked, 5000u);
+    }
+}
+
+TEST(Generators, LeFortAndRandomStrokesAreValidPaths)
+{
+    IndexFrame head;
+    head.dims = ivec3(512, 512, 245);
+    head.spacing = dvec3(0.5, 0.5, 1.0);
+    const std::vector<Pose> lefort = makeLeFortStroke(head);
+    ASSERT_GT(lefort.size(), 1000u);
+    std::vector<Stick> sticks;
+    const std::vector<Quad> quads = filterStroke(lefort, head, {}, &sticks);
+    EXPECT_GT(quads.size(), 100u);
+    // Horizontal cut on the face side (-y half of the box).
+    const double midY = head.toWorld(dvec3(head.dims) * 0.5).y;
+    for (const Stick& s : sticks) {
+        EXPECT_LT(s.base.y, midY);
+        EXPECT_NEAR(s.direction.z, 0.0, 0.05);
+    }
+    const auto strokes = makeRandomStrokes(head, 7, 5, 200);
+    ASSERT_EQ(strokes.size(), 5u);
+    for (const auto& st : strokes) EXPECT_NO_THROW(filterStroke(st, head));
+}
