@@ -64,6 +64,7 @@ run_tests() {
   if [ -f "$ROOT/tests/fuzz/run.sh" ]; then
     bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"
   fi
+  [ -f "$ROOT/tests/tsan/run.sh" ] && bash "$ROOT/tests/tsan/run.sh" "$BUILD/tsan"
 }
 
 case "${1:-}" in
