@@ -173,7 +173,9 @@ private:
         }
         if (mImages.empty()) {
             fail("no DICOM images among its " + std::to_string(files.size()) + " files (" +
-                 std::to_string(dicomFiles) + " DICOM files, none with pixel data)");
+                 (dicomFiles == 0 ? std::string("none is a DICOM file")
+                                  : std::to_string(dicomFiles) + " DICOM files without pixel data") +
+                 ")");
         }
     }
 
