@@ -173,8 +173,30 @@ TEST(Volume, SparsityKeepsExactValuesNearTissue)
     EXPECT_EQ(vol.grid->activeVoxelCount(), active);
     // The far corner block holds no tissue nor touches any: it must be a tile.
     EXPECT_EQ(acc.probeConstLeaf(Coord(56, 40, 32)), nullptr);
-    // Blocks within one block of the ball (centre block 2,2,2; radius 9 < 2 blocks) are leaves.
-    EXPECT_LT(vol.grid->tree().leafCount(), 8u * 6u * 5u / 2u);
+    // Exactly the blocks that hold or touch (26-neighbourhood) a block with tissue are leaves.
+    const Coord nb(8, 6, 5);
+    std::vector<int> tissue(size_t(nb[0]) * nb[1] * nb[2], 0);
+    for (int k = 0; k < dims[2]; ++k)
+        for (int j = 0; j < dims[1]; ++j)
+            for (int i = 0; i < dims[0]; ++i)
+                if (fileValue(original, i, j, k) > -500.0f) tissue[size_t(k / 8 * nb[1] + j / 8) * nb[0] + i / 8] = 1;
+    size_t expectedLeaves = 0;
+    for (int z = 0; z < nb[2]; ++z)
+        for (int y = 0; y < nb[1]; ++y)
+            for (int x = 0; x < nb[0]; ++x) {
+                bool near = false;
+                for (int dz = -1; dz <= 1; ++dz)
+                    for (int dy = -1; dy <= 1; ++dy)
+                        for (int dx = -1; dx <= 1; ++dx) {
+                            const int a = x + dx, b = y + dy, c = z + dz;
+                            if (a >= 0 && b >= 0 && c >= 0 && a < nb[0] && b < nb[1] && c < nb[2])
+                                near = near || tissue[size_t(c * nb[1] + b) * nb[0] + a];
+                        }
+                expectedLeaves += near;
+                EXPECT_EQ(acc.probeConstLeaf(Coord(x * 8, y * 8, z * 8)) != nullptr, near) << x << "," << y << "," << z;
+            }
+    EXPECT_EQ(vol.grid->tree().leafCount(), expectedLeaves);
+    EXPECT_LT(expectedLeaves, size_t(nb[0]) * nb[1] * nb[2]);
 }
 
 TEST(Volume, ToDenseInvertsMakeVolume)
