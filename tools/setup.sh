@@ -60,11 +60,22 @@ demo() {
 }
 
 run_tests() {
-  ctest --test-dir "$BUILD" --output-on-failure -j "$JOBS" --timeout 1200
+  # ctest, then the libFuzzer targets and the ThreadSanitizer hand-off test;
+  # the last line sums them up ("N passed, N failed").
+  local log passed failed extra_pass=0 extra_fail=0 status=0
+  log=$(mktemp)
+  ctest --test-dir "$BUILD" --output-on-failure -j "$JOBS" --timeout 1200 | tee "$log" || status=1
+  passed=$(sed -nE 's/.* tests passed, ([0-9]+) tests failed out of ([0-9]+).*/\2 \1/p' "$log" | awk '{print $1-$2}')
+  failed=$(sed -nE 's/.* tests passed, ([0-9]+) tests failed out of ([0-9]+).*/\1/p' "$log")
+  rm -f "$log"
   if [ -f "$ROOT/tests/fuzz/run.sh" ]; then
-    bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"
+    if bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
   fi
-  [ -f "$ROOT/tests/tsan/run.sh" ] && bash "$ROOT/tests/tsan/run.sh" "$BUILD/tsan"
+  if [ -f "$ROOT/tests/tsan/run.sh" ]; then
+    if bash "$ROOT/tests/tsan/run.sh" "$BUILD/tsan"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
+  fi
+  echo "tests: $(( ${passed:-0} + extra_pass )) passed, $(( ${failed:-1} + extra_fail )) failed"
+  return $status
 }
 
 case "${1:-}" in
