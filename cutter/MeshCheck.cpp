@@ -1,0 +1,420 @@
+#include "cutter/MeshCheck.h"
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/common.hpp>
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+namespace mtcut::cutter {
+
+namespace {
+
+bool validTriangle(const Mesh& mesh, size_t t)
+{
+    const size_t n = mesh.positions.size();
+    return mesh.indices[3 * t] < n && mesh.indices[3 * t + 1] < n && mesh.indices[3 * t + 2] < n;
+}
+
+bool finite(const glm::vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+glm::dvec3 pos(const Mesh& mesh, uint32_t v) { return glm::dvec3(mesh.positions[v]); }
+
+/// Union-find with path halving.
+struct DisjointSets
+{
+    std::vector<uint32_t> parent;
+    explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+    uint32_t find(uint32_t a)
+    {
+        while (parent[a] != a) a = parent[a] = parent[parent[a]];
+        return a;
+    }
+    void unite(uint32_t a, uint32_t b)
+    {
+        a = find(a);
+        b = find(b);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+};
+
+/// Compressed rows: for each key in [0, n), the values pushed for it.
+struct Csr
+{
+    std::vector<uint32_t> start;  // n + 1
+    std::vector<uint64_t> values; // packed payloads
+};
+
+/// For each shell, the winding number of all other shells at the centroid
+/// of its first triangle: rays along the generic direction (a, b, 1), i.e.
+/// along +z after the shear x' = x - a z, y' = y - b z (determinant 1, so
+/// orientation is kept); a crossing counts +1 where the ray leaves a solid
+/// (projected triangle counter-clockwise), -1 where it enters.
+std::vector<int> windingOfOtherShells(const Mesh& mesh, const std::vector<Shell>& shells)
+{
+    constexpr double a = 0.013703599, b = 0.0071828183;
+    auto shear = [&](uint32_t v) {
+        const glm::dvec3 p(mesh.positions[v]);
+        return glm::dvec3(p.x - a * p.z, p.y - b * p.z, p.z);
+    };
+    std::vector<uint32_t> triangles;
+    std::vector<uint32_t> shellOf;
+    for (size_t s = 0; s < shells.size(); ++s) {
+        for (uint32_t t : shells[s].triangles) {
+            triangles.push_back(t);
+            shellOf.push_back(uint32_t(s));
+        }
+    }
+    glm::dvec2 lo(1e300), hi(-1e300);
+    for (uint32_t t : triangles)
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 p = shear(mesh.indices[3 * size_t(t) + k]);
+            lo = glm::min(lo, glm::dvec2(p));
+            hi = glm::max(hi, glm::dvec2(p));
+        }
+    const int n = std::max(1, std::min(4096, int(std::sqrt(double(triangles.size()) / 4.0))));
+    const glm::dvec2 size = glm::max(hi - lo, glm::dvec2(1e-12));
+    auto cellOf = [&](const glm::dvec2& p) {
+        const glm::dvec2 c = (p - lo) / size * double(n);
+        return glm::ivec2(std::clamp(int(c.x), 0, n - 1), std::clamp(int(c.y), 0, n - 1));
+    };
+    std::vector<uint32_t> start(size_t(n) * n + 1, 0);
+    auto forCells = [&](size_t i, auto&& f) {
+        const uint32_t t = triangles[i];
+        glm::dvec2 tlo(1e300), thi(-1e300);
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 p = shear(mesh.indices[3 * size_t(t) + k]);
+            tlo = glm::min(tlo, glm::dvec2(p));
+            thi = glm::max(thi, glm::dvec2(p));
+        }
+        const glm::ivec2 c0 = cellOf(tlo), c1 = cellOf(thi);
+        for (int x = c0.x; x <= c1.x; ++x)
+            for (int y = c0.y; y <= c1.y; ++y) f(size_t(y) * n + x);
+    };
+    for (size_t i = 0; i < triangles.size(); ++i) forCells(i, [&](size_t c) { ++start[c + 1]; });
+    for (size_t c = 0; c + 1 < start.size(); ++c) start[c + 1] += start[c];
+    std::vector<uint32_t> bucket(start.back());
+    {
+        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+        for (size_t i = 0; i < triangles.size(); ++i) forCells(i, [&](size_t c) { bucket[fill[c]++] = uint32_t(i); });
+    }
+    std::vector<int> winding(shells.size(), 0);
+    tbb::parallel_for(size_t(0), shells.size(), [&](size_t s) {
+        const uint32_t t0 = shells[s].triangles.front();
+        glm::dvec3 p(0.0);
+        for (int k = 0; k < 3; ++k) p += glm::dvec3(mesh.positions[mesh.indices[3 * size_t(t0) + k]]) / 3.0;
+        p = glm::dvec3(p.x - a * p.z, p.y - b * p.z, p.z);
+        const glm::ivec2 c = cellOf(glm::dvec2(p));
+        const size_t cell = size_t(c.y) * n + c.x;
+        int w = 0;
+        for (uint32_t k = start[cell]; k < start[cell + 1]; ++k) {
+            const uint32_t i = bucket[k];
+            if (shellOf[i] == s) continue;
+            const uint32_t t = triangles[i];
+            const glm::dvec3 q0 = shear(mesh.indices[3 * size_t(t)]), q1 = shear(mesh.indices[3 * size_t(t) + 1]),
+                             q2 = shear(mesh.indices[3 * size_t(t) + 2]);
+            auto cross2 = [](const glm::dvec3& u, const glm::dvec3& v, const glm::dvec3& q) {
+                return (v.x - u.x) * (q.y - u.y) - (v.y - u.y) * (q.x - u.x);
+            };
+            const double area = cross2(q0, q1, q2);
+            if (area == 0.0) continue;
+            const double w0 = cross2(q1, q2, p), w1 = cross2(q2, q0, p), w2 = cross2(q0, q1, p);
+            const bool inside = area > 0 ? (w0 > 0 && w1 > 0 && w2 > 0) : (w0 < 0 && w1 < 0 && w2 < 0);
+            if (!inside) continue;
+            const double z = (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area;
+            if (z > p.z) w += area > 0 ? 1 : -1;
+        }
+        winding[s] = w;
+    });
+    return winding;
+}
+
+} // namespace
+
+size_t MeshCheck::defects() const
+{
+    return badIndexTriangles + boundaryEdges + nonManifoldEdges + inconsistentEdges + nonManifoldVertices +
+           degenerateTriangles + nonFiniteTriangles + negativeVolumeShells + malformedArrays;
+}
+
+std::string MeshCheck::report() const
+{
+    std::ostringstream os;
+    os << "triangles:              " << triangles << "\n"
+       << "vertices:               " << vertices << " (" << unusedVertices << " unused)\n"
+       << "shells:                 " << shells << "\n"
+       << "boundary edges:         " << boundaryEdges << "\n"
+       << "non-manifold edges:     " << nonManifoldEdges << "\n"
+       << "inconsistent edges:     " << inconsistentEdges << "\n"
+       << "non-manifold vertices:  " << nonManifoldVertices << "\n"
+       << "degenerate triangles:   " << degenerateTriangles << "\n"
+       << "non-finite triangles:   " << nonFiniteTriangles << "\n"
+       << "negative-volume shells: " << negativeVolumeShells << " (wrong way for their nesting; " << cavities
+       << " cavities face inward correctly)\n"
+       << "bad-index triangles:    " << badIndexTriangles << "\n"
+       << "malformed arrays:       " << malformedArrays << "\n"
+       << "defects:                " << defects() << (ok() ? " (valid)" : " (INVALID)") << "\n";
+    return os.str();
+}
+
+MeshCheck checkMesh(const Mesh& mesh)
+{
+    MeshCheck r;
+    const size_t nV = mesh.positions.size();
+    const size_t nT = mesh.indices.size() / 3;
+    r.triangles = nT;
+    r.vertices = nV;
+    r.malformedArrays = (mesh.indices.size() % 3 != 0) + (!mesh.normals.empty() && mesh.normals.size() != nV) +
+                        (!mesh.triangleVoxels.empty() && mesh.triangleVoxels.size() != nT);
+
+    // Per triangle: bad index, non-finite, degenerate. Edges are taken from
+    // triangles with three distinct valid indices.
+    std::vector<uint8_t> usable(nT, 0);
+    struct Counts
+    {
+        size_t bad = 0, nonFinite = 0, degenerate = 0;
+    };
+    tbb::combinable<Counts> counts;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nT, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        Counts& c = counts.local();
+        for (size_t t = range.begin(); t != range.end(); ++t) {
+            if (!validTriangle(mesh, t)) {
+                ++c.bad;
+                continue;
+            }
+            const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], d = mesh.indices[3 * t + 2];
+            if (!finite(mesh.positions[a]) || !finite(mesh.positions[b]) || !finite(mesh.positions[d])) {
+                ++c.nonFinite;
+                continue;
+            }
+            if (a == b || b == d || a == d) {
+                ++c.degenerate;
+                continue;
+            }
+            const glm::dvec3 n = glm::cross(pos(mesh, b) - pos(mesh, a), pos(mesh, d) - pos(mesh, a));
+            if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) ++c.degenerate;
+            usable[t] = 1;
+        }
+    });
+    counts.combine_each([&](const Counts& c) {
+        r.badIndexTriangles += c.bad;
+        r.nonFiniteTriangles += c.nonFinite;
+        r.degenerateTriangles += c.degenerate;
+    });
+
+    // Edges, bucketed by their lower vertex: payload = hi << 1 | (runs lo->hi).
+    Csr edges;
+    edges.start.assign(nV + 1, 0);
+    std::vector<uint32_t> useCount(nV, 0);
+    for (size_t t = 0; t < nT; ++t) {
+        if (!usable[t]) continue;
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = mesh.indices[3 * t + k], b = mesh.indices[3 * t + (k + 1) % 3];
+            ++edges.start[std::min(a, b) + 1];
+            ++useCount[a];
+        }
+    }
+    for (size_t v = 0; v < nV; ++v) edges.start[v + 1] += edges.start[v];
+    edges.values.resize(edges.start[nV]);
+    {
+        std::vector<uint32_t> fill(edges.start.begin(), edges.start.end() - 1);
+        for (size_t t = 0; t < nT; ++t) {
+            if (!usable[t]) continue;
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t a = mesh.indices[3 * t + k], b = mesh.indices[3 * t + (k + 1) % 3];
+                edges.values[fill[std::min(a, b)]++] = uint64_t(std::max(a, b)) << 1 | uint64_t(a < b);
+            }
+        }
+    }
+    // Triangles around each vertex: payload = triangle index.
+    Csr fans;
+    fans.start.assign(nV + 1, 0);
+    for (size_t v = 0; v < nV; ++v) fans.start[v + 1] = fans.start[v] + useCount[v];
+    fans.values.resize(fans.start[nV]);
+    {
+        std::vector<uint32_t> fill(fans.start.begin(), fans.start.end() - 1);
+        for (size_t t = 0; t < nT; ++t) {
+            if (!usable[t]) continue;
+            for (int k = 0; k < 3; ++k) fans.values[fill[mesh.indices[3 * t + k]]++] = t;
+        }
+    }
+
+    struct EdgeCounts
+    {
+        size_t boundary = 0, nonManifold = 0, inconsistent = 0, nonManifoldVertices = 0, unused = 0;
+    };
+    tbb::combinable<EdgeCounts> edgeCounts;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nV, 1024), [&](const tbb::blocked_range<size_t>& range) {
+        EdgeCounts& c = edgeCounts.local();
+        std::vector<std::pair<uint32_t, uint32_t>> link; // (other vertex, fan position)
+        std::vector<uint32_t> parent;
+        for (size_t v = range.begin(); v != range.end(); ++v) {
+            uint64_t* e0 = edges.values.data() + edges.start[v];
+            uint64_t* e1 = edges.values.data() + edges.start[v + 1];
+            std::sort(e0, e1);
+            for (uint64_t* e = e0; e != e1;) {
+                uint64_t* g = e;
+                size_t forward = 0;
+                while (g != e1 && (*g >> 1) == (*e >> 1)) forward += *g++ & 1;
+                const size_t n = size_t(g - e);
+                if (n == 1) ++c.boundary;
+                else if (n > 2) ++c.nonManifold;
+                else if (forward != 1) ++c.inconsistent;
+                e = g;
+            }
+            // One fan: the triangles around v, linked through shared edges, must
+            // form a single component.
+            const uint32_t f0 = fans.start[v], f1 = fans.start[v + 1];
+            const uint32_t k = f1 - f0;
+            if (k == 0) {
+                ++c.unused;
+                continue;
+            }
+            link.clear();
+            for (uint32_t i = 0; i < k; ++i) {
+                const uint32_t t = uint32_t(fans.values[f0 + i]);
+                for (int j = 0; j < 3; ++j) {
+                    const uint32_t w = mesh.indices[3 * size_t(t) + j];
+                    if (w != v) link.emplace_back(w, i);
+                }
+            }
+            std::sort(link.begin(), link.end());
+            parent.resize(k);
+            std::iota(parent.begin(), parent.end(), 0u);
+            auto find = [&](uint32_t a) {
+                while (parent[a] != a) a = parent[a] = parent[parent[a]];
+                return a;
+            };
+            uint32_t components = k;
+            for (size_t i = 1; i < link.size(); ++i) {
+                if (link[i].first != link[i - 1].first) continue;
+                const uint32_t a = find(link[i].second), b = find(link[i - 1].second);
+                if (a != b) {
+                    parent[std::max(a, b)] = std::min(a, b);
+                    --components;
+                }
+            }
+            if (components > 1) ++c.nonManifoldVertices;
+        }
+    });
+    edgeCounts.combine_each([&](const EdgeCounts& c) {
+        r.boundaryEdges += c.boundary;
+        r.nonManifoldEdges += c.nonManifold;
+        r.inconsistentEdges += c.inconsistent;
+        r.nonManifoldVertices += c.nonManifoldVertices;
+        r.unusedVertices += c.unused;
+    });
+
+    const std::vector<Shell> shells = findShells(mesh);
+    r.shells = shells.size();
+    if (shells.empty()) return r;
+    const std::vector<int> winding = windingOfOtherShells(mesh, shells);
+    for (size_t s = 0; s < shells.size(); ++s) {
+        const bool cavity = shells[s].volume < 0.0 && winding[s] == 1;
+        const bool outer = shells[s].volume > 0.0 && winding[s] == 0;
+        r.cavities += cavity;
+        r.negativeVolumeShells += !cavity && !outer;
+    }
+    return r;
+}
+
+std::vector<Shell> findShells(const Mesh& mesh)
+{
+    const size_t nT = mesh.indices.size() / 3;
+    DisjointSets sets(mesh.positions.size());
+    for (size_t t = 0; t < nT; ++t) {
+        if (!validTriangle(mesh, t)) continue;
+        sets.unite(mesh.indices[3 * t], mesh.indices[3 * t + 1]);
+        sets.unite(mesh.indices[3 * t], mesh.indices[3 * t + 2]);
+    }
+    std::vector<Shell> shells;
+    std::vector<uint32_t> shellOfRoot(mesh.positions.size(), UINT32_MAX);
+    std::vector<glm::dvec3> reference;
+    for (size_t t = 0; t < nT; ++t) {
+        if (!validTriangle(mesh, t)) continue;
+        const uint32_t root = sets.find(mesh.indices[3 * t]);
+        uint32_t& s = shellOfRoot[root];
+        if (s == UINT32_MAX) {
+            s = uint32_t(shells.size());
+            shells.emplace_back();
+            const glm::dvec3 p = pos(mesh, mesh.indices[3 * t]);
+            reference.push_back(p);
+            shells.back().boundsMin = shells.back().boundsMax = p;
+        }
+        Shell& shell = shells[s];
+        shell.triangles.push_back(uint32_t(t));
+        // Relative to a point of the shell, so far-away shells keep their precision.
+        const glm::dvec3 o = reference[s];
+        const glm::dvec3 a = pos(mesh, mesh.indices[3 * t]) - o, b = pos(mesh, mesh.indices[3 * t + 1]) - o,
+                         c = pos(mesh, mesh.indices[3 * t + 2]) - o;
+        shell.volume += glm::dot(a, glm::cross(b, c)) / 6.0;
+        shell.area += 0.5 * glm::length(glm::cross(b - a, c - a));
+        for (const glm::dvec3& p : {a, b, c}) {
+            shell.boundsMin = glm::min(shell.boundsMin, p + o);
+            shell.boundsMax = glm::max(shell.boundsMax, p + o);
+        }
+    }
+    std::vector<uint8_t> seen(mesh.positions.size(), 0);
+    for (Shell& shell : shells) {
+        for (uint32_t t : shell.triangles) {
+            for (int k = 0; k < 3; ++k) {
+                uint8_t& s = seen[mesh.indices[3 * size_t(t) + k]];
+                shell.vertexCount += !s;
+                s = 1;
+            }
+        }
+    }
+    return shells;
+}
+
+double meshVolume(const Mesh& mesh)
+{
+    double v = 0.0;
+    for (const Shell& s : findShells(mesh)) v += s.volume;
+    return v;
+}
+
+double meshArea(const Mesh& mesh)
+{
+    double a = 0.0;
+    for (const Shell& s : findShells(mesh)) a += s.area;
+    return a;
+}
+
+Mesh subMesh(const Mesh& mesh, const std::vector<uint32_t>& triangles)
+{
+    Mesh out;
+    std::vector<uint32_t> remap(mesh.positions.size(), UINT32_MAX);
+    const bool normals = mesh.normals.size() == mesh.positions.size() && !mesh.normals.empty();
+    const bool voxels = mesh.triangleVoxels.size() == mesh.triangleCount();
+    out.indices.reserve(triangles.size() * 3);
+    for (uint32_t t : triangles) {
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = mesh.indices[3 * size_t(t) + k];
+            if (remap[v] == UINT32_MAX) {
+                remap[v] = uint32_t(out.positions.size());
+                out.positions.push_back(mesh.positions[v]);
+                if (normals) out.normals.push_back(mesh.normals[v]);
+            }
+            out.indices.push_back(remap[v]);
+        }
+        if (voxels) out.triangleVoxels.push_back(mesh.triangleVoxels[t]);
+    }
+    return out;
+}
+
+std::vector<Mesh> splitShells(const Mesh& mesh)
+{
+    std::vector<Mesh> out;
+    for (const Shell& s : findShells(mesh)) out.push_back(subMesh(mesh, s.triangles));
+    return out;
+}
+
+} // namespace mtcut::cutter
