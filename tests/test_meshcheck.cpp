@@ -1,0 +1,190 @@
+// checkMesh counts each defect exactly; shells, volumes, areas; mesh files
+// round-trip through OpenMesh; `mtcut mesh`.
+#include "TestUtil.h"
+
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/MeshIO.h"
+
+#include <filesystem>
+
+using namespace mtcut;
+using namespace mtcut::cutter;
+
+namespace {
+
+/// Axis-aligned cube [o, o+s]^3, 12 triangles, outward CCW.
+void addCube(Mesh& m, glm::vec3 o, float s, bool inward = false)
+{
+    const uint32_t base = uint32_t(m.positions.size());
+    for (int c = 0; c < 8; ++c) m.positions.push_back(o + s * glm::vec3(c & 1, c >> 1 & 1, c >> 2 & 1));
+    const uint32_t quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    for (const auto& q : quads) {
+        uint32_t t[6] = {q[0], q[1], q[2], q[0], q[2], q[3]};
+        if (inward) std::swap(t[1], t[2]), std::swap(t[4], t[5]);
+        for (uint32_t v : t) m.indices.push_back(base + v);
+    }
+}
+
+} // namespace
+
+TEST(MeshCheck, CubeIsValidWithExactVolumeAndArea)
+{
+    Mesh m;
+    addCube(m, glm::vec3(10.0f), 2.0f);
+    const MeshCheck c = checkMesh(m);
+    EXPECT_TRUE(c.ok()) << c.report();
+    EXPECT_EQ(c.shells, 1u);
+    const auto shells = findShells(m);
+    ASSERT_EQ(shells.size(), 1u);
+    EXPECT_DOUBLE_EQ(shells[0].volume, 8.0);
+    EXPECT_DOUBLE_EQ(shells[0].area, 24.0);
+    EXPECT_EQ(shells[0].vertexCount, 8u);
+    EXPECT_EQ(shells[0].boundsMin, glm::dvec3(10.0));
+    EXPECT_EQ(shells[0].boundsMax, glm::dvec3(12.0));
+}
+
+TEST(MeshCheck, CountsEachDefect)
+{
+    {   // one triangle removed: 3 boundary edges
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        m.indices.resize(m.indices.size() - 3);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.boundaryEdges, 3u);
+        EXPECT_EQ(c.defects(), 3u) << c.report();
+    }
+    {   // one triangle flipped: its 3 edges run the same way as their neighbours'
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        std::swap(m.indices[1], m.indices[2]);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.inconsistentEdges, 3u);
+        EXPECT_EQ(c.boundaryEdges, 0u);
+    }
+    {   // inside-out cube: negative volume, not nested
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f, true);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.negativeVolumeShells, 1u);
+        EXPECT_EQ(c.defects(), 1u) << c.report();
+    }
+    {   // hollow cube: outer outward, inner inward = a cavity, valid
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 3.0f);
+        addCube(m, glm::vec3(1.0f), 1.0f, true);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_TRUE(c.ok()) << c.report();
+        EXPECT_EQ(c.cavities, 1u);
+        EXPECT_DOUBLE_EQ(meshVolume(m), 26.0);
+        // the cavity facing the wrong way (outward) is a defect
+        Mesh bad;
+        addCube(bad, glm::vec3(0.0f), 3.0f);
+        addCube(bad, glm::vec3(1.0f), 1.0f);
+        EXPECT_EQ(checkMesh(bad).negativeVolumeShells, 1u);
+    }
+    {   // a third triangle on an edge: non-manifold edge
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        m.positions.push_back(glm::vec3(5.0f, 5.0f, 5.0f));
+        m.indices.insert(m.indices.end(), {0, 2, 8});
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.nonManifoldEdges, 1u);
+        EXPECT_EQ(c.boundaryEdges, 2u);
+    }
+    {   // two cubes sharing one vertex: a non-manifold vertex
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        addCube(m, glm::vec3(1.0f), 1.0f);
+        for (uint32_t& i : m.indices) if (i == 8) i = 7; // corner (1,1,1) of both
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.nonManifoldVertices, 1u) << c.report();
+        EXPECT_EQ(c.unusedVertices, 1u);
+    }
+    {   // degenerate, non-finite, bad index, malformed
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        m.positions.push_back(glm::vec3(7.0f));
+        m.positions.push_back(glm::vec3(8.0f));
+        m.positions.push_back(glm::vec3(9.0f)); // collinear
+        m.positions.push_back(glm::vec3(std::nanf(""), 0.0f, 0.0f));
+        m.indices.insert(m.indices.end(), {8, 9, 10, 8, 8, 9, 8, 9, 11, 0, 1, 99});
+        m.triangleVoxels.resize(3);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.degenerateTriangles, 2u);
+        EXPECT_EQ(c.nonFiniteTriangles, 1u);
+        EXPECT_EQ(c.badIndexTriangles, 1u);
+        EXPECT_EQ(c.malformedArrays, 1u);
+    }
+}
+
+TEST(MeshCheck, ShellsSplitInFirstTriangleOrder)
+{
+    Mesh m;
+    addCube(m, glm::vec3(5.0f), 1.0f);
+    addCube(m, glm::vec3(0.0f), 2.0f);
+    const std::vector<Mesh> parts = splitShells(m);
+    ASSERT_EQ(parts.size(), 2u);
+    EXPECT_DOUBLE_EQ(meshVolume(parts[0]), 1.0);
+    EXPECT_DOUBLE_EQ(meshVolume(parts[1]), 8.0);
+    EXPECT_EQ(parts[1].positions[0], glm::vec3(0.0f));
+    EXPECT_EQ(parts[1].indices.size(), 36u);
+}
+
+TEST(MeshIO, RoundTripsEveryFormat)
+{
+    mtcut::test::TempDir dir;
+    Mesh m;
+    addCube(m, glm::vec3(1.5f, -2.25f, 3.0f), 2.0f);
+    for (const char* ext : {"stl", "obj", "ply", "off", "STL"}) {
+        const std::string path = dir.file(std::string("cube.") + ext);
+        writeMesh(m, path);
+        const Mesh back = readMesh(path);
+        EXPECT_EQ(back.triangleCount(), 12u) << ext;
+        EXPECT_EQ(back.vertexCount(), 8u) << ext;
+        EXPECT_DOUBLE_EQ(meshVolume(back), 8.0) << ext;
+        EXPECT_TRUE(checkMesh(back).ok()) << ext << checkMesh(back).report();
+    }
+    EXPECT_THROW(writeMesh(m, dir.file("cube.xyz")), InputError);
+    EXPECT_THROW(readMesh(dir.file("none.stl")), InputError);
+    // nothing but the five files: no temporary left behind
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 5);
+}
+
+TEST(MeshIO, WritesOneFilePerShell)
+{
+    mtcut::test::TempDir dir;
+    Mesh m;
+    addCube(m, glm::vec3(5.0f), 1.0f);
+    addCube(m, glm::vec3(0.0f), 2.0f);
+    const auto paths = writeShells(m, dir.file("parts.ply"));
+    ASSERT_EQ(paths.size(), 2u);
+    EXPECT_EQ(paths[0], dir.file("parts_shell001.ply"));
+    EXPECT_DOUBLE_EQ(meshVolume(readMesh(paths[1])), 8.0);
+}
+
+TEST(MeshCli, MeshesTheHeadWithZeroDefects)
+{
+    MTCUT_REQUIRE_DATA(head, "vhm_head_4mm.nhdr");
+    mtcut::test::TempDir dir;
+    const auto r = mtcut::test::runMtcut("mesh " + head + " --iso 400 -o " + dir.file("head.stl") + " --check");
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("defects:                0 (valid)"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("isosurface: 92028 triangles"), std::string::npos) << r.output;
+    const Mesh back = readMesh(dir.file("head.stl"));
+    EXPECT_EQ(back.triangleCount(), 92028u);
+
+    const auto shells = mtcut::test::runMtcut("mesh " + head + " --iso 400 -o " + dir.file("s.obj") + " --shells");
+    EXPECT_EQ(shells.exitCode, 0) << shells.output;
+    EXPECT_TRUE(std::filesystem::exists(dir.file("s_shell001.obj")));
+    EXPECT_TRUE(std::filesystem::exists(dir.file("s_shell100.obj")));
+    EXPECT_FALSE(std::filesystem::exists(dir.file("s_shell101.obj")));
+
+    const auto empty = mtcut::test::runMtcut("mesh " + head + " --iso 99999 -o " + dir.file("e.stl"));
+    EXPECT_EQ(empty.exitCode, 0) << empty.output;
+    EXPECT_NE(empty.output.find("warning: isovalue 99999 is outside"), std::string::npos) << empty.output;
+
+    const auto bad = mtcut::test::runMtcut("mesh " + head + " --iso 400 -o " + dir.file("x.abc"));
+    EXPECT_EQ(bad.exitCode, 1);
+    EXPECT_NE(bad.output.find("unknown mesh format"), std::string::npos) << bad.output;
+}
