@@ -200,6 +200,43 @@ inline int edgeGroup(int cx, int cy, int cz, int type)
     if (inZ) return 5;
     return 6;
 }
+/// edgeGroup for every (x, y, z, type) of a block, precomputed.
+struct GroupTable
+{
+    uint8_t g[8][8][8][6];
+    GroupTable()
+    {
+        for (int x = 0; x < 8; ++x)
+            for (int y = 0; y < 8; ++y)
+                for (int z = 0; z < 8; ++z)
+                    for (int t = 0; t < 6; ++t) g[x][y][z][t] = uint8_t(edgeGroup(x, y, z, t));
+    }
+};
+const GroupTable& groupTable()
+{
+    static const GroupTable t;
+    return t;
+}
+
+/// Window-index offsets of the two ends of edge (c, type) from c's index, by
+/// the parity of c, for a window of side n (z fastest).
+struct EdgeOffsets
+{
+    int end[2][6][2];
+    explicit EdgeOffsets(int n)
+    {
+        for (int parity = 0; parity < 2; ++parity) {
+            const Coord c(parity, 0, 0);
+            for (int type = 0; type < 6; ++type) {
+                Coord p0, p1;
+                edgeEnds(c, type, p0, p1);
+                end[parity][type][0] = ((p0.x() - c.x()) * n + (p0.y() - c.y())) * n + (p0.z() - c.z());
+                end[parity][type][1] = ((p1.x() - c.x()) * n + (p1.y() - c.y())) * n + (p1.z() - c.z());
+            }
+        }
+    }
+};
+
 /// Bit a set: every edge of the group lies at local coordinate 0 along axis a.
 constexpr int kGroupFixedAxes[kGroups] = {3, 5, 6, 1, 2, 4, 0};
 
@@ -216,6 +253,7 @@ struct Window
     int n = 0;
     std::vector<float> values;
     std::vector<uint8_t> inside;
+    bool uniform = false; ///< all inside or all outside
 
     int index(int x, int y, int z) const { return ((x - lo.x()) * n + (y - lo.y())) * n + (z - lo.z()); }
     int index(const Coord& p) const { return index(p.x(), p.y(), p.z()); }
@@ -255,9 +293,17 @@ struct Window
         const bool inBox = lo.x() >= 0 && lo.y() >= 0 && lo.z() >= 0 && hi.x() < dims.x() && hi.y() < dims.y() &&
                            hi.z() < dims.z();
         if (inBox) {
-            for (size_t i = 0; i < values.size(); ++i) inside[i] = values[i] >= iso;
+            uint8_t any = 0, all = 1;
+            for (size_t i = 0; i < values.size(); ++i) {
+                const uint8_t b = values[i] >= iso;
+                inside[i] = b;
+                any |= b;
+                all &= b;
+            }
+            uniform = any == all;
             return;
         }
+        uniform = false;
         size_t i = 0;
         for (int x = lo.x(); x <= hi.x(); ++x)
             for (int y = lo.y(); y <= hi.y(); ++y)
@@ -479,6 +525,8 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     // Pass 1: per block, crossed owned edges per group and triangles.
     using Accessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree>;
     tbb::enumerable_thread_specific<Window> windows1;
+    const GroupTable& groups = groupTable();
+    const EdgeOffsets offsets1(kBlock + 1), offsets2(kBlock + 3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nBlocks, 16), [&](const tbb::blocked_range<size_t>& r) {
         Accessor acc(*tree);
         Window& w = windows1.local();
@@ -489,17 +537,21 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             uint32_t counts[kGroups] = {};
             uint32_t triangles = 0;
             const uint8_t* in = w.inside.data();
+            if (w.uniform) {
+                block.triangleCount = 0;
+                continue;
+            }
             for (int x = 0; x < kBlock; ++x)
                 for (int y = 0; y < kBlock; ++y)
                     for (int z = 0; z < kBlock; ++z) {
-                        const Coord c = o + Coord(x, y, z);
+                        const int i = w.index(o.x() + x, o.y() + y, o.z() + z);
+                        const int parity = (x + y + z) & 1; // block origins are even
+                        const auto& ends = offsets1.end[parity];
+                        const uint8_t* group = groups.g[x][y][z];
                         for (int type = 0; type < kEdgeTypes; ++type) {
-                            Coord p0, p1;
-                            edgeEnds(c, type, p0, p1);
-                            if (bool(in[w.index(p0)]) != bool(in[w.index(p1)])) ++counts[edgeGroup(x, y, z, type)];
+                            if (in[i + ends[type][0]] != in[i + ends[type][1]]) ++counts[group[type]];
                         }
-                        const uint8_t mask = cornerMask(in, w.index(c), w.n);
-                        triangles += tab.cases[cellParity(c.x(), c.y(), c.z())][mask].triangleCount;
+                        triangles += tab.cases[parity][cornerMask(in, i, w.n)].triangleCount;
                     }
             block.groupOffset[0] = 0;
             for (int g = 0; g < kGroups; ++g) block.groupOffset[g + 1] = block.groupOffset[g] + counts[g];
@@ -571,13 +623,15 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             for (int x = 0; x < kBlock; ++x)
                 for (int y = 0; y < kBlock; ++y)
                     for (int z = 0; z < kBlock; ++z) {
-                        const Coord c = o + Coord(x, y, z);
+                        const int i = w.index(o.x() + x, o.y() + y, o.z() + z);
+                        const int parity = (x + y + z) & 1;
+                        const auto& ends = offsets2.end[parity];
                         for (int type = 0; type < kEdgeTypes; ++type) {
-                            Coord p0, p1;
-                            edgeEnds(c, type, p0, p1);
-                            const int i0 = w.index(p0), i1 = w.index(p1);
+                            const int i0 = i + ends[type][0], i1 = i + ends[type][1];
                             if (in[i0] == in[i1]) continue;
-                            const uint32_t v = next[edgeGroup(x, y, z, type)]++;
+                            Coord p0, p1;
+                            edgeEnds(o + Coord(x, y, z), type, p0, p1);
+                            const uint32_t v = next[groups.g[x][y][z][type]]++;
                             slots[slotIndex(x, y, z, type)] = v;
                             const double t = edgeCrossing(val[i0], val[i1], iso);
                             mesh.positions[v] = edgePoint(p0, p1, t, geom.origin, geom.spacing);
