@@ -6,7 +6,8 @@
 //   vdb_peak_mib=.. ours_defects=.. vdb_defects=..
 // Times are medians of 5 runs. Peak memory is the rise of the process's
 // resident high-water mark (VmHWM, reset through /proc/self/clear_refs)
-// during one run, output included. volumeToMesh's quads are split into two
+// during the first run, output included (malloc_trim before, fixed mmap
+// threshold, so freed buffers do not hide it). volumeToMesh's quads are split into two
 // triangles and its winding reversed (it treats values below the isovalue as
 // inside; bone is above) before checkMesh counts its defects.
 //
@@ -17,6 +18,7 @@
 #include "vdb/VolumeIO.h"
 
 #include <openvdb/tools/VolumeToMesh.h>
+#include <malloc.h>
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -49,6 +51,7 @@ std::pair<double, double> measure(int runs, const std::function<void()>& f)
     std::vector<double> seconds;
     double peakMiB = 0.0;
     for (int r = 0; r < runs; ++r) {
+        malloc_trim(0); // give freed pages back, so the high-water mark measures this run
         std::ofstream("/proc/self/clear_refs") << "5";
         const long before = statusKiB("VmRSS:");
         const auto t0 = std::chrono::steady_clock::now();
@@ -73,7 +76,10 @@ cutter::Mesh fromVdb(const std::vector<openvdb::Vec3s>& points, const std::vecto
 void runCase(const std::string& name, const vdb::Volume& vol, float iso, int threads, int runs)
 {
     cutter::Mesh ours;
-    const auto [oursS, oursPeak] = measure(runs, [&] { ours = cutter::extractIsosurface(vol, iso); });
+    const auto [oursS, oursPeak] = measure(runs, [&] {
+        ours = cutter::Mesh();
+        ours = cutter::extractIsosurface(vol, iso);
+    });
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
@@ -113,6 +119,7 @@ int main(int argc, char** argv)
         else if (!std::strcmp(argv[i], "--quick")) quick = true;
     }
     openvdb::initialize();
+    mallopt(M_MMAP_THRESHOLD, 1 << 20); // fixed: big buffers are mmapped and returned when freed
     tbb::global_control control(tbb::global_control::max_allowed_parallelism, size_t(threads));
     try {
         {
