@@ -4,6 +4,9 @@
 #include "vdb/AtomicFile.h"
 #include "vdb/Error.h"
 
+// OpenMesh's PropertyT::push_back() appends a default (uninitialised) VectorT,
+// which GCC 12 flags in this file's instantiations; the value is overwritten.
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
