@@ -293,11 +293,12 @@ TEST(Phantom, SparseGridHoldsTheTissueOnly)
     EXPECT_EQ(stats.activeVoxels, tissue);
     const uint64_t voxels = uint64_t(512) * 512 * 256;
     EXPECT_EQ(stats.denseBytes, voxels * 4);
-    // Measured (seed 1): 18,883,063 active voxels (28.1 %), grid 85.7 MiB = 0.335 x the
-    // 256 MiB dense array. Asserted with margin for small anatomy changes.
+    // Measured (seed 1): 18,883,063 active voxels (28.1 %); grid memUsage 106,919,652 B
+    // = 0.398 x the 256 MiB dense array. Asserted with margin for small anatomy changes.
     EXPECT_GT(tissue, voxels * 25 / 100);
     EXPECT_LT(tissue, voxels * 32 / 100);
-    EXPECT_LT(double(stats.memoryBytes), 0.40 * double(stats.denseBytes));
+    EXPECT_LT(double(stats.memoryBytes), 0.45 * double(stats.denseBytes));
+    EXPECT_GT(double(stats.memoryBytes), 0.30 * double(stats.denseBytes));
     EXPECT_GE(stats.suggestedBoneIso, 150.0f);
     EXPECT_LE(stats.suggestedBoneIso, 700.0f);
 }

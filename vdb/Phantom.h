@@ -77,13 +77,15 @@ PhantomLandmarks phantomLandmarks();
 /// identity direction. Deterministic from (dims, seed, noiseSigma), whatever
 /// the thread count: every voxel is a pure function of its index and the seed
 /// (noise from a hash of (i, j, k, seed)). Throws InputError on bad dims
-/// (checkDims) or a negative noiseSigma. Parallel over z slabs (TBB); polls
+/// (checkDims) or a negative or non-finite noiseSigma. Parallel over z slabs (TBB); polls
 /// interrupter once per slab with the percentage done (throws Cancelled).
-/// Cost: about 2 s on 2 cores for 512 x 512 x 256; memory: the dense array.
+/// Cost: 1.4 s for 512 x 512 x 256 on a shared 2-core VM (benchmarks/RESULTS.md);
+/// memory: the dense array (4 bytes a voxel).
 DenseScan makePhantomScan(const PhantomOptions& options, Interrupter* interrupter = nullptr);
 
 /// makePhantomScan, made sparse (makeVolume, air threshold -500 HU); source
-/// "phantom". Peak memory: the dense array plus the sparse grid.
+/// "phantom". Peak memory: the dense array plus the sparse grid (374 MiB for
+/// 512 x 512 x 256, whose grid is 0.4 x the dense array).
 Volume makePhantom(const PhantomOptions& options, Interrupter* interrupter = nullptr);
 
 } // namespace mtcut::vdb
