@@ -17,7 +17,7 @@ void printUsage(FILE* out)
 {
     std::fprintf(out, "usage: mtcut COMMAND [ARGS]\n\ncommands:\n");
     for (const auto& [name, cmd] : commands()) {
-        std::fprintf(out, "  %-52s %s\n", cmd.usage.c_str(), cmd.summary.c_str());
+        std::fprintf(out, "  %s\n      %s\n", cmd.usage.c_str(), cmd.summary.c_str());
     }
     std::fprintf(out,
                  "\ninput options (any INPUT: DICOM folder, .nrrd/.nhdr, .nii/.nii.gz, .mha/.mhd, .vdb, raw):\n"

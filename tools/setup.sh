@@ -57,6 +57,8 @@ demo() {
   mkdir -p "$out"
   "$mtcut" phantom "$out/phantom.vdb"
   "$mtcut" info "$out/phantom.vdb"
+  "$mtcut" mesh "$out/phantom.vdb" --iso 400 -o "$out/phantom_bone.stl" --check
+  echo "demo: files in $out"
 }
 
 run_tests() {
