@@ -2,6 +2,7 @@
 
 #include "vdb/AtomicFile.h"
 #include "vdb/Error.h"
+#include "vdb/Formats.h"
 
 #include <openvdb/io/File.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -23,14 +24,6 @@ namespace mtcut::vdb {
 const char* const kMtcutVersion = MTCUT_VERSION;
 
 namespace {
-
-// The Volume metadata keys, as vdb/VdbIO.cpp writes and reads them.
-constexpr const char* kDims = "mtcut:dims";
-constexpr const char* kUnits = "mtcut:units";
-constexpr const char* kAir = "mtcut:air_threshold";
-constexpr const char* kMin = "mtcut:min";
-constexpr const char* kMax = "mtcut:max";
-constexpr const char* kSource = "mtcut:source";
 
 std::string fragmentPrefix(size_t index) { return "fragment " + std::to_string(index) + ": "; }
 
@@ -188,12 +181,7 @@ void writeCutVdb(const std::string& path, const Volume& volume, const openvdb::F
     // New grid objects sharing the caller's trees: only names, metadata and transforms are set.
     auto carvedOut = openvdb::ConstPtrCast<openvdb::FloatGrid>(carved.copy());
     carvedOut->setName(kCarvedGridName);
-    carvedOut->insertMeta(kDims, openvdb::Vec3IMetadata(openvdb::Vec3i(volume.dims.asVec3i())));
-    carvedOut->insertMeta(kUnits, openvdb::StringMetadata(volume.units));
-    carvedOut->insertMeta(kAir, openvdb::FloatMetadata(volume.airThreshold));
-    carvedOut->insertMeta(kMin, openvdb::FloatMetadata(volume.minValue));
-    carvedOut->insertMeta(kMax, openvdb::FloatMetadata(volume.maxValue));
-    carvedOut->insertMeta(kSource, openvdb::StringMetadata(volume.source));
+    setVolumeMetadata(*carvedOut, volume);
     grids.push_back(carvedOut);
 
     auto maskOut = openvdb::ConstPtrCast<openvdb::Int32Grid>(cutMask.copy());

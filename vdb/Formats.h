@@ -6,6 +6,7 @@
 
 #include "vdb/VolumeIO.h"
 
+#include <cstdio>
 #include <map>
 #include <string>
 #include <string_view>
@@ -32,6 +33,16 @@ void writeMetaImage(const DenseScan& scan, const std::string& path);
 DenseScan readRaw(const std::string& path, const RawOptions& options, Interrupter* interrupter);
 /// Float32 little-endian, x fastest, no header.
 void writeRaw(const DenseScan& scan, const std::string& path);
+
+/// Appends values to an open file as float32 little-endian, in chunks.
+/// Throws InputError naming path on a short write. Shared by raw, .mha, .mhd.
+void writeFloat32LE(std::FILE* file, const std::vector<float>& values, const std::string& path);
+
+/// Sets the Volume's fields on a grid as metadata: mtcut:dims (Vec3i),
+/// mtcut:units, mtcut:air_threshold, mtcut:min, mtcut:max (float),
+/// mtcut:source. readVdb() restores a Volume from them; cut.vdb's carved
+/// grid carries them too.
+void setVolumeMetadata(openvdb::GridBase& grid, const Volume& volume);
 
 /// OpenVDB file: the named float grid, or the first float grid.
 Volume readVdb(const std::string& path, const ReadOptions& options);

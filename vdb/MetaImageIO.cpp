@@ -221,21 +221,7 @@ void writeMetaImage(const DenseScan& scan, const std::string& path)
     writeFileAtomically(path, [&](const std::string& tmp) {
         FilePtr file;
         writeText(tmp, path, headerText(scan, "LOCAL"), false, file);
-        std::vector<unsigned char> buffer;
-        const size_t count = scan.values.size();
-        for (size_t done = 0; done < count;) {
-            const size_t n = std::min(count - done, kChunkBytes / 4);
-            buffer.resize(n * 4);
-            for (size_t v = 0; v < n; ++v) {
-                uint32_t bits;
-                std::memcpy(&bits, &scan.values[done + v], 4);
-                for (int b = 0; b < 4; ++b) buffer[4 * v + size_t(b)] = static_cast<unsigned char>(bits >> (8 * b));
-            }
-            if (std::fwrite(buffer.data(), 1, buffer.size(), file.get()) != buffer.size()) {
-                throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
-            }
-            done += n;
-        }
+        writeFloat32LE(file.get(), scan.values, path);
         if (std::fclose(file.release()) != 0) throw InputError(path + ": cannot write (" + std::strerror(errno) + ")");
     });
 }

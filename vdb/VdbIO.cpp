@@ -28,16 +28,21 @@ std::optional<T> meta(const openvdb::GridBase& grid, const char* name)
 
 } // namespace
 
+void setVolumeMetadata(openvdb::GridBase& grid, const Volume& volume)
+{
+    grid.insertMeta(kDims, openvdb::Vec3IMetadata(openvdb::Vec3i(volume.dims.asVec3i())));
+    grid.insertMeta(kUnits, openvdb::StringMetadata(volume.units));
+    grid.insertMeta(kAir, openvdb::FloatMetadata(volume.airThreshold));
+    grid.insertMeta(kMin, openvdb::FloatMetadata(volume.minValue));
+    grid.insertMeta(kMax, openvdb::FloatMetadata(volume.maxValue));
+    grid.insertMeta(kSource, openvdb::StringMetadata(volume.source));
+}
+
 void writeVdb(const Volume& volume, const std::string& path)
 {
     openvdb::initialize();
     openvdb::FloatGrid::Ptr grid = volume.grid->copy(); // shares the tree
-    grid->insertMeta(kDims, openvdb::Vec3IMetadata(openvdb::Vec3i(volume.dims.asVec3i())));
-    grid->insertMeta(kUnits, openvdb::StringMetadata(volume.units));
-    grid->insertMeta(kAir, openvdb::FloatMetadata(volume.airThreshold));
-    grid->insertMeta(kMin, openvdb::FloatMetadata(volume.minValue));
-    grid->insertMeta(kMax, openvdb::FloatMetadata(volume.maxValue));
-    grid->insertMeta(kSource, openvdb::StringMetadata(volume.source));
+    setVolumeMetadata(*grid, volume);
     if (grid->getName().empty()) grid->setName("density");
     writeFileAtomically(path, [&](const std::string& tmp) {
         try {
