@@ -1,0 +1,112 @@
+#include "cutter/Fusion.h"
+
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/Remesh.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace mtcut::cutter {
+
+std::vector<Fragment> fragmentsOf(const Mesh& mesh)
+{
+    std::vector<Mesh> shells = splitShells(mesh);
+    std::vector<Fragment> out(shells.size());
+    for (size_t i = 0; i < shells.size(); ++i) {
+        out[i].volume = meshVolume(shells[i]);
+        out[i].area = meshArea(shells[i]);
+        out[i].mesh = std::move(shells[i]);
+    }
+    std::stable_sort(out.begin(), out.end(), [](const Fragment& a, const Fragment& b) { return a.volume > b.volume; });
+    return out;
+}
+
+Mesh CutRemesher::fusedMesh() const
+{
+    Mesh m;
+    const size_t uncutVertices = mUncut.positions.size();
+    m.positions = mUncut.positions;
+    const bool normals = mUncut.normals.size() == uncutVertices && uncutVertices > 0;
+    if (normals) m.normals = mUncut.normals;
+    const size_t nt = mUncut.triangleCount();
+    for (size_t t = 0; t < nt; ++t) {
+        const glm::ivec3 c = mUncut.triangleVoxels[t];
+        if (mCells.count(openvdb::Coord(c.x, c.y, c.z))) continue;
+        m.indices.insert(m.indices.end(), mUncut.indices.begin() + long(3 * t), mUncut.indices.begin() + long(3 * t + 3));
+        m.triangleVoxels.push_back(c);
+    }
+    const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
+    auto acc = mVolume->grid->getConstAccessor();
+    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> added;
+    std::vector<std::pair<std::pair<uint64_t, uint64_t>, uint32_t>> edgeMap;
+    for (const auto& [cell, geom] : mCells) {
+        // The uncut vertices of this cell's crossed edges (welding by key).
+        edgeMap.clear();
+        auto range = mUncutCells.find(cell);
+        if (range != mUncutCells.end()) {
+            uint8_t mask = 0;
+            float values[8];
+            for (int c = 0; c < 8; ++c) {
+                values[c] = acc.getValue(cell + openvdb::Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1));
+                if (values[c] >= mIso) mask |= uint8_t(1 << c);
+            }
+            const int parity = cellParity(cell.x(), cell.y(), cell.z());
+            const CellCase& cc = cellCase(parity, mask);
+            const auto& edges = cellEdges(parity);
+            if (cc.triangleCount != range->second.second)
+                throw std::logic_error("fusion: the uncut mesh does not match the volume at a cut cell");
+            for (int k = 0; k < 3 * cc.triangleCount; ++k) {
+                const CellEdge e = edges[cc.edges[size_t(k)]];
+                const openvdb::Coord a = cell + openvdb::Coord(e.lo & 1, (e.lo >> 1) & 1, (e.lo >> 2) & 1);
+                const openvdb::Coord b = cell + openvdb::Coord(e.hi & 1, (e.hi >> 1) & 1, (e.hi >> 2) & 1);
+                uint64_t ia = gridVertexId(a.x(), a.y(), a.z()), ib = gridVertexId(b.x(), b.y(), b.z());
+                if (ib < ia) std::swap(ia, ib);
+                edgeMap.push_back({{ia, ib}, mUncut.indices[3 * size_t(range->second.first) + size_t(k)]});
+            }
+        }
+        std::vector<uint32_t> index(geom.vertexIds.size());
+        for (size_t v = 0; v < geom.vertexIds.size(); ++v) {
+            const CutVertexId& id = geom.vertexIds[v];
+            if (id.isIsoEdgeVertex()) {
+                const std::pair<uint64_t, uint64_t> key{id.feature[0], id.feature[1]};
+                auto it = std::find_if(edgeMap.begin(), edgeMap.end(), [&](const auto& e) { return e.first == key; });
+                if (it == edgeMap.end()) throw std::logic_error("fusion: a cut cell's iso vertex has no uncut vertex");
+                index[v] = it->second;
+                continue;
+            }
+            auto [it, isNew] = added.emplace(id, uint32_t(m.positions.size()));
+            if (isNew) {
+                const glm::dvec3& p = geom.indexPositions[v];
+                m.positions.push_back(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
+                                                float(origin[2] + spacing[2] * p.z)));
+                if (normals) m.normals.push_back(glm::vec3(0.0f));
+            }
+            index[v] = it->second;
+        }
+        for (size_t i = 0; i < geom.indices.size(); i += 3) {
+            for (int j = 0; j < 3; ++j) m.indices.push_back(index[geom.indices[i + size_t(j)]]);
+            m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
+        }
+    }
+    if (normals) {
+        for (size_t t = 0; t < m.triangleCount(); ++t) {
+            const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
+            if (a < uncutVertices && b < uncutVertices && c < uncutVertices) continue;
+            const glm::vec3 n = glm::cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);
+            for (uint32_t v : {a, b, c})
+                if (v >= uncutVertices) m.normals[v] += n;
+        }
+        for (size_t v = uncutVertices; v < m.normals.size(); ++v) {
+            const float l = glm::length(m.normals[v]);
+            m.normals[v] = l > 0 ? m.normals[v] / l : glm::vec3(0, 0, 1);
+        }
+    }
+    return m;
+}
+
+} // namespace mtcut::cutter

@@ -1,0 +1,1466 @@
+#include "cutter/Remesh.h"
+
+#include "cutter/Isosurface.h"
+#include "vdb/Error.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace mtcut::cutter {
+
+// ------------------------------------------------------------- vertex ids --
+
+bool CutVertexId::operator==(const CutVertexId& o) const
+{
+    return dim == o.dim && planeCount == o.planeCount && tagCount == o.tagCount && feature == o.feature &&
+           planes == o.planes && tags == o.tags;
+}
+
+bool CutVertexId::operator<(const CutVertexId& o) const
+{
+    if (dim != o.dim) return dim < o.dim;
+    if (feature != o.feature) return feature < o.feature;
+    if (planeCount != o.planeCount) return planeCount < o.planeCount;
+    if (planes != o.planes) return planes < o.planes;
+    if (tagCount != o.tagCount) return tagCount < o.tagCount;
+    return tags < o.tags;
+}
+
+size_t CutVertexIdHash::operator()(const CutVertexId& v) const
+{
+    uint64_t h = 1469598103934665603ull ^ (uint64_t(v.dim) << 16 | uint64_t(v.planeCount) << 8 | v.tagCount);
+    auto mix = [&](uint64_t x) {
+        h ^= x + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    };
+    for (uint64_t f : v.feature) mix(f);
+    for (int i = 0; i < v.planeCount; ++i) mix(v.planes[size_t(i)]);
+    for (int i = 0; i < v.tagCount; ++i) mix(v.tags[size_t(i)]);
+    return size_t(h);
+}
+
+uint64_t gridVertexId(int i, int j, int k)
+{
+    constexpr int64_t off = int64_t(1) << 20;
+    return (uint64_t(int64_t(k) + off) << 42) | (uint64_t(int64_t(j) + off) << 21) | uint64_t(int64_t(i) + off);
+}
+
+namespace {
+
+using glm::dvec3;
+using openvdb::Coord;
+
+constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
+constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
+constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
+constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local vertices of the tet face/edge
+constexpr int kJunctionKind = 7;
+
+uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
+{
+    return (uint64_t(stroke) << 36) | (uint64_t(quad) << 4) | uint64_t(kind);
+}
+
+struct Plane
+{
+    dvec3 n{0.0};
+    double d = 0.0;
+    double h(const dvec3& x) const { return glm::dot(n, x) - d; }
+};
+
+inline double epsAt(const dvec3& x)
+{
+    return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
+}
+
+std::string cellText(const Coord& c)
+{
+    std::ostringstream os;
+    os << "(" << c.x() << ", " << c.y() << ", " << c.z() << ")";
+    return os.str();
+}
+
+// ---------------------------------------------------------- quad geometry --
+
+/// A quad's zero-kerf removed region in index space: its plane and its sides
+/// (each a plane through a hull edge; the junction with the previous/next
+/// quad of the stroke is one shared mitre plane, so the strip is one surface).
+struct QuadGeom
+{
+    uint64_t id = 0; ///< plane id of the quad's plane (kind 0)
+    Plane pi;
+    struct Side
+    {
+        uint64_t id = 0;
+        Plane plane;
+        double orient = 1.0; ///< inside the quad: orient * h >= 0
+        int partner = -1;    ///< junction: the other quad's index in the cell's quad list (-1: rim)
+        uint64_t partnerId = 0;
+    };
+    std::vector<Side> sides;
+};
+
+/// Convex hull (CCW around n) of the quad's corners, as corner indices.
+std::vector<int> hullOf(const Quad& q, const IndexFrame& frame, const dvec3& n)
+{
+    const int m = int(q.cornerCount);
+    std::vector<dvec3> c(static_cast<size_t>(m));
+    for (int i = 0; i < m; ++i) c[size_t(i)] = frame.toIndex(q.corners[size_t(i)]);
+    dvec3 e1 = std::abs(n.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+    e1 = glm::normalize(e1 - n * glm::dot(n, e1));
+    const dvec3 e2 = glm::cross(n, e1);
+    std::vector<std::pair<double, double>> p(static_cast<size_t>(m));
+    for (int i = 0; i < m; ++i) p[size_t(i)] = {glm::dot(c[size_t(i)], e1), glm::dot(c[size_t(i)], e2)};
+    // Gift wrapping (m <= 4).
+    int start = 0;
+    for (int i = 1; i < m; ++i)
+        if (p[size_t(i)] < p[size_t(start)]) start = i;
+    std::vector<int> hull;
+    int cur = start;
+    do {
+        hull.push_back(cur);
+        int next = (cur + 1) % m;
+        for (int i = 0; i < m; ++i) {
+            if (i == cur) continue;
+            const double ax = p[size_t(next)].first - p[size_t(cur)].first, ay = p[size_t(next)].second - p[size_t(cur)].second;
+            const double bx = p[size_t(i)].first - p[size_t(cur)].first, by = p[size_t(i)].second - p[size_t(cur)].second;
+            const double cr = ax * by - ay * bx;
+            if (cr < 0 || (cr == 0 && bx * bx + by * by > ax * ax + ay * ay)) next = i;
+        }
+        cur = next;
+    } while (cur != start && hull.size() <= size_t(m));
+    return hull;
+}
+
+dvec3 indexNormal(const Quad& q, const IndexFrame& frame)
+{
+    return glm::normalize(q.normal * frame.spacing);
+}
+
+Plane quadPlane(const Quad& q, const IndexFrame& frame)
+{
+    Plane p;
+    p.n = indexNormal(q, frame);
+    double d = 0.0;
+    for (uint32_t i = 0; i < q.cornerCount; ++i) d += glm::dot(p.n, frame.toIndex(q.corners[i]));
+    p.d = d / double(q.cornerCount);
+    return p;
+}
+
+/// Index of a hull edge of `other` with the same two world corners as (a, b), or -1.
+bool sharesEdge(const Quad& other, const std::vector<int>& otherHull, const dvec3& a, const dvec3& b)
+{
+    const size_t m = otherHull.size();
+    for (size_t i = 0; i < m; ++i) {
+        const dvec3& c = other.corners[size_t(otherHull[i])];
+        const dvec3& d = other.corners[size_t(otherHull[(i + 1) % m])];
+        if ((c == a && d == b) || (c == b && d == a)) return true;
+    }
+    return false;
+}
+
+bool lexLess(const dvec3& a, const dvec3& b)
+{
+    if (a.x != b.x) return a.x < b.x;
+    if (a.y != b.y) return a.y < b.y;
+    return a.z < b.z;
+}
+
+dvec3 centroidOf(const Quad& q, const IndexFrame& frame)
+{
+    dvec3 c(0.0);
+    for (uint32_t i = 0; i < q.cornerCount; ++i) c += frame.toIndex(q.corners[i]);
+    return c / double(q.cornerCount);
+}
+
+/// Geometry of quad `ref` of the mask (refs of the cell, to resolve partners).
+QuadGeom makeQuadGeom(const CutMask& mask, const QuadRef& ref)
+{
+    const IndexFrame& frame = mask.frame();
+    const Quad& q = mask.quad(ref);
+    QuadGeom g;
+    g.id = planeIdOf(ref.stroke, ref.quad, 0);
+    g.pi = quadPlane(q, frame);
+    const std::vector<int> hull = hullOf(q, frame, g.pi.n);
+    const dvec3 centre = centroidOf(q, frame);
+    const size_t m = hull.size();
+    for (size_t e = 0; e < m; ++e) {
+        const dvec3& wa = q.corners[size_t(hull[e])];
+        const dvec3& wb = q.corners[size_t(hull[(e + 1) % m])];
+        QuadGeom::Side side;
+        bool junction = false;
+        for (int dq : {-1, 1}) {
+            const int64_t oq = int64_t(ref.quad) + dq;
+            if (oq < 0 || oq >= int64_t(mask.quadCount(ref.stroke))) continue;
+            const QuadRef oref{ref.stroke, uint32_t(oq)};
+            const Quad& o = mask.quad(oref);
+            if (o.degenerate) continue;
+            const dvec3 on = indexNormal(o, frame);
+            if (!sharesEdge(o, hullOf(o, frame, on), wa, wb)) continue;
+            // The mitre: through the shared edge, bisecting the two quads' planes,
+            // computed from the lower quad's data first so both quads get the same plane.
+            const bool lower = dq > 0;
+            const dvec3 nl = lower ? g.pi.n : on, nu = lower ? on : g.pi.n;
+            dvec3 p0 = frame.toIndex(wa), p1 = frame.toIndex(wb);
+            if (lexLess(p1, p0)) std::swap(p0, p1);
+            const dvec3 mdir = glm::cross(nl + nu, p1 - p0);
+            const double len = glm::length(mdir);
+            if (!(len > 1e-12)) continue;
+            Plane mp;
+            mp.n = mdir / len;
+            mp.d = glm::dot(mp.n, p0);
+            const double own = mp.h(centre), other = mp.h(centroidOf(o, frame));
+            if (!(own * other < 0.0)) continue; // folded back onto itself: keep as rim
+            side.id = planeIdOf(ref.stroke, lower ? ref.quad : uint32_t(oq), kJunctionKind);
+            side.plane = mp;
+            side.orient = own > 0 ? 1.0 : -1.0;
+            side.partnerId = planeIdOf(ref.stroke, uint32_t(oq), 0);
+            junction = true;
+            break;
+        }
+        if (!junction) {
+            const dvec3 a = frame.toIndex(wa), b = frame.toIndex(wb);
+            const dvec3 sdir = glm::cross(g.pi.n, b - a);
+            const double len = glm::length(sdir);
+            if (!(len > 0.0)) continue;
+            side.id = planeIdOf(ref.stroke, ref.quad, 1 + int(e));
+            side.plane.n = sdir / len;
+            side.plane.d = glm::dot(side.plane.n, a);
+            side.orient = side.plane.h(centre) >= 0 ? 1.0 : -1.0;
+        }
+        g.sides.push_back(side);
+    }
+    return g;
+}
+
+// ---------------------------------------------------------- 2-D helpers ---
+
+struct Vec2
+{
+    double x, y;
+};
+inline double cross2(const Vec2& o, const Vec2& a, const Vec2& b)
+{
+    return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
+inline bool same2(const Vec2& a, const Vec2& b) { return a.x == b.x && a.y == b.y; }
+
+/// Do segments ab and cd cross (properly, or touching away from shared endpoints)?
+bool segmentsIntersect(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d)
+{
+    const double d1 = cross2(c, d, a), d2 = cross2(c, d, b), d3 = cross2(a, b, c), d4 = cross2(a, b, d);
+    if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+    auto onSeg = [](const Vec2& p, const Vec2& q, const Vec2& r) { // r on pq (collinear assumed)
+        return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y &&
+               r.y <= std::max(p.y, q.y);
+    };
+    if (d1 == 0 && onSeg(c, d, a) && !same2(a, c) && !same2(a, d)) return true;
+    if (d2 == 0 && onSeg(c, d, b) && !same2(b, c) && !same2(b, d)) return true;
+    if (d3 == 0 && onSeg(a, b, c) && !same2(c, a) && !same2(c, b)) return true;
+    if (d4 == 0 && onSeg(a, b, d) && !same2(d, a) && !same2(d, b)) return true;
+    return false;
+}
+
+/// Ear clipping of a weakly simple CCW polygon (indices into pts). Each step
+/// clips the valid ear with the best shape (largest smallest sine of its
+/// angles), so straight vertices never end up as the tip of a flat ear.
+/// Points within a relative 1e-9 of an ear's edges count as inside it.
+/// Returns false when no ear can be found.
+bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<int>& tris)
+{
+    auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
+    auto len = [](const Vec2& a, const Vec2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
+    while (poly.size() > 3) {
+        const size_t n = poly.size();
+        size_t best = n;
+        double bestScore = -1.0;
+        for (double tol : {1e-9, 0.0}) {
+            for (size_t i = 0; i < n; ++i) {
+                const int a = poly[(i + n - 1) % n], b = poly[i], c = poly[(i + 1) % n];
+                const double lab = len(P(a), P(b)), lbc = len(P(b), P(c)), lca = len(P(c), P(a));
+                const double area2 = cross2(P(a), P(b), P(c));
+                if (!(area2 > tol * lab * lbc) || lab == 0 || lbc == 0 || lca == 0) continue;
+                bool ok = true;
+                for (size_t j = 0; j < n && ok; ++j) {
+                    const int v = poly[j];
+                    if (j == i || j == (i + n - 1) % n || j == (i + 1) % n) continue;
+                    const Vec2& p = P(v);
+                    if (same2(p, P(a)) || same2(p, P(b)) || same2(p, P(c))) {
+                        // A copy of a corner (slit or bridge): the ear must not cut
+                        // the polygon there; reject when that copy's wedge enters the ear.
+                        if (!same2(p, P(b))) continue;
+                        const Vec2 &pp = P(poly[(j + n - 1) % n]), &pn = P(poly[(j + 1) % n]);
+                        auto inside = [&](const Vec2& q) {
+                            return cross2(P(a), P(b), q) > 0 && cross2(P(b), P(c), q) > 0 && cross2(P(c), P(a), q) > 0;
+                        };
+                        if (inside(pp) || inside(pn)) ok = false;
+                        continue;
+                    }
+                    if (cross2(P(a), P(b), p) >= -tol * lab * lab && cross2(P(b), P(c), p) >= -tol * lbc * lbc &&
+                        cross2(P(c), P(a), p) >= -tol * lca * lca)
+                        ok = false;
+                }
+                if (!ok) continue;
+                const double score = std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
+                if (score > bestScore) {
+                    bestScore = score;
+                    best = i;
+                }
+            }
+            if (best < n) break;
+        }
+        if (best == n) return false;
+        tris.push_back(poly[(best + n - 1) % n]);
+        tris.push_back(poly[best]);
+        tris.push_back(poly[(best + 1) % n]);
+        poly.erase(poly.begin() + long(best));
+    }
+    if (poly.size() == 3) {
+        if (!(cross2(P(poly[0]), P(poly[1]), P(poly[2])) > 0.0)) return false;
+        tris.insert(tris.end(), poly.begin(), poly.end());
+    }
+    return true;
+}
+
+double signedArea(const std::vector<int>& loop, const std::vector<Vec2>& pts)
+{
+    double a = 0.0;
+    for (size_t i = 0; i < loop.size(); ++i) {
+        const Vec2& p = pts[size_t(loop[i])];
+        const Vec2& q = pts[size_t(loop[(i + 1) % loop.size()])];
+        a += p.x * q.y - p.y * q.x;
+    }
+    return 0.5 * a;
+}
+
+/// Splices holes into the outer loop through shortest visible bridges.
+bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, const std::vector<Vec2>& pts)
+{
+    auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
+    while (!holes.empty()) {
+        double best = 1e300;
+        size_t bh = 0, bo = 0, bj = 0;
+        for (size_t h = 0; h < holes.size(); ++h) {
+            for (size_t j = 0; j < holes[h].size(); ++j) {
+                const Vec2& hp = P(holes[h][j]);
+                for (size_t o = 0; o < outer.size(); ++o) {
+                    const Vec2& op = P(outer[o]);
+                    const double dx = op.x - hp.x, dy = op.y - hp.y, d2 = dx * dx + dy * dy;
+                    if (d2 >= best || d2 == 0.0) continue;
+                    // Inside the wedge of the outer loop at o (CCW: interior on the left).
+                    const size_t n = outer.size();
+                    const Vec2& prev = P(outer[(o + n - 1) % n]);
+                    const Vec2& next = P(outer[(o + 1) % n]);
+                    const bool convex = cross2(prev, op, next) > 0;
+                    const bool l1 = cross2(op, next, hp) > 0, l2 = cross2(prev, op, hp) > 0;
+                    if (convex ? !(l1 && l2) : !(l1 || l2)) continue;
+                    bool clear = true;
+                    auto check = [&](const std::vector<int>& loop) {
+                        for (size_t k = 0; k < loop.size() && clear; ++k) {
+                            const Vec2& c = P(loop[k]);
+                            const Vec2& d = P(loop[(k + 1) % loop.size()]);
+                            if (segmentsIntersect(hp, op, c, d)) clear = false;
+                        }
+                    };
+                    check(outer);
+                    for (const auto& hl : holes) check(hl);
+                    if (!clear) continue;
+                    best = d2;
+                    bh = h;
+                    bo = o;
+                    bj = j;
+                }
+            }
+        }
+        if (best == 1e300) return false;
+        const std::vector<int>& hole = holes[bh];
+        std::vector<int> splice;
+        splice.push_back(outer[bo]);
+        for (size_t k = 0; k <= hole.size(); ++k) splice.push_back(hole[(bj + k) % hole.size()]);
+        outer.insert(outer.begin() + long(bo) + 1, splice.begin(), splice.end());
+        holes.erase(holes.begin() + long(bh));
+    }
+    return true;
+}
+
+} // namespace
+
+// ================================================================ kernel ====
+
+class RemeshKernel
+{
+public:
+    RemeshKernel(const vdb::Volume& volume, float iso)
+        : mAcc(volume.grid->tree()), mIso(iso)
+    {
+    }
+
+    void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, CutCellGeometry& out);
+
+private:
+    // ---- per tet state
+    struct Vert
+    {
+        CutVertexId key; // planes only, no tags
+        dvec3 pos;
+        uint8_t support = 0; // tet-local vertices of the smallest simplex holding it
+        std::vector<std::pair<uint64_t, int8_t>> signs;
+        int8_t member = 2; // P membership cache (2 = unknown)
+        bool steiner = false; // a Steiner point: always a corner
+    };
+    struct Poly
+    {
+        std::vector<int> v;
+        std::vector<uint64_t> lab; // lab[i]: edge v[i] -> v[i+1]
+    };
+    struct Support
+    {
+        dvec3 p[4];
+        uint64_t id[4];
+        float value[4];
+        bool inside[4];
+    };
+
+    float value(const Coord& c) { return mAcc.getValue(c); }
+
+    // Tet-level data.
+    Coord mCell;
+    int mTet = 0;
+    Support mT;
+    std::vector<Vert> mVerts;
+    std::vector<const QuadGeom*> mQuads;             // quads crossing this tet
+    std::vector<std::pair<uint64_t, Plane>> mPlanes; // sorted by id: ISO_A, ISO_B, quad planes and sides
+    int mTriCount = 0;
+    Plane mTriPlane[2];
+    std::vector<int> mTriVerts[2];
+    int mFaceTri[4];      // which iso triangle has its edge on tet face f (opposite vertex f), -1 none
+    bool mFoldConvex = true;
+
+    const Plane* planeById(uint64_t id) const
+    {
+        auto it = std::lower_bound(mPlanes.begin(), mPlanes.end(), id,
+                                   [](const std::pair<uint64_t, Plane>& a, uint64_t b) { return a.first < b; });
+        return it != mPlanes.end() && it->first == id ? &it->second : nullptr;
+    }
+
+    static int bits(uint8_t m) { return (m & 1) + (m >> 1 & 1) + (m >> 2 & 1) + (m >> 3 & 1); }
+
+    // Grid data for features.
+    dvec3 mtPoint(int a, int b) const // tet-local vertices, MT crossing point
+    {
+        int lo = a, hi = b;
+        if (mT.id[hi] < mT.id[lo]) std::swap(lo, hi);
+        const double t = edgeCrossing(mT.value[lo], mT.value[hi], mIso);
+        return mT.p[lo] + t * (mT.p[hi] - mT.p[lo]);
+    }
+    /// Face (tet-local vertex mask, 3 bits): canonical iso line p1, p2 and inside sign; false when not crossed.
+    bool faceIsoLine(uint8_t mask, dvec3& p1, dvec3& p2, dvec3& normal, double& inSign) const
+    {
+        int v[3], n = 0;
+        for (int i = 0; i < 4; ++i)
+            if (mask >> i & 1) v[n++] = i;
+        std::sort(v, v + 3, [&](int a, int b) { return mT.id[a] < mT.id[b]; });
+        const int ni = int(mT.inside[v[0]]) + int(mT.inside[v[1]]) + int(mT.inside[v[2]]);
+        if (ni == 0 || ni == 3) return false;
+        const int ends[3][2] = {{v[0], v[1]}, {v[0], v[2]}, {v[1], v[2]}};
+        int k = 0;
+        dvec3 pts[2];
+        for (const auto& e : ends)
+            if (mT.inside[e[0]] != mT.inside[e[1]]) pts[k++] = mtPoint(e[0], e[1]);
+        p1 = pts[0];
+        p2 = pts[1];
+        normal = glm::cross(mT.p[v[1]] - mT.p[v[0]], mT.p[v[2]] - mT.p[v[0]]);
+        const int in = mT.inside[v[0]] ? v[0] : mT.inside[v[1]] ? v[1] : v[2];
+        inSign = glm::dot(glm::cross(p2 - p1, mT.p[in] - p1), normal) > 0 ? 1.0 : -1.0;
+        return true;
+    }
+    /// Signed in-plane distance to the face's iso line (+ inside), or +-1e300 when uncrossed.
+    double faceIsoDistance(uint8_t mask, const dvec3& x) const
+    {
+        dvec3 p1, p2, nrm;
+        double s;
+        if (!faceIsoLine(mask, p1, p2, nrm, s)) {
+            int any = 0;
+            while (!(mask >> any & 1)) ++any;
+            return mT.inside[any] ? 1e300 : -1e300;
+        }
+        const double l = glm::length(p2 - p1) * glm::length(nrm);
+        return s * glm::dot(glm::cross(p2 - p1, x - p1), nrm) / l;
+    }
+    double edgeIsoDistance(uint8_t mask, const dvec3& x) const
+    {
+        int a = -1, b = -1;
+        for (int i = 0; i < 4; ++i)
+            if (mask >> i & 1) (a < 0 ? a : b) = i;
+        if (mT.id[b] < mT.id[a]) std::swap(a, b);
+        if (mT.inside[a] == mT.inside[b]) return mT.inside[a] ? 1e300 : -1e300;
+        const dvec3 e = mT.p[b] - mT.p[a];
+        const double len = glm::length(e);
+        const double t = glm::dot(x - mT.p[a], e) / (len * len);
+        const double ti = edgeCrossing(mT.value[a], mT.value[b], mIso);
+        return (mT.inside[a] ? (ti - t) : (t - ti)) * len;
+    }
+
+    CutVertexId featureKey(uint8_t support) const
+    {
+        CutVertexId k;
+        const int n = bits(support);
+        k.dim = uint8_t(n - 1);
+        if (n == 4) {
+            k.feature = {gridVertexId(mCell.x(), mCell.y(), mCell.z()), uint64_t(mTet), 0};
+            return k;
+        }
+        int m = 0;
+        for (int i = 0; i < 4; ++i)
+            if (support >> i & 1) k.feature[size_t(m++)] = mT.id[i];
+        std::sort(k.feature.begin(), k.feature.begin() + n);
+        return k;
+    }
+
+    dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
+    int makeVertex(uint8_t support, std::vector<uint64_t> defining, const dvec3& pos0);
+    int makeSteiner(uint8_t support, std::vector<uint64_t> planes, const dvec3& pos);
+    /// A slit chord of quad r between two rim points on different rim lines:
+    /// the two sides of the slit need a tagged vertex on it.
+    bool needsMidpoint(int u, int v, const QuadGeom& r)
+    {
+        if (sign(u, r.id) != 0 || sign(v, r.id) != 0) return false;
+        if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || inSlitOpen(u, r) || inSlitOpen(v, r)) return false;
+        for (const auto& sd : r.sides)
+            if (sd.partner < 0 && sign(u, sd.id) == 0 && sign(v, sd.id) == 0) return false;
+        return true;
+    }
+    int sign(int v, uint64_t planeId);
+    int member(int v);
+    bool inExtentClosed(int v, const QuadGeom& q)
+    {
+        for (const auto& s : q.sides)
+            if (s.orient * sign(v, s.id) < 0) return false;
+        return true;
+    }
+    bool inSlitOpen(int v, const QuadGeom& q)
+    {
+        for (const auto& s : q.sides) {
+            const double o = s.orient * sign(v, s.id);
+            if (s.partner >= 0 ? o < 0 : o <= 0) return false;
+        }
+        return true;
+    }
+    const QuadGeom* quadById(uint64_t id) const
+    {
+        for (const QuadGeom* q : mQuads)
+            if (q->id == id) return q;
+        return nullptr;
+    }
+
+    void splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
+    void remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_t>& cellIndex);
+
+    openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
+    float mIso;
+    const std::vector<QuadGeom>* mCellQuads = nullptr;
+};
+
+dvec3 RemeshKernel::canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const
+{
+    if (key.dim == 0) {
+        for (int i = 0; i < 4; ++i)
+            if (support >> i & 1) return mT.p[i];
+    }
+    if (key.dim == 3) return pos0;
+    for (int i = 0; i < key.planeCount; ++i)
+        if (key.planes[size_t(i)] == kMid || key.planes[size_t(i)] == kCentroid) return pos0;
+    auto planeOf = [&](uint64_t id) -> const Plane* { return planeById(id); };
+    if (key.dim == 1) {
+        int a = -1, b = -1;
+        for (int i = 0; i < 4; ++i)
+            if (support >> i & 1) (a < 0 ? a : b) = i;
+        if (mT.id[b] < mT.id[a]) std::swap(a, b);
+        if (key.planes[0] == kIso) return mtPoint(a, b);
+        for (int i = 0; i < key.planeCount; ++i) {
+            const Plane* p = planeOf(key.planes[size_t(i)]);
+            if (!p) continue;
+            const double ha = p->h(mT.p[a]), hb = p->h(mT.p[b]);
+            if (!(std::abs(ha - hb) > 1e-12)) continue;
+            const double t = std::clamp(ha / (ha - hb), 0.0, 1.0);
+            return mT.p[a] + t * (mT.p[b] - mT.p[a]);
+        }
+        return pos0;
+    }
+    // dim 2: a face.
+    if (key.planes[0] == kIso) {
+        dvec3 p1, p2, nrm;
+        double s;
+        if (faceIsoLine(support, p1, p2, nrm, s)) {
+            const double len = glm::length(p2 - p1);
+            for (int i = 1; i < key.planeCount; ++i) {
+                const Plane* p = planeOf(key.planes[size_t(i)]);
+                if (!p) continue;
+                const double h1 = p->h(p1), h2 = p->h(p2);
+                if (!(std::abs(h1 - h2) > 1e-9 * len)) continue;
+                const double u = h1 / (h1 - h2);
+                return p1 + u * (p2 - p1);
+            }
+        }
+        return pos0;
+    }
+    int v[3], n = 0;
+    for (int i = 0; i < 4; ++i)
+        if (support >> i & 1) v[n++] = i;
+    std::sort(v, v + 3, [&](int a, int b) { return mT.id[a] < mT.id[b]; });
+    const dvec3 A = mT.p[v[0]], e1 = mT.p[v[1]] - A, e2 = mT.p[v[2]] - A;
+    for (int i = 0; i < key.planeCount; ++i)
+        for (int j = i + 1; j < key.planeCount; ++j) {
+            const Plane* p = planeOf(key.planes[size_t(i)]);
+            const Plane* q = planeOf(key.planes[size_t(j)]);
+            if (!p || !q) continue;
+            const double a11 = glm::dot(p->n, e1), a12 = glm::dot(p->n, e2), b1 = -p->h(A);
+            const double a21 = glm::dot(q->n, e1), a22 = glm::dot(q->n, e2), b2 = -q->h(A);
+            const double det = a11 * a22 - a12 * a21;
+            if (!(std::abs(det) > 1e-9)) continue;
+            const double s = (b1 * a22 - a12 * b2) / det, t = (a11 * b2 - b1 * a21) / det;
+            return A + s * e1 + t * e2;
+        }
+    return pos0;
+}
+
+int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, const dvec3& pos0)
+{
+    CutVertexId key = featureKey(support);
+    const double eps = epsAt(pos0);
+    // The name is the set of ACTIVE planes through the point (the iso surface,
+    // quads holding it); the planes that happened to make it (in this tet's
+    // arrangement) are used only when the active ones do not fix the point.
+    std::vector<uint64_t> planes;
+    for (uint64_t& p : defining) {
+        if (key.dim < 3 && (p == kIsoA || p == kIsoB)) p = kIso;
+        if (p <= kIsoB) planes.push_back(p);
+    }
+    if (key.dim < 3) {
+        if (key.dim == 2 && std::abs(faceIsoDistance(support, pos0)) <= eps) planes.push_back(kIso);
+        if (key.dim == 1 && std::abs(edgeIsoDistance(support, pos0)) <= eps) planes.push_back(kIso);
+    }
+    // Active quad planes: on the plane and in the closed quad; sides on which it lies.
+    for (const QuadGeom* q : mQuads) {
+        if (!(std::abs(q->pi.h(pos0)) <= eps)) continue;
+        bool in = true;
+        for (const auto& s : q->sides) in = in && s.orient * s.plane.h(pos0) >= -eps;
+        if (!in) continue;
+        planes.push_back(q->id);
+        for (const auto& s : q->sides)
+            if (std::abs(s.plane.h(pos0)) <= eps) planes.push_back(s.id);
+    }
+    // Junctions: a point on a junction plane and on either quad's plane is on both.
+    std::sort(planes.begin(), planes.end());
+    planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    for (const QuadGeom* q : mQuads) {
+        for (const auto& s : q->sides) {
+            if (s.partner < 0 || !std::binary_search(planes.begin(), planes.end(), s.id)) continue;
+            const bool hasOwn = std::binary_search(planes.begin(), planes.end(), q->id);
+            const bool hasOther = std::binary_search(planes.begin(), planes.end(), s.partnerId);
+            if ((hasOwn || hasOther) && quadById(s.partnerId)) {
+                planes.push_back(q->id);
+                planes.push_back(s.partnerId);
+            }
+        }
+    }
+    std::sort(planes.begin(), planes.end());
+    planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    if (int(planes.size()) < 3 - key.dim) {
+        planes.insert(planes.end(), defining.begin(), defining.end());
+        std::sort(planes.begin(), planes.end());
+        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    }
+    if (planes.size() > key.planes.size()) {
+        throw std::runtime_error("remesh: a point lies on more than 8 blade planes in cell " + cellText(mCell));
+    }
+    key.planeCount = uint8_t(planes.size());
+    for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
+    for (size_t i = 0; i < mVerts.size(); ++i)
+        if (mVerts[i].key == key) return int(i);
+    Vert v;
+    v.key = key;
+    v.support = support;
+    v.pos = canonicalPosition(key, support, pos0);
+    mVerts.push_back(std::move(v));
+    return int(mVerts.size() - 1);
+}
+
+int RemeshKernel::makeSteiner(uint8_t support, std::vector<uint64_t> planes, const dvec3& pos)
+{
+    CutVertexId key = featureKey(support);
+    std::sort(planes.begin(), planes.end());
+    key.planeCount = uint8_t(planes.size());
+    for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
+    for (size_t i = 0; i < mVerts.size(); ++i)
+        if (mVerts[i].key == key) return int(i);
+    Vert v;
+    v.key = key;
+    v.support = support;
+    v.pos = pos;
+    v.steiner = true;
+    mVerts.push_back(std::move(v));
+    return int(mVerts.size() - 1);
+}
+
+int RemeshKernel::sign(int vi, uint64_t id)
+{
+    Vert& v = mVerts[size_t(vi)];
+    for (const auto& s : v.signs)
+        if (s.first == id) return s.second;
+    int r;
+    const bool inKey = std::binary_search(v.key.planes.begin(), v.key.planes.begin() + v.key.planeCount, id);
+    if (inKey) {
+        r = 0;
+    } else if ((id == kIsoA || id == kIsoB) && v.key.planeCount > 0 && v.key.planes[0] == kIso &&
+               (v.key.dim == 1 || v.key.dim == 2)) {
+        const int tri = int(id - kIsoA);
+        bool on = false;
+        if (v.key.dim == 1) {
+            for (int c : mTriVerts[tri]) on = on || c == vi;
+            // MT corner of this triangle with extra planes in its key: compare positions.
+            if (!on)
+                for (int c : mTriVerts[tri]) on = on || mVerts[size_t(c)].key.feature == v.key.feature;
+        } else {
+            int f = 0;
+            while (v.support >> f & 1) ++f;
+            on = mFaceTri[f] == tri;
+        }
+        if (on) {
+            r = 0;
+        } else {
+            const double h = planeById(id)->h(v.pos);
+            r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
+        }
+    } else {
+        const Plane* p = planeById(id);
+        assert(p);
+        const double h = p->h(v.pos);
+        r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
+    }
+    v.signs.push_back({id, int8_t(r)});
+    return r;
+}
+
+int RemeshKernel::member(int vi)
+{
+    Vert& v = mVerts[size_t(vi)];
+    if (v.member != 2) return v.member;
+    int r;
+    const bool onIso = v.key.planeCount > 0 && v.key.planes[0] == kIso;
+    if (v.key.dim == 0) {
+        int i = 0;
+        while (!(v.support >> i & 1)) ++i;
+        r = mT.inside[i] ? 1 : -1;
+    } else if (v.key.dim < 3) {
+        if (onIso) {
+            r = 0;
+        } else {
+            const double d = v.key.dim == 1 ? edgeIsoDistance(v.support, v.pos) : faceIsoDistance(v.support, v.pos);
+            r = d > 0 ? 1 : -1;
+        }
+    } else if (mTriCount == 0) {
+        r = mT.inside[0] ? 1 : -1;
+    } else {
+        const int a = sign(vi, kIsoA);
+        if (mTriCount == 1) {
+            r = a;
+        } else {
+            const int b = sign(vi, kIsoB);
+            r = mFoldConvex ? std::min(a, b) : std::max(a, b);
+        }
+    }
+    v.member = int8_t(r);
+    return r;
+}
+
+void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
+{
+    const size_t n = in.v.size();
+    std::vector<int> sv(n);
+    bool pos = false, neg = false;
+    for (size_t i = 0; i < n; ++i) {
+        sv[i] = sign(in.v[i], p);
+        pos |= sv[i] > 0;
+        neg |= sv[i] < 0;
+    }
+    if (!(pos && neg)) {
+        out.push_back(in);
+        return;
+    }
+    const Plane* pl = planeById(p);
+    // Cut points on crossing edges.
+    std::vector<int> cut(n, -1);
+    for (size_t i = 0; i < n; ++i) {
+        const size_t j = (i + 1) % n;
+        if (sv[i] * sv[j] >= 0) continue;
+        const Vert& a = mVerts[size_t(in.v[i])];
+        const Vert& b = mVerts[size_t(in.v[j])];
+        const double ha = pl->h(a.pos), hb = pl->h(b.pos);
+        double t = (ha - hb) != 0 ? ha / (ha - hb) : 0.5;
+        if (!(t > 0.0 && t < 1.0)) t = 0.5;
+        const dvec3 x = a.pos + t * (b.pos - a.pos);
+        std::vector<uint64_t> def{p};
+        if (polyPlane != 0) def.push_back(polyPlane);
+        if (!(in.lab[i] & kBoundaryLabel)) def.push_back(in.lab[i]);
+        cut[i] = makeVertex(uint8_t(a.support | b.support), def, x);
+    }
+    for (int keep : {1, -1}) {
+        Poly o;
+        for (size_t i = 0; i < n; ++i) {
+            const size_t j = (i + 1) % n;
+            const int sa = keep * sv[i], sb = keep * sv[j];
+            if (sa >= 0) {
+                o.v.push_back(in.v[i]);
+                o.lab.push_back(sa == 0 && sb < 0 ? p : in.lab[i]);
+            }
+            if (cut[i] >= 0) {
+                o.v.push_back(cut[i]);
+                o.lab.push_back(sa > 0 ? p : in.lab[i]);
+            }
+        }
+        // Keep only pieces with a vertex strictly on the kept side.
+        bool strict = false;
+        for (size_t i = 0; i < n; ++i) strict |= keep * sv[i] > 0;
+        if (strict && o.v.size() >= 3) out.push_back(std::move(o));
+    }
+}
+
+void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, CutCellGeometry& out)
+{
+    out.clear();
+    mCell = cell;
+    mCellQuads = &quads;
+    std::map<CutVertexId, uint32_t> cellIndex;
+    const int parity = cellParity(cell.x(), cell.y(), cell.z());
+    const auto& tets = cellTets(parity);
+    for (int t = 0; t < kTetsPerCell; ++t) {
+        mTet = t;
+        for (int i = 0; i < 4; ++i) {
+            const int c = tets[size_t(t)][size_t(i)];
+            const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            mT.p[i] = dvec3(g.x(), g.y(), g.z());
+            mT.id[i] = gridVertexId(g.x(), g.y(), g.z());
+            mT.value[i] = value(g);
+            mT.inside[i] = mT.value[i] >= mIso;
+        }
+        remeshTet(out, cellIndex);
+    }
+}
+
+/// Even permutation of (0,1,2,3) starting with the given 1 or 2 entries (as the isosurface tables).
+static std::array<int, 4> evenPerm(std::initializer_list<int> first)
+{
+    std::array<int, 4> p{};
+    int n = 0;
+    for (int f : first) p[size_t(n++)] = f;
+    for (int v = 0; v < 4; ++v)
+        if (std::find(p.begin(), p.begin() + n, v) == p.begin() + n) p[size_t(n++)] = v;
+    int inv = 0;
+    for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) inv += p[size_t(a)] > p[size_t(b)];
+    if (inv & 1) std::swap(p[2], p[3]);
+    return p;
+}
+
+void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_t>& cellIndex)
+{
+    mVerts.clear();
+    mQuads.clear();
+    mPlanes.clear();
+    mTriCount = 0;
+    std::fill(std::begin(mFaceTri), std::end(mFaceTri), -1);
+
+    // Quads whose region can reach the tet.
+    for (const QuadGeom& q : *mCellQuads) {
+        auto crosses = [&](const Plane& p) {
+            bool pos = false, neg = false;
+            for (int i = 0; i < 4; ++i) {
+                const double h = p.h(mT.p[i]), e = epsAt(mT.p[i]);
+                pos |= h >= -e;
+                neg |= h <= e;
+            }
+            return pos && neg;
+        };
+        if (!crosses(q.pi)) continue;
+        bool reach = true;
+        for (const auto& s : q.sides) {
+            bool any = false;
+            for (int i = 0; i < 4; ++i) any |= s.orient * s.plane.h(mT.p[i]) >= -epsAt(mT.p[i]);
+            reach = reach && any;
+        }
+        if (!reach) continue;
+        mQuads.push_back(&q);
+        mPlanes.push_back({q.id, q.pi});
+        for (const auto& s : q.sides) mPlanes.push_back({s.id, s.plane});
+    }
+
+    // Marching-tetrahedra triangles of the tet (as the isosurface tables).
+    int ni = 0, ins[4], outs[4], no = 0;
+    for (int i = 0; i < 4; ++i) {
+        if (mT.inside[i]) ins[ni++] = i;
+        else outs[no++] = i;
+    }
+    if (ni == 0) return; // nothing solid here
+    std::vector<std::vector<std::array<int, 2>>> triEdges;
+    if (ni == 1 || ni == 3) {
+        const int lone = ni == 1 ? ins[0] : outs[0];
+        const auto p = evenPerm({lone});
+        const int a = p[0], b = p[1], c = p[2], d = p[3];
+        if (ni == 1) triEdges.push_back({{a, b}, {a, c}, {a, d}});
+        else triEdges.push_back({{a, b}, {a, d}, {a, c}});
+    } else if (ni == 2) {
+        const auto p = evenPerm({ins[0], ins[1]});
+        const int a = p[0], b = p[1], c = p[2], d = p[3];
+        // The marching-tetrahedra quad; when its (clamped) corners are not
+        // coplanar it is the two triangles of the isosurface, a fold.
+        const dvec3 pac = mtPoint(a, c), pad = mtPoint(a, d), pbd = mtPoint(b, d), pbc = mtPoint(b, c);
+        const dvec3 nrm = glm::cross(pad - pac, pbd - pac);
+        const double dev = glm::dot(nrm, pbc - pac) / glm::length(nrm);
+        if (std::abs(dev) <= 1e-7) {
+            triEdges.push_back({{a, c}, {a, d}, {b, d}, {b, c}});
+        } else {
+            triEdges.push_back({{a, c}, {a, d}, {b, d}});
+            triEdges.push_back({{a, c}, {b, d}, {b, c}});
+        }
+    }
+    mTriCount = int(triEdges.size());
+    // Iso planes first (so ISO_A/B sort first in mPlanes too).
+    std::vector<dvec3> triPts[2];
+    for (int k = 0; k < mTriCount; ++k) {
+        for (const auto& e : triEdges[size_t(k)]) triPts[k].push_back(mtPoint(e[0], e[1]));
+        dvec3 nrm(0.0);
+        const size_t n = triPts[k].size();
+        for (size_t c = 0; c < n; ++c) nrm += glm::cross(triPts[k][c], triPts[k][(c + 1) % n]); // Newell
+        const double len = glm::length(nrm);
+        mTriPlane[k].n = len > 0 ? -nrm / len : dvec3(0.0);
+        dvec3 centre(0.0);
+        for (const dvec3& q : triPts[k]) centre += q / double(n);
+        mTriPlane[k].d = glm::dot(mTriPlane[k].n, centre);
+        mPlanes.push_back({kIsoA + uint64_t(k), mTriPlane[k]});
+    }
+    std::sort(mPlanes.begin(), mPlanes.end(),
+              [](const std::pair<uint64_t, Plane>& a, const std::pair<uint64_t, Plane>& b) { return a.first < b.first; });
+    mPlanes.erase(std::unique(mPlanes.begin(), mPlanes.end(),
+                              [](const std::pair<uint64_t, Plane>& a, const std::pair<uint64_t, Plane>& b) {
+                                  return a.first == b.first;
+                              }),
+                  mPlanes.end());
+    if (mTriCount == 2) mFoldConvex = mTriPlane[0].h(triPts[1][2]) >= 0;
+
+    struct Surface
+    {
+        uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
+        const QuadGeom* quad; // cap: its quad
+        int sides;           // cap: bit 0 = + side output, bit 1 = - side output
+        dvec3 normal;        // reference normal (pieces are CCW around it)
+        Poly poly;
+    };
+    std::vector<Surface> surfaces;
+    for (int k = 0; k < mTriCount; ++k) {
+        Surface s;
+        s.plane = kIsoA + uint64_t(k);
+        s.quad = nullptr;
+        s.sides = 1;
+        s.normal = -mTriPlane[k].n;
+        const size_t n = triEdges[size_t(k)].size();
+        mTriVerts[k].clear();
+        for (size_t c = 0; c < n; ++c) {
+            const auto& e = triEdges[size_t(k)][c];
+            s.poly.v.push_back(makeVertex(uint8_t(1 << e[0] | 1 << e[1]), {kIsoA + uint64_t(k)}, triPts[k][c]));
+            mTriVerts[k].push_back(s.poly.v.back());
+        }
+        for (size_t c = 0; c < n; ++c) {
+            const auto& e0 = triEdges[size_t(k)][c];
+            const auto& e1 = triEdges[size_t(k)][(c + 1) % n];
+            const uint8_t m = uint8_t(1 << e0[0] | 1 << e0[1] | 1 << e1[0] | 1 << e1[1]);
+            if (m == 15) {
+                s.poly.lab.push_back(kIsoA + uint64_t(1 - k));
+            } else {
+                s.poly.lab.push_back(kBoundaryLabel | m);
+                int f = 0;
+                while (m >> f & 1) ++f;
+                mFaceTri[f] = k;
+            }
+        }
+        surfaces.push_back(std::move(s));
+    }
+    // Caps: the quad's plane through the tet.
+    for (const QuadGeom* q : mQuads) {
+        double h[4];
+        int on = 0;
+        for (int i = 0; i < 4; ++i) {
+            h[i] = q->pi.h(mT.p[i]);
+            if (std::abs(h[i]) <= epsAt(mT.p[i])) {
+                h[i] = 0;
+                ++on;
+            }
+        }
+        std::vector<std::pair<int, dvec3>> pts; // vertex, position
+        for (int i = 0; i < 4; ++i)
+            if (h[i] == 0) pts.push_back({makeVertex(uint8_t(1 << i), {q->id}, mT.p[i]), mT.p[i]});
+        for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j) {
+                if (!(h[i] * h[j] < 0)) continue;
+                int a = i, b = j;
+                if (mT.id[b] < mT.id[a]) std::swap(a, b);
+                const double t = h[a] / (h[a] - h[b]);
+                const dvec3 x = mT.p[a] + t * (mT.p[b] - mT.p[a]);
+                pts.push_back({makeVertex(uint8_t(1 << i | 1 << j), {q->id}, x), x});
+            }
+        if (pts.size() < 3) continue;
+        Surface s;
+        s.plane = q->id;
+        s.quad = q;
+        s.normal = q->pi.n;
+        s.sides = 3;
+        if (on == 3) { // the plane is a tet face: only the cap facing away from this tet
+            int f = 0;
+            while (h[f] == 0) ++f;
+            s.sides = h[f] > 0 ? 1 : 2;
+        }
+        dvec3 c(0.0);
+        for (const auto& p : pts) c += p.second;
+        c /= double(pts.size());
+        dvec3 e1 = glm::normalize(pts[0].second - c);
+        const dvec3 e2 = glm::cross(s.normal, e1);
+        std::sort(pts.begin(), pts.end(), [&](const auto& a, const auto& b) {
+            return std::atan2(glm::dot(a.second - c, e2), glm::dot(a.second - c, e1)) <
+                   std::atan2(glm::dot(b.second - c, e2), glm::dot(b.second - c, e1));
+        });
+        for (size_t i = 0; i < pts.size(); ++i) {
+            s.poly.v.push_back(pts[i].first);
+            const uint8_t m = uint8_t(mVerts[size_t(pts[i].first)].support |
+                                      mVerts[size_t(pts[(i + 1) % pts.size()].first)].support);
+            s.poly.lab.push_back(kBoundaryLabel | m);
+        }
+        surfaces.push_back(std::move(s));
+    }
+
+    // Arrangements, classification, tagged loops.
+    struct Node
+    {
+        int vert;
+        std::vector<uint64_t> tags;
+    };
+    std::vector<Node> nodes;
+    auto nodeOf = [&](int vert, std::vector<uint64_t>& tags) {
+        std::sort(tags.begin(), tags.end());
+        for (size_t i = 0; i < nodes.size(); ++i)
+            if (nodes[i].vert == vert && nodes[i].tags == tags) return int(i);
+        nodes.push_back({vert, tags});
+        return int(nodes.size() - 1);
+    };
+    struct Loop
+    {
+        std::vector<int> nodes;
+        std::vector<uint64_t> labels; // labels[i]: edge nodes[i] -> nodes[i+1]
+    };
+    struct Region
+    {
+        dvec3 normal;
+        std::vector<Loop> loops;
+        const QuadGeom* cap = nullptr; // cap regions: the quad, and the side
+        int side = 0;
+    };
+    std::vector<Region> regions;
+
+    for (Surface& s : surfaces) {
+        std::vector<Poly> pieces{s.poly}, next;
+        for (const auto& pl : mPlanes) {
+            if (pl.first == s.plane) continue;
+            if (!s.quad && (pl.first == kIsoA || pl.first == kIsoB)) continue;
+            next.clear();
+            for (const Poly& p : pieces) splitPoly(p, s.plane, pl.first, next);
+            pieces.swap(next);
+        }
+        auto pieceSign = [&](const Poly& p, uint64_t id) {
+            for (int v : p.v) {
+                const int sg = sign(v, id);
+                if (sg != 0) return sg;
+            }
+            return 0;
+        };
+        // Classification.
+        std::vector<char> kept(pieces.size(), 1);
+        if (s.quad) {
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                bool ok = true;
+                for (int v : pieces[i].v) ok = ok && member(v) >= 0;
+                for (const auto& sd : s.quad->sides) ok = ok && sd.orient * pieceSign(pieces[i], sd.id) >= 0;
+                kept[i] = ok;
+            }
+        }
+        // Steiner midpoints on slit chords between rim points (see needsMidpoint).
+        for (size_t i = 0; i < pieces.size(); ++i) {
+            if (!kept[i]) continue;
+            Poly& p = pieces[i];
+            for (size_t k = 0; k < p.v.size(); ++k) {
+                const int u = p.v[k], w = p.v[(k + 1) % p.v.size()];
+                for (const QuadGeom* r : mQuads) {
+                    if (!needsMidpoint(u, w, *r)) continue;
+                    const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
+                    uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
+                    uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
+                    std::vector<uint64_t> planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
+                    const uint8_t sup = uint8_t(vu.support | vw.support);
+                    if (bits(sup) < 4) {
+                        const bool isoU = vu.key.planeCount && vu.key.planes[0] == kIso;
+                        const bool isoW = vw.key.planeCount && vw.key.planes[0] == kIso;
+                        if (isoU && isoW) planes.push_back(kIso);
+                    }
+                    const int m = makeSteiner(sup, planes, 0.5 * (vu.pos + vw.pos));
+                    p.v.insert(p.v.begin() + long(k) + 1, m);
+                    p.lab.insert(p.lab.begin() + long(k) + 1, p.lab[k]);
+                    ++k;
+                    break;
+                }
+            }
+        }
+        for (int side : {1, -1}) {
+            if (s.quad ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
+            // Slit edges: on another quad's plane inside that quad.
+            auto isSlit = [&](int a, int b) {
+                for (const QuadGeom* r : mQuads) {
+                    if (r == s.quad) continue;
+                    if (sign(a, r->id) == 0 && sign(b, r->id) == 0 && inExtentClosed(a, *r) && inExtentClosed(b, *r))
+                        return true;
+                }
+                return false;
+            };
+            // Union-find over kept pieces across non-slit shared edges.
+            std::vector<int> parent(pieces.size());
+            for (size_t i = 0; i < parent.size(); ++i) parent[i] = int(i);
+            std::function<int(int)> find = [&](int x) { return parent[size_t(x)] == x ? x : parent[size_t(x)] = find(parent[size_t(x)]); };
+            std::map<std::pair<int, int>, int> edgeOwner;
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                if (!kept[i]) continue;
+                const Poly& p = pieces[i];
+                for (size_t k = 0; k < p.v.size(); ++k) {
+                    int a = p.v[k], b = p.v[(k + 1) % p.v.size()];
+                    if (a > b) std::swap(a, b);
+                    auto it = edgeOwner.find({a, b});
+                    if (it == edgeOwner.end()) {
+                        edgeOwner[{a, b}] = int(i);
+                    } else if (!isSlit(a, b)) {
+                        parent[size_t(find(int(i)))] = find(it->second);
+                    }
+                }
+            }
+            // Directed edges per region, with tagged nodes.
+            auto stripSide = [&](const Poly& piece, const QuadGeom* r, int vert) -> int {
+                if (r == s.quad) return side;
+                for (const auto& sd : r->sides) {
+                    if (sd.partnerId == 0 || sign(vert, sd.id) != 0) continue;
+                    const QuadGeom* o = quadById(sd.partnerId);
+                    if (!o) continue;
+                    if (sd.orient * pieceSign(piece, sd.id) < 0) { // the piece is on the partner's half
+                        if (o == s.quad) return side;
+                        const int sg = pieceSign(piece, o->id);
+                        if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
+                        return sg;
+                    }
+                }
+                const int sg = pieceSign(piece, r->id);
+                if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
+                return sg;
+            };
+            std::map<int, std::vector<std::array<int64_t, 3>>> regionEdges; // root -> (from node, to node, label)
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                if (!kept[i]) continue;
+                const Poly& p = pieces[i];
+                const size_t n = p.v.size();
+                std::vector<int> pn(n);
+                for (size_t k = 0; k < n; ++k) {
+                    std::vector<uint64_t> tags;
+                    for (const QuadGeom* r : mQuads) {
+                        if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r)) continue;
+                        const int sg = stripSide(p, r, p.v[k]);
+                        tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
+                    }
+                    pn[k] = nodeOf(p.v[k], tags);
+                }
+                auto& list = regionEdges[find(int(i))];
+                const bool reverse = s.quad && side > 0;
+                for (size_t k = 0; k < n; ++k) {
+                    const int a = pn[k], b = pn[(k + 1) % n];
+                    if (reverse) list.push_back({b, a, int64_t(p.lab[k])});
+                    else list.push_back({a, b, int64_t(p.lab[k])});
+                }
+            }
+            const dvec3 outNormal = s.quad && side > 0 ? -s.normal : s.normal;
+            for (auto& re : regionEdges) {
+                auto& edges = re.second;
+                // Boundary edges: those whose reverse is not in the region.
+                std::map<std::pair<int, int>, int> count;
+                for (const auto& e : edges) count[{int(e[0]), int(e[1])}]++;
+                std::vector<std::array<int64_t, 3>> bnd;
+                for (const auto& e : edges)
+                    if (!count.count({int(e[1]), int(e[0])})) bnd.push_back(e);
+                if (bnd.empty()) continue;
+                dvec3 e1 = std::abs(outNormal.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+                e1 = glm::normalize(e1 - outNormal * glm::dot(outNormal, e1));
+                const dvec3 e2 = glm::cross(outNormal, e1);
+                auto p2 = [&](int node) {
+                    const dvec3& x = mVerts[size_t(nodes[size_t(node)].vert)].pos;
+                    return Vec2{glm::dot(x, e1), glm::dot(x, e2)};
+                };
+                std::vector<char> used(bnd.size(), 0);
+                Region region;
+                region.normal = outNormal;
+                region.cap = s.quad;
+                region.side = side;
+                for (size_t start = 0; start < bnd.size(); ++start) {
+                    if (used[start]) continue;
+                    Loop loop;
+                    size_t cur = start;
+                    for (size_t guard = 0; guard <= bnd.size(); ++guard) {
+                        used[cur] = 1;
+                        loop.nodes.push_back(int(bnd[cur][0]));
+                        loop.labels.push_back(uint64_t(bnd[cur][2]));
+                        const int at = int(bnd[cur][1]);
+                        if (at == loop.nodes.front()) break;
+                        // Next: unused edge from `at`, the most clockwise from the way back.
+                        size_t best = bnd.size();
+                        double bestAngle = 1e9;
+                        const Vec2 pa = p2(at), pb = p2(int(bnd[cur][0]));
+                        const double back = std::atan2(pb.y - pa.y, pb.x - pa.x);
+                        for (size_t k = 0; k < bnd.size(); ++k) {
+                            if (used[k] || bnd[k][0] != at) continue;
+                            const Vec2 pc = p2(int(bnd[k][1]));
+                            double ang = back - std::atan2(pc.y - pa.y, pc.x - pa.x);
+                            while (ang <= 0) ang += 2 * M_PI;
+                            while (ang > 2 * M_PI) ang -= 2 * M_PI;
+                            if (ang < bestAngle) {
+                                bestAngle = ang;
+                                best = k;
+                            }
+                        }
+                        if (best == bnd.size()) {
+                            throw std::runtime_error("remesh: open boundary loop in cell " + cellText(mCell));
+                        }
+                        cur = best;
+                    }
+                    region.loops.push_back(std::move(loop));
+                }
+                regions.push_back(std::move(region));
+            }
+        }
+    }
+
+    // Corners: a node is kept when it is a corner of some loop of the tet.
+    std::vector<char> corner(nodes.size(), 0);
+    for (const Region& r : regions) {
+        for (const Loop& l : r.loops) {
+            const size_t n = l.nodes.size();
+            for (size_t i = 0; i < n; ++i) {
+                const uint64_t in = l.labels[(i + n - 1) % n], outL = l.labels[i];
+                bool c = in != outL;
+                if (!c) {
+                    const dvec3& a = mVerts[size_t(nodes[size_t(l.nodes[(i + n - 1) % n])].vert)].pos;
+                    const dvec3& b = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)].pos;
+                    const dvec3& d = mVerts[size_t(nodes[size_t(l.nodes[(i + 1) % n])].vert)].pos;
+                    c = glm::dot(b - a, d - b) < 0;
+                }
+                if (c || mVerts[size_t(nodes[size_t(l.nodes[i])].vert)].steiner) corner[size_t(l.nodes[i])] = 1;
+            }
+        }
+    }
+
+    // Triangulate each region.
+    for (const Region& r : regions) {
+        const dvec3& nrm = r.normal;
+        dvec3 e1 = std::abs(nrm.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+        e1 = glm::normalize(e1 - nrm * glm::dot(nrm, e1));
+        const dvec3 e2 = glm::cross(nrm, e1);
+        std::vector<Vec2> pts;
+        std::vector<int> ptNode;
+        std::vector<std::vector<int>> outers, holes;
+        for (const Loop& l : r.loops) {
+            std::vector<int> loop;
+            for (int nd : l.nodes) {
+                if (!corner[size_t(nd)]) continue;
+                const dvec3& x = mVerts[size_t(nodes[size_t(nd)].vert)].pos;
+                pts.push_back({glm::dot(x, e1), glm::dot(x, e2)});
+                ptNode.push_back(nd);
+                loop.push_back(int(pts.size() - 1));
+            }
+            if (loop.size() < 3) {
+                if (loop.empty()) continue;
+                throw std::runtime_error("remesh: degenerate boundary loop in cell " + cellText(mCell));
+            }
+            (signedArea(loop, pts) > 0 ? outers : holes).push_back(loop);
+        }
+        if (outers.empty()) {
+            if (holes.empty()) continue;
+            throw std::runtime_error("remesh: region without outer loop in cell " + cellText(mCell));
+        }
+        std::vector<std::vector<std::vector<int>>> holesOf(outers.size());
+        for (auto& h : holes) {
+            size_t best = 0;
+            if (outers.size() > 1) {
+                Vec2 c{0, 0};
+                for (int i : h) {
+                    c.x += pts[size_t(i)].x / double(h.size());
+                    c.y += pts[size_t(i)].y / double(h.size());
+                }
+                for (size_t o = 0; o < outers.size(); ++o) {
+                    bool in = false;
+                    const auto& L = outers[o];
+                    for (size_t i = 0, j = L.size() - 1; i < L.size(); j = i++) {
+                        const Vec2 &a = pts[size_t(L[i])], &b = pts[size_t(L[j])];
+                        if ((a.y > c.y) != (b.y > c.y) && c.x < (b.x - a.x) * (c.y - a.y) / (b.y - a.y) + a.x) in = !in;
+                    }
+                    if (in) best = o;
+                }
+            }
+            holesOf[best].push_back(h);
+        }
+        for (size_t o = 0; o < outers.size(); ++o) {
+            std::vector<int> poly = outers[o];
+            if (!holesOf[o].empty() && !bridgeHoles(poly, holesOf[o], pts))
+                throw std::runtime_error("remesh: cannot bridge a hole in cell " + cellText(mCell));
+            std::vector<int> tris;
+            bool convex = r.cap && outers.size() == 1 && holesOf[o].empty();
+            for (size_t i = 0; i < poly.size() && convex; ++i) {
+                const Vec2 &a = pts[size_t(poly[(i + poly.size() - 1) % poly.size()])], &b = pts[size_t(poly[i])],
+                           &c = pts[size_t(poly[(i + 1) % poly.size()])];
+                convex = cross2(a, b, c) >= 0;
+            }
+            if (convex) {
+                // A cap region: fan from a tagged centre, so no chord joins two rim
+                // points (the two sides of the slit would share it).
+                dvec3 centre(0.0);
+                for (int i : poly) centre += mVerts[size_t(nodes[size_t(ptNode[size_t(i)])].vert)].pos / double(poly.size());
+                const int cv = makeSteiner(15, {kCentroid, r.cap->id, uint64_t(&r - regions.data()) + 8}, centre);
+                std::vector<uint64_t> tags{r.cap->id << 1 | (r.side < 0 ? 1u : 0u)};
+                const int cn = nodeOf(cv, tags);
+                pts.push_back({glm::dot(centre, e1), glm::dot(centre, e2)});
+                ptNode.push_back(cn);
+                const int ci = int(pts.size() - 1);
+                for (size_t i = 0; i < poly.size(); ++i) {
+                    tris.push_back(ci);
+                    tris.push_back(poly[i]);
+                    tris.push_back(poly[(i + 1) % poly.size()]);
+                }
+            } else if (!earClip(poly, pts, tris)) {
+                throw std::runtime_error("remesh: triangulation failed in cell " + cellText(mCell));
+            }
+            for (int i : tris) {
+                const Node& nd = nodes[size_t(ptNode[size_t(i)])];
+                CutVertexId id = mVerts[size_t(nd.vert)].key;
+                id.tagCount = uint8_t(std::min<size_t>(nd.tags.size(), id.tags.size()));
+                if (nd.tags.size() > id.tags.size())
+                    throw std::runtime_error("remesh: a point lies in more than 4 slits in cell " + cellText(mCell));
+                for (size_t k = 0; k < nd.tags.size(); ++k) id.tags[k] = nd.tags[k];
+                auto it = cellIndex.find(id);
+                if (it == cellIndex.end()) {
+                    it = cellIndex.emplace(id, uint32_t(out.vertexIds.size())).first;
+                    out.vertexIds.push_back(id);
+                    out.indexPositions.push_back(mVerts[size_t(nd.vert)].pos);
+                }
+                out.indices.push_back(it->second);
+            }
+        }
+    }
+}
+
+// ============================================================ front end ====
+
+namespace {
+
+std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs)
+{
+    std::vector<QuadGeom> quads;
+    for (const QuadRef& r : refs) {
+        if (mask.quad(r).degenerate) continue; // zero area: removes nothing with zero kerf
+        quads.push_back(makeQuadGeom(mask, r));
+    }
+    for (QuadGeom& q : quads)
+        for (auto& s : q.sides) {
+            if (s.partnerId == 0) continue;
+            for (size_t i = 0; i < quads.size(); ++i)
+                if (quads[i].id == s.partnerId) s.partner = int(i);
+            if (s.partner < 0) s.partner = int(quads.size()); // partner exists, not in this cell
+        }
+    return quads;
+}
+
+std::array<double, 12> quadSignature(const CutMask& mask, const QuadRef& r)
+{
+    std::array<double, 12> s{};
+    const Quad& q = mask.quad(r);
+    for (int i = 0; i < 4; ++i)
+        for (int a = 0; a < 3; ++a) s[size_t(3 * i + a)] = q.corners[size_t(i)][a];
+    return s;
+}
+
+} // namespace
+
+void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, const openvdb::Coord& cell,
+                CutCellGeometry& out)
+{
+    if (mask.kerf() > 0) throw InputError("remesh: kerf > 0 is not implemented yet (use --kerf 0)");
+    out.clear();
+    const std::vector<QuadRef>* refs = mask.quadsAt(cell);
+    if (!refs) return;
+    RemeshKernel kernel(volume, isovalue);
+    kernel.remesh(cell, cellQuads(mask, *refs), out);
+}
+
+CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
+    : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mVolume(&volume), mIso(isovalue), mUncut(uncut)
+{
+    const size_t nt = mUncut.triangleCount();
+    for (size_t t = 0; t < nt;) {
+        const glm::ivec3 c = mUncut.triangleVoxels[t];
+        size_t e = t + 1;
+        while (e < nt && mUncut.triangleVoxels[e] == c) ++e;
+        mUncutCells[Coord(c.x, c.y, c.z)] = {uint32_t(t), uint32_t(e - t)};
+        t = e;
+    }
+}
+
+CutRemesher::~CutRemesher() = default;
+
+size_t CutRemesher::update(const CutMask& mask)
+{
+    if (mask.kerf() > 0) throw InputError("remesh: kerf > 0 is not implemented yet (use --kerf 0)");
+    // Forget cells that are no longer cut.
+    for (auto it = mRecords.begin(); it != mRecords.end();) {
+        if (!mask.isCut(it->first)) {
+            mCells.erase(it->first);
+            it = mRecords.erase(it);
+        } else {
+            ++it;
+        }
+    }
+    std::vector<std::pair<Coord, const std::vector<QuadRef>*>> todo;
+    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
+        auto it = mRecords.find(c);
+        bool changed = it == mRecords.end() || !(it->second.quads == list);
+        if (!changed) {
+            for (size_t i = 0; i < list.size() && !changed; ++i)
+                changed = it->second.quadCorners[i] != quadSignature(mask, list[i]);
+        }
+        if (changed) todo.push_back({c, &list});
+    });
+    std::sort(todo.begin(), todo.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& w : todo) {
+        CellRecord rec;
+        rec.quads = *w.second;
+        for (const QuadRef& r : rec.quads) rec.quadCorners.push_back(quadSignature(mask, r));
+        CutCellGeometry& g = mCells[w.first];
+        mKernel->remesh(w.first, cellQuads(mask, rec.quads), g);
+        mRecords[w.first] = std::move(rec);
+    }
+    return todo.size();
+}
+
+} // namespace mtcut::cutter
