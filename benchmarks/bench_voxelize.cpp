@@ -13,15 +13,19 @@
 // Volume: the 512x512x245 head box (0.5 x 0.5 x 1.0 mm).
 #include "cutter/CutMask.h"
 #include "cutter/PathFile.h"
+#include "vdb/VolumeIO.h"
 
 #include <openvdb/tools/MeshToVolume.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <string>
 #include <thread>
 
 using namespace mtcut::cutter;
+namespace vdb = mtcut::vdb;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -144,9 +148,14 @@ void inputCase(const IndexFrame& f, const std::vector<Pose>& stroke)
 int main()
 {
     openvdb::initialize();
+    // The geometry of the 245-slice Visible Human head (512 x 512 x 245 at 1 mm, origin 0,0,1000);
+    // read from the DICOM series when it is there, so the frame is the real one.
     IndexFrame head;
     head.dims = glm::ivec3(512, 512, 245);
-    head.spacing = glm::dvec3(0.5, 0.5, 1.0);
+    head.spacing = glm::dvec3(1.0, 1.0, 1.0);
+    head.origin = glm::dvec3(0.0, 0.0, 1000.0);
+    const std::string dicom = std::string(MTCUT_SHARED_DATA) + "/vhm-head-dicom";
+    if (std::filesystem::is_directory(dicom)) head = frameOf(vdb::readVolume(dicom));
     const std::vector<Pose> lefort = makeLeFortStroke(head);
     for (double kerf : {0.0, 1.0}) voxelizeCase("lefort", head, {lefort}, kerf);
     // Long random strokes across the head: 20 strokes of 4000 poses, 60 mm blade.
