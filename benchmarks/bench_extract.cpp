@@ -11,7 +11,10 @@
 // triangles and its winding reversed (it treats values below the isovalue as
 // inside; bone is above) before checkMesh counts its defects.
 //
-// Usage: bench_extract [--threads N] [--runs N] [--quick]  (--quick: 256x256x128 phantom, 4 mm head)
+// Usage: bench_extract [--threads N] [--runs N] [--quick] [--hash]
+//   --quick: 256x256x128 phantom, 4 mm head. --hash: no timing; one line per
+//   case (isovalues 400 and -300) with an FNV-1a hash of every output array,
+//   to check that an optimisation leaves the mesh bit for bit unchanged.
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "vdb/Phantom.h"
@@ -23,6 +26,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -73,6 +77,31 @@ cutter::Mesh fromVdb(const std::vector<openvdb::Vec3s>& points, const std::vecto
     return m;
 }
 
+/// FNV-1a 64 over the bytes of the mesh's arrays (sizes included).
+uint64_t meshHash(const cutter::Mesh& m)
+{
+    uint64_t h = 1469598103934665603ull;
+    auto add = [&](const void* data, size_t bytes) {
+        const unsigned char* p = static_cast<const unsigned char*>(data);
+        for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+    };
+    const size_t sizes[4] = {m.positions.size(), m.normals.size(), m.indices.size(), m.triangleVoxels.size()};
+    add(sizes, sizeof(sizes));
+    add(m.positions.data(), m.positions.size() * sizeof(glm::vec3));
+    add(m.normals.data(), m.normals.size() * sizeof(glm::vec3));
+    add(m.indices.data(), m.indices.size() * sizeof(uint32_t));
+    add(m.triangleVoxels.data(), m.triangleVoxels.size() * sizeof(glm::ivec3));
+    return h;
+}
+
+void hashCase(const std::string& name, const vdb::Volume& vol, float iso, int threads)
+{
+    const cutter::Mesh mesh = cutter::extractIsosurface(vol, iso);
+    std::printf("case=%s iso=%g threads=%d tris=%zu verts=%zu hash=%016llx\n", name.c_str(), double(iso), threads,
+                mesh.triangleCount(), mesh.vertexCount(), static_cast<unsigned long long>(meshHash(mesh)));
+    std::fflush(stdout);
+}
+
 void runCase(const std::string& name, const vdb::Volume& vol, float iso, int threads, int runs)
 {
     cutter::Mesh ours;
@@ -112,11 +141,12 @@ void runCase(const std::string& name, const vdb::Volume& vol, float iso, int thr
 int main(int argc, char** argv)
 {
     int threads = 2, runs = 5;
-    bool quick = false;
+    bool quick = false, hash = false;
     for (int i = 1; i < argc; ++i) {
         if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
         else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
         else if (!std::strcmp(argv[i], "--quick")) quick = true;
+        else if (!std::strcmp(argv[i], "--hash")) hash = true;
     }
     openvdb::initialize();
     mallopt(M_MMAP_THRESHOLD, 1 << 20); // fixed: big buffers are mmapped and returned when freed
@@ -128,15 +158,22 @@ int main(int argc, char** argv)
             const vdb::Volume phantom = vdb::makePhantom(options);
             const std::string name = "phantom-" + std::to_string(options.dims.x()) + "x" +
                                      std::to_string(options.dims.y()) + "x" + std::to_string(options.dims.z());
-            runCase(name, phantom, 400.0f, threads, runs);
+            if (hash) {
+                hashCase(name, phantom, 400.0f, threads);
+                hashCase(name, phantom, -300.0f, threads);
+            } else {
+                runCase(name, phantom, 400.0f, threads, runs);
+            }
         }
         const std::string data = MTCUT_SHARED_DATA;
         const std::string head = data + (quick ? "/vhm_head_4mm.nhdr" : "/vhm-head-dicom");
         if (std::filesystem::exists(head)) {
             const vdb::Volume vol = vdb::readVolume(head);
             const std::string name = quick ? "vhm-head-4mm" : "vhm-head-dicom-512x512x245";
-            runCase(name, vol, 400.0f, threads, runs);
-            runCase(name, vol, -300.0f, threads, runs);
+            for (float iso : {400.0f, -300.0f}) {
+                if (hash) hashCase(name, vol, iso, threads);
+                else runCase(name, vol, iso, threads, runs);
+            }
         } else {
             std::printf("case=vhm-head skipped: %s not found\n", head.c_str());
         }

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -277,9 +278,8 @@ struct Window
                         const float* data = leaf->buffer().data();
                         for (int x = x0; x <= x1; ++x)
                             for (int y = y0; y <= y1; ++y) {
-                                float* out = &values[size_t(index(x, y, z0))];
-                                const float* in = data + (((x & 7) << 6) | ((y & 7) << 3));
-                                for (int z = z0; z <= z1; ++z) *out++ = in[z & 7];
+                                const float* in = data + (((x & 7) << 6) | ((y & 7) << 3) | (z0 & 7));
+                                std::memcpy(&values[size_t(index(x, y, z0))], in, sizeof(float) * size_t(z1 - z0 + 1));
                             }
                     } else {
                         const float v = acc.getValue(origin);
@@ -334,6 +334,87 @@ struct Block
     uint64_t vertexBase = 0;
     uint64_t triangleBase = 0;
 };
+
+/// Dense map over block positions (origin / 8) in the box [lo, lo + n - 1]:
+/// the index of the block there (-1: none) and the state of the leaf there
+/// (0: none or all outside, 1: all inside within the scan box, 2: mixed).
+/// Empty when the leaves are too scattered for a dense map.
+struct BlockMap
+{
+    Coord lo, n;
+    std::vector<int32_t> blockIndex;
+    std::vector<uint8_t> leafState;
+
+    size_t index(const Coord& b) const
+    {
+        return (size_t(b.x() - lo.x()) * size_t(n.y()) + size_t(b.y() - lo.y())) * size_t(n.z()) + size_t(b.z() - lo.z());
+    }
+    bool contains(const Coord& b) const
+    {
+        return b.x() >= lo.x() && b.y() >= lo.y() && b.z() >= lo.z() && b.x() < lo.x() + n.x() &&
+               b.y() < lo.y() + n.y() && b.z() < lo.z() + n.z();
+    }
+    int32_t find(const Coord& b) const { return contains(b) ? blockIndex[index(b)] : -1; }
+    /// True when block b's window (its leaf and the +1 layer of the upper
+    /// neighbours) is all inside or all outside, from the leaf states alone.
+    bool uniformWindow(const Coord& b) const
+    {
+        if (blockIndex.empty()) return false;
+        int state = -1;
+        for (int d = 0; d < 8; ++d) {
+            const Coord c = b + Coord(d & 1, d >> 1 & 1, d >> 2 & 1);
+            const int s = contains(c) ? leafState[index(c)] : 0;
+            if (s == 2 || (state >= 0 && s != state)) return false;
+            state = s;
+        }
+        return true;
+    }
+};
+
+/// For each upper neighbour offset (bit 0: +x, 1: +y, 2: +z) the edges of its
+/// lower lines and faces that lie in this block's upper faces, in the owner's
+/// (x, y, z, type) order: window indices of the two ends in the 11^3 window
+/// that starts at origin - 1, the slot of the edge, the owner's group.
+struct UpperEdge
+{
+    int16_t i0, i1;
+    uint16_t slot;
+    uint8_t group;
+};
+struct UpperEdges
+{
+    std::vector<UpperEdge> edges[7];
+    UpperEdges()
+    {
+        constexpr int n = kBlock + 3, slotN = kBlock + 1;
+        for (int offset = 1; offset < 7; ++offset) {
+            const Coord d(offset & 1, offset >> 1 & 1, offset >> 2 & 1);
+            bool wanted[kGroups];
+            for (int g = 0; g < kGroups; ++g) wanted[g] = g < 6 && (kGroupFixedAxes[g] & offset) == offset;
+            const int xEnd = d.x() ? 1 : kBlock, yEnd = d.y() ? 1 : kBlock, zEnd = d.z() ? 1 : kBlock;
+            for (int x = 0; x < xEnd; ++x)
+                for (int y = 0; y < yEnd; ++y)
+                    for (int z = 0; z < zEnd; ++z) {
+                        const Coord c = Coord(d.x() * kBlock + x, d.y() * kBlock + y, d.z() * kBlock + z); // relative to this block's origin
+                        for (int type = 0; type < kEdgeTypes; ++type) {
+                            const int g = edgeGroup(x, y, z, type);
+                            if (!wanted[g]) continue;
+                            Coord p0, p1;
+                            edgeEnds(c, type, p0, p1);
+                            auto windowIndex = [&](const Coord& p) { return ((p.x() + 1) * n + p.y() + 1) * n + p.z() + 1; };
+                            const int slot = ((c.x() * slotN + c.y()) * slotN + c.z()) * kEdgeTypes + type;
+                            edges[offset].push_back(
+                                {int16_t(windowIndex(p0)), int16_t(windowIndex(p1)), uint16_t(slot), uint8_t(g)});
+                        }
+                    }
+        }
+    }
+};
+const UpperEdges& upperEdges()
+{
+    static const UpperEdges t;
+    return t;
+}
 
 struct Grid
 {
@@ -471,20 +552,25 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
 
     // Leaves: non-finite values are errors; leaves holding an inside value seed
     // the blocks to visit (the leaf and its lower neighbours, whose +1 layer it is).
+    // Each leaf's state: 0 all outside, 1 all inside and within the scan box, 2 mixed.
     std::vector<const LeafT*> leaves;
     leaves.reserve(tree->leafCount());
     for (auto it = tree->cbeginLeaf(); it; ++it) leaves.push_back(&*it);
-    std::vector<uint8_t> seeds(leaves.size(), 0);
+    std::vector<uint8_t> leafStates(leaves.size(), 0);
     std::atomic<size_t> firstBad{leaves.size()};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const float* data = leaves[i]->buffer().data();
-            bool any = false, bad = false;
+            int nInside = 0, nBad = 0; // counts, so that the loop vectorises
             for (int k = 0; k < int(LeafT::SIZE); ++k) {
-                any |= data[k] >= iso;
-                bad |= !std::isfinite(data[k]);
+                nInside += data[k] >= iso;
+                nBad += !(std::fabs(data[k]) <= std::numeric_limits<float>::max()); // NaN or Inf
             }
-            seeds[i] = any;
+            const bool any = nInside > 0, all = nInside == int(LeafT::SIZE), bad = nBad > 0;
+            const Coord o = leaves[i]->origin();
+            const bool inBox = o.x() >= 0 && o.y() >= 0 && o.z() >= 0 && o.x() + kBlock <= dims.x() &&
+                               o.y() + kBlock <= dims.y() && o.z() + kBlock <= dims.z();
+            leafStates[i] = !any ? 0 : all && inBox ? 1 : 2;
             if (bad) {
                 size_t cur = firstBad.load();
                 while (i < cur && !firstBad.compare_exchange_weak(cur, i)) {}
@@ -500,20 +586,64 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             }
         }
     }
+    // Blocks in ascending origin order. Over the leaves' bounding box (one
+    // block of margin each side) a dense map gives, per block position, the
+    // block's index and the state of the leaf there (0 where there is none:
+    // tiles at or above the isovalue inside the box were voxelised above), so
+    // neighbours are found and uniform windows skipped without searching.
     std::vector<Block> blocks;
+    BlockMap map;
     {
-        std::vector<Coord> origins;
+        Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+        size_t nSeeds = 0;
         for (size_t i = 0; i < leaves.size(); ++i) {
-            if (!seeds[i]) continue;
-            const Coord o = leaves[i]->origin();
-            for (int d = 0; d < 8; ++d) {
-                origins.push_back(o - Coord(d & 1 ? kBlock : 0, d & 2 ? kBlock : 0, d & 4 ? kBlock : 0));
-            }
+            if (!leafStates[i]) continue;
+            ++nSeeds;
+            const Coord b = leaves[i]->origin() >> 3;
+            lo.minComponent(b);
+            hi.maxComponent(b);
         }
-        std::sort(origins.begin(), origins.end());
-        origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
-        blocks.resize(origins.size());
-        for (size_t i = 0; i < origins.size(); ++i) blocks[i].origin = origins[i];
+        const Coord extent = hi - lo + Coord(3);
+        const double cells = nSeeds ? double(extent.x()) * extent.y() * extent.z() : 0.0;
+        if (nSeeds && cells <= std::max(double(1 << 20), 64.0 * double(nSeeds))) {
+            map.lo = lo - Coord(1);
+            map.n = extent;
+            map.blockIndex.assign(size_t(cells), -1);
+            map.leafState.assign(size_t(cells), 0);
+            for (size_t i = 0; i < leaves.size(); ++i) {
+                const Coord b = leaves[i]->origin() >> 3;
+                if (b.x() < map.lo.x() || b.y() < map.lo.y() || b.z() < map.lo.z() || b.x() >= map.lo.x() + extent.x() ||
+                    b.y() >= map.lo.y() + extent.y() || b.z() >= map.lo.z() + extent.z()) {
+                    continue; // far from every seed: not in any visited block's window
+                }
+                map.leafState[map.index(b)] = leafStates[i];
+                if (!leafStates[i]) continue;
+                for (int d = 0; d < 8; ++d) map.blockIndex[map.index(b - Coord(d & 1, d >> 1 & 1, d >> 2 & 1))] = 0;
+            }
+            size_t i = 0;
+            for (int x = 0; x < extent.x(); ++x)
+                for (int y = 0; y < extent.y(); ++y)
+                    for (int z = 0; z < extent.z(); ++z, ++i) {
+                        if (map.blockIndex[i] < 0) continue;
+                        map.blockIndex[i] = int32_t(blocks.size());
+                        Block block;
+                        block.origin = (map.lo + Coord(x, y, z)) << 3;
+                        blocks.push_back(block);
+                    }
+        } else {
+            std::vector<Coord> origins;
+            for (size_t i = 0; i < leaves.size(); ++i) {
+                if (!leafStates[i]) continue;
+                const Coord o = leaves[i]->origin();
+                for (int d = 0; d < 8; ++d) {
+                    origins.push_back(o - Coord(d & 1 ? kBlock : 0, d & 2 ? kBlock : 0, d & 4 ? kBlock : 0));
+                }
+            }
+            std::sort(origins.begin(), origins.end());
+            origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
+            blocks.resize(origins.size());
+            for (size_t i = 0; i < origins.size(); ++i) blocks[i].origin = origins[i];
+        }
     }
     const size_t nBlocks = blocks.size();
     std::atomic<size_t> done{0};
@@ -533,6 +663,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
         for (size_t b = r.begin(); b != r.end(); ++b) {
             Block& block = blocks[b];
             const Coord o = block.origin;
+            if (map.uniformWindow(o >> 3)) continue; // no crossed edge, no triangle
             w.load(acc, o, kBlock + 1, dims, background, iso);
             uint32_t counts[kGroups] = {};
             uint32_t triangles = 0;
@@ -541,17 +672,25 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                 block.triangleCount = 0;
                 continue;
             }
+            constexpr int n1 = kBlock + 1;
             for (int x = 0; x < kBlock; ++x)
                 for (int y = 0; y < kBlock; ++y)
                     for (int z = 0; z < kBlock; ++z) {
-                        const int i = w.index(o.x() + x, o.y() + y, o.z() + z);
+                        const int i = (x * n1 + y) * n1 + z;
                         const int parity = (x + y + z) & 1; // block origins are even
                         const auto& ends = offsets1.end[parity];
-                        const uint8_t* group = groups.g[x][y][z];
-                        for (int type = 0; type < kEdgeTypes; ++type) {
-                            if (in[i + ends[type][0]] != in[i + ends[type][1]]) ++counts[group[type]];
+                        if (x && y && z) { // interior cell: every owned edge is in group 6
+                            uint32_t crossed = 0;
+                            for (int type = 0; type < kEdgeTypes; ++type)
+                                crossed += in[i + ends[type][0]] != in[i + ends[type][1]];
+                            counts[kGroups - 1] += crossed;
+                        } else {
+                            const uint8_t* group = groups.g[x][y][z];
+                            for (int type = 0; type < kEdgeTypes; ++type) {
+                                if (in[i + ends[type][0]] != in[i + ends[type][1]]) ++counts[group[type]];
+                            }
                         }
-                        triangles += tab.cases[parity][cornerMask(in, i, w.n)].triangleCount;
+                        triangles += tab.cases[parity][cornerMask(in, i, n1)].triangleCount;
                     }
             block.groupOffset[0] = 0;
             for (int g = 0; g < kGroups; ++g) block.groupOffset[g + 1] = block.groupOffset[g] + counts[g];
@@ -576,6 +715,10 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     mesh.triangleVoxels.resize(nTriangles);
 
     auto findBlock = [&](const Coord& origin) -> const Block* {
+        if (!map.blockIndex.empty()) {
+            const int32_t i = map.find(origin >> 3);
+            return i >= 0 ? &blocks[size_t(i)] : nullptr;
+        }
         auto it = std::lower_bound(blocks.begin(), blocks.end(), origin,
                                    [](const Block& b, const Coord& o) { return b.origin < o; });
         return it != blocks.end() && it->origin == origin ? &*it : nullptr;
@@ -600,6 +743,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
         std::vector<uint32_t> slots = std::vector<uint32_t>(size_t(kSlotN) * kSlotN * kSlotN * kEdgeTypes);
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
+    const UpperEdges& upper = upperEdges();
     const openvdb::Vec3d invSpacing(1.0 / geom.spacing.x(), 1.0 / geom.spacing.y(), 1.0 / geom.spacing.z());
     done = 0;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nBlocks, 16), [&](const tbb::blocked_range<size_t>& r) {
@@ -615,7 +759,8 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             w.load(acc, o - Coord(1), kBlock + 3, dims, background, iso);
             const uint8_t* in = w.inside.data();
             const float* val = w.values.data();
-            const int nn = w.n * w.n;
+            constexpr int n2 = kBlock + 3;
+            constexpr int nn = n2 * n2;
 
             // Owned edges, in (x, y, z, type) order within each group.
             uint32_t next[kGroups];
@@ -623,7 +768,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             for (int x = 0; x < kBlock; ++x)
                 for (int y = 0; y < kBlock; ++y)
                     for (int z = 0; z < kBlock; ++z) {
-                        const int i = w.index(o.x() + x, o.y() + y, o.z() + z);
+                        const int i = ((x + 1) * n2 + y + 1) * n2 + z + 1; // window starts at o - 1
                         const int parity = (x + y + z) & 1;
                         const auto& ends = offsets2.end[parity];
                         for (int type = 0; type < kEdgeTypes; ++type) {
@@ -637,7 +782,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                             mesh.positions[v] = edgePoint(p0, p1, t, geom.origin, geom.spacing);
                             if (!options.normals) continue;
                             glm::vec3 g;
-                            const int step[3] = {nn, w.n, 1};
+                            const int step[3] = {nn, n2, 1};
                             for (int a = 0; a < 3; ++a) {
                                 const float g0 = 0.5f * (val[i0 + step[a]] - val[i0 - step[a]]);
                                 const float g1 = 0.5f * (val[i1 + step[a]] - val[i1 - step[a]]);
@@ -663,25 +808,10 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                 const Block* owner = findBlock(o + Coord(d.x() * kBlock, d.y() * kBlock, d.z() * kBlock));
                 if (!owner) continue; // no crossed edge there (its owner would have been visited)
                 uint32_t rank[kGroups];
-                bool wanted[kGroups];
-                for (int g = 0; g < kGroups; ++g) {
-                    rank[g] = uint32_t(owner->vertexBase) + owner->groupOffset[g];
-                    wanted[g] = g < 6 && (kGroupFixedAxes[g] & offset) == offset;
+                for (int g = 0; g < kGroups; ++g) rank[g] = uint32_t(owner->vertexBase) + owner->groupOffset[g];
+                for (const UpperEdge& e : upper.edges[offset]) {
+                    if (in[e.i0] != in[e.i1]) slots[e.slot] = rank[e.group]++;
                 }
-                const int xEnd = d.x() ? 1 : kBlock, yEnd = d.y() ? 1 : kBlock, zEnd = d.z() ? 1 : kBlock;
-                for (int x = 0; x < xEnd; ++x)
-                    for (int y = 0; y < yEnd; ++y)
-                        for (int z = 0; z < zEnd; ++z) {
-                            const Coord c = owner->origin + Coord(x, y, z);
-                            for (int type = 0; type < kEdgeTypes; ++type) {
-                                const int g = edgeGroup(x, y, z, type);
-                                if (!wanted[g]) continue;
-                                Coord p0, p1;
-                                edgeEnds(c, type, p0, p1);
-                                if (in[w.index(p0)] == in[w.index(p1)]) continue;
-                                slots[slotIndex(x + 8 * d.x(), y + 8 * d.y(), z + 8 * d.z(), type)] = rank[g]++;
-                            }
-                        }
             }
 
             // Triangles, cell by cell.
@@ -689,8 +819,8 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             for (int x = 0; x < kBlock; ++x)
                 for (int y = 0; y < kBlock; ++y)
                     for (int z = 0; z < kBlock; ++z) {
-                        const int i = w.index(o.x() + x, o.y() + y, o.z() + z);
-                        const uint8_t m = cornerMask(in, i, w.n);
+                        const int i = ((x + 1) * n2 + y + 1) * n2 + z + 1;
+                        const uint8_t m = cornerMask(in, i, n2);
                         if (m == 0 || m == 255) continue;
                         const Coord c = o + Coord(x, y, z);
                         const int parity = cellParity(c.x(), c.y(), c.z());
