@@ -52,8 +52,10 @@ Mesh CutRemesher::fusedMesh() const
             uint8_t mask = 0;
             float values[8];
             for (int c = 0; c < 8; ++c) {
-                values[c] = acc.getValue(cell + openvdb::Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1));
-                if (values[c] >= mIso) mask |= uint8_t(1 << c);
+                const openvdb::Coord g = cell + openvdb::Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                const bool inBox = mVolume->indexBox().isInside(g);
+                values[c] = inBox ? acc.getValue(g) : mVolume->grid->background();
+                if (inBox && values[c] >= mIso) mask |= uint8_t(1 << c);
             }
             const int parity = cellParity(cell.x(), cell.y(), cell.z());
             const CellCase& cc = cellCase(parity, mask);

@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <sstream>
@@ -102,6 +104,9 @@ struct QuadGeom
         double orient = 1.0; ///< inside the quad: orient * h >= 0
         int partner = -1;    ///< junction: the other quad's index in the cell's quad list (-1: rim)
         uint64_t partnerId = 0;
+        /// Junction: at each end of the shared edge, this quad's rim side there and
+        /// the partner's (0 when none); a point on both is one corner of the strip.
+        std::array<std::pair<uint64_t, uint64_t>, 2> cornerSides{};
     };
     std::vector<Side> sides;
 };
@@ -179,6 +184,36 @@ dvec3 centroidOf(const Quad& q, const IndexFrame& frame)
     return c / double(q.cornerCount);
 }
 
+/// Is the hull edge (a, b) (world corners) of quad `ref` shared with the previous or next quad of its stroke?
+bool isJunctionEdge(const CutMask& mask, const QuadRef& ref, const dvec3& a, const dvec3& b)
+{
+    for (int dq : {-1, 1}) {
+        const int64_t oq = int64_t(ref.quad) + dq;
+        if (oq < 0 || oq >= int64_t(mask.quadCount(ref.stroke))) continue;
+        const Quad& o = mask.quad(QuadRef{ref.stroke, uint32_t(oq)});
+        if (o.degenerate) continue;
+        if (sharesEdge(o, hullOf(o, mask.frame(), indexNormal(o, mask.frame())), a, b)) return true;
+    }
+    return false;
+}
+
+/// The rim side of quad `ref` through world corner p other than the edge (p, other), or 0.
+uint64_t rimSideAt(const CutMask& mask, const QuadRef& ref, const dvec3& p, const dvec3& other)
+{
+    const Quad& q = mask.quad(ref);
+    const std::vector<int> hull = hullOf(q, mask.frame(), indexNormal(q, mask.frame()));
+    const size_t m = hull.size();
+    for (size_t e = 0; e < m; ++e) {
+        const dvec3& a = q.corners[size_t(hull[e])];
+        const dvec3& b = q.corners[size_t(hull[(e + 1) % m])];
+        const bool hasP = a == p || b == p;
+        const bool isShared = (a == p && b == other) || (b == p && a == other);
+        if (!hasP || isShared) continue;
+        return isJunctionEdge(mask, ref, a, b) ? 0 : planeIdOf(ref.stroke, ref.quad, 1 + int(e));
+    }
+    return 0;
+}
+
 /// Geometry of quad `ref` of the mask (refs of the cell, to resolve partners).
 QuadGeom makeQuadGeom(const CutMask& mask, const QuadRef& ref)
 {
@@ -221,6 +256,11 @@ QuadGeom makeQuadGeom(const CutMask& mask, const QuadRef& ref)
             side.plane = mp;
             side.orient = own > 0 ? 1.0 : -1.0;
             side.partnerId = planeIdOf(ref.stroke, uint32_t(oq), 0);
+            for (int k = 0; k < 2; ++k) {
+                const dvec3& pc = k == 0 ? wa : wb;
+                const dvec3& po = k == 0 ? wb : wa;
+                side.cornerSides[size_t(k)] = {rimSideAt(mask, ref, pc, po), rimSideAt(mask, oref, pc, po)};
+            }
             junction = true;
             break;
         }
@@ -397,7 +437,7 @@ class RemeshKernel
 {
 public:
     RemeshKernel(const vdb::Volume& volume, float iso)
-        : mAcc(volume.grid->tree()), mIso(iso)
+        : mAcc(volume.grid->tree()), mIso(iso), mDims(volume.dims), mBackground(volume.grid->background())
     {
     }
 
@@ -531,7 +571,7 @@ private:
     bool needsMidpoint(int u, int v, const QuadGeom& r)
     {
         if (sign(u, r.id) != 0 || sign(v, r.id) != 0) return false;
-        if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || inSlitOpen(u, r) || inSlitOpen(v, r)) return false;
+        if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) || (inSlitOpen(v, r) && !onStripRim(v, r))) return false;
         for (const auto& sd : r.sides)
             if (sd.partner < 0 && sign(u, sd.id) == 0 && sign(v, sd.id) == 0) return false;
         return true;
@@ -552,6 +592,19 @@ private:
         }
         return true;
     }
+    /// On the rim of a neighbouring quad of r's strip (a strip corner that r
+    /// touches only at a point)? Then the point is rim for r too.
+    bool onStripRim(int v, const QuadGeom& r)
+    {
+        for (const QuadGeom* o : mQuads) {
+            if (o == &r || (o->id >> 36) != (r.id >> 36)) continue;
+            const int64_t dq = int64_t((o->id >> 4) & 0xffffffff) - int64_t((r.id >> 4) & 0xffffffff);
+            if (dq < -2 || dq > 2 || sign(v, o->id) != 0 || !inExtentClosed(v, *o)) continue;
+            for (const auto& sd : o->sides)
+                if (sd.partner < 0 && sign(v, sd.id) == 0) return true;
+        }
+        return false;
+    }
     const QuadGeom* quadById(uint64_t id) const
     {
         for (const QuadGeom* q : mQuads)
@@ -564,6 +617,8 @@ private:
 
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
     float mIso;
+    Coord mDims;
+    float mBackground;
     const std::vector<QuadGeom>* mCellQuads = nullptr;
 };
 
@@ -656,23 +711,46 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
         for (const auto& s : q->sides)
             if (std::abs(s.plane.h(pos0)) <= eps) planes.push_back(s.id);
     }
-    // Junctions: a point on a junction plane and on either quad's plane is on both.
+    // Junctions: a point on a junction plane and on either quad's plane is on
+    // both (the three meet in one line, the stick, whether or not the point is
+    // inside the quads); at the ends of the shared edge, on either rim side is
+    // on both. `on`: the planes the point lies on (made by them, or within eps).
     std::sort(planes.begin(), planes.end());
     planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
-    for (const QuadGeom* q : mQuads) {
-        for (const auto& s : q->sides) {
-            if (s.partner < 0 || !std::binary_search(planes.begin(), planes.end(), s.id)) continue;
-            const bool hasOwn = std::binary_search(planes.begin(), planes.end(), q->id);
-            const bool hasOther = std::binary_search(planes.begin(), planes.end(), s.partnerId);
-            if ((hasOwn || hasOther) && quadById(s.partnerId)) {
-                planes.push_back(q->id);
-                planes.push_back(s.partnerId);
+    std::vector<uint64_t> on(defining.begin(), defining.end());
+    for (const auto& pl : mPlanes)
+        if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
+    on.insert(on.end(), planes.begin(), planes.end());
+    std::sort(on.begin(), on.end());
+    on.erase(std::unique(on.begin(), on.end()), on.end());
+    for (int round = 0; round < 4; ++round) {
+        std::vector<uint64_t> add;
+        auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
+        for (const QuadGeom* q : mQuads) {
+            for (const auto& s : q->sides) {
+                if (s.partner < 0 || !has(s.id) || !(has(q->id) || has(s.partnerId)) || !quadById(s.partnerId)) continue;
+                add.push_back(s.id);
+                add.push_back(q->id);
+                add.push_back(s.partnerId);
+                for (const auto& cs : s.cornerSides) {
+                    if (cs.first && cs.second && (has(cs.first) || has(cs.second))) {
+                        add.push_back(cs.first);
+                        add.push_back(cs.second);
+                    }
+                }
             }
         }
+        if (add.empty()) break;
+        const size_t before = on.size();
+        on.insert(on.end(), add.begin(), add.end());
+        std::sort(on.begin(), on.end());
+        on.erase(std::unique(on.begin(), on.end()), on.end());
+        planes.insert(planes.end(), add.begin(), add.end());
+        std::sort(planes.begin(), planes.end());
+        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+        if (on.size() == before) break;
     }
-    std::sort(planes.begin(), planes.end());
-    planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
-    if (int(planes.size()) < 3 - key.dim) {
+    if (int(planes.size()) < int(key.dim)) { // a face needs two planes, an edge one, the inside three
         planes.insert(planes.end(), defining.begin(), defining.end());
         std::sort(planes.begin(), planes.end());
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
@@ -847,8 +925,11 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
             const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
             mT.p[i] = dvec3(g.x(), g.y(), g.z());
             mT.id[i] = gridVertexId(g.x(), g.y(), g.z());
-            mT.value[i] = value(g);
-            mT.inside[i] = mT.value[i] >= mIso;
+            // As the isosurface: outside the scan box, the background and outside.
+            const bool inBox = g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < mDims.x() && g.y() < mDims.y() &&
+                               g.z() < mDims.z();
+            mT.value[i] = inBox ? value(g) : mBackground;
+            mT.inside[i] = inBox && mT.value[i] >= mIso;
         }
         remeshTet(out, cellIndex);
     }
@@ -1043,6 +1124,25 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         surfaces.push_back(std::move(s));
     }
 
+    // Split order: iso planes, junction planes, then the rest by id.
+    struct SplitPlane
+    {
+        uint64_t id;
+        const QuadGeom* owner; // restricts a quad's plane / rim side to its junction zone
+    };
+    std::vector<SplitPlane> splitOrder;
+    for (const auto& pl : mPlanes)
+        if (pl.first <= kIsoB) splitOrder.push_back({pl.first, nullptr});
+    for (const auto& pl : mPlanes)
+        if (pl.first > kIsoB && (pl.first & 15) == kJunctionKind) splitOrder.push_back({pl.first, nullptr});
+    for (const auto& pl : mPlanes) {
+        if (pl.first <= kIsoB || (pl.first & 15) == kJunctionKind) continue;
+        const QuadGeom* owner = nullptr;
+        for (const QuadGeom* q : mQuads)
+            if ((q->id >> 4) == (pl.first >> 4)) owner = q;
+        splitOrder.push_back({pl.first, owner});
+    }
+
     // Arrangements, classification, tagged loops.
     struct Node
     {
@@ -1073,13 +1173,6 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
 
     for (Surface& s : surfaces) {
         std::vector<Poly> pieces{s.poly}, next;
-        for (const auto& pl : mPlanes) {
-            if (pl.first == s.plane) continue;
-            if (!s.quad && (pl.first == kIsoA || pl.first == kIsoB)) continue;
-            next.clear();
-            for (const Poly& p : pieces) splitPoly(p, s.plane, pl.first, next);
-            pieces.swap(next);
-        }
         auto pieceSign = [&](const Poly& p, uint64_t id) {
             for (int v : p.v) {
                 const int sg = sign(v, id);
@@ -1087,6 +1180,60 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
             }
             return 0;
         };
+        for (const SplitPlane& sp : splitOrder) {
+            if (sp.id == s.plane) continue;
+            if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
+            next.clear();
+            for (const Poly& p : pieces) {
+                // A quad's plane and rim sides only split inside its junction zone,
+                // so near-coincident planes of consecutive quads never meet there.
+                bool outside = false;
+                if (sp.owner)
+                    for (const auto& sd : sp.owner->sides)
+                        if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
+                if (outside) next.push_back(p);
+                else splitPoly(p, s.plane, sp.id, next);
+            }
+            pieces.swap(next);
+        }
+        // Conformity: restricted splits end on junction lines; put their end
+        // points on the neighbouring pieces' edges too (no T-junction inside).
+        {
+            std::vector<int> all;
+            for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
+            std::sort(all.begin(), all.end());
+            all.erase(std::unique(all.begin(), all.end()), all.end());
+            for (Poly& p : pieces) {
+                Poly q;
+                const size_t n = p.v.size();
+                for (size_t k = 0; k < n; ++k) {
+                    const int u = p.v[k], w = p.v[(k + 1) % n];
+                    const uint64_t L = p.lab[k];
+                    q.v.push_back(u);
+                    q.lab.push_back(L);
+                    const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
+                    const double dd = glm::dot(d, d);
+                    std::vector<std::pair<double, int>> on;
+                    for (int x : all) {
+                        if (x == u || x == w) continue;
+                        const Vert& vx = mVerts[size_t(x)];
+                        const bool onLine = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0
+                                                                 : sign(x, L) == 0;
+                        if (!onLine) continue;
+                        const double t = glm::dot(vx.pos - a, d) / dd;
+                        if (!(t > 1e-12 && t < 1 - 1e-12)) continue;
+                        if (glm::length(vx.pos - (a + t * d)) > 1e-9 * (1 + std::sqrt(dd))) continue;
+                        on.push_back({t, x});
+                    }
+                    std::sort(on.begin(), on.end());
+                    for (const auto& o : on) {
+                        q.v.push_back(o.second);
+                        q.lab.push_back(L);
+                    }
+                }
+                p = std::move(q);
+            }
+        }
         // Classification.
         std::vector<char> kept(pieces.size(), 1);
         if (s.quad) {
@@ -1180,7 +1327,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                 for (size_t k = 0; k < n; ++k) {
                     std::vector<uint64_t> tags;
                     for (const QuadGeom* r : mQuads) {
-                        if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r)) continue;
+                        if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
                         const int sg = stripSide(p, r, p.v[k]);
                         tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
                     }
@@ -1243,6 +1390,20 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                             }
                         }
                         if (best == bnd.size()) {
+                            if (std::getenv("MTCUT_REMESH_DEBUG")) {
+                                std::fprintf(stderr, "tet %d surface plane %llx side %d: boundary edges\n", mTet, (unsigned long long)s.plane, side);
+                                for (const auto& e : bnd) {
+                                    auto pr = [&](int nd) {
+                                        const Vert& vv = mVerts[size_t(nodes[size_t(nd)].vert)];
+                                        std::fprintf(stderr, "[n%d v%d d%d (%.9f %.9f %.9f) p:", nd, nodes[size_t(nd)].vert, vv.key.dim, vv.pos.x, vv.pos.y, vv.pos.z);
+                                        for (int i = 0; i < vv.key.planeCount; ++i) std::fprintf(stderr, " %llx", (unsigned long long)vv.key.planes[size_t(i)]);
+                                        std::fprintf(stderr, " t:");
+                                        for (uint64_t t : nodes[size_t(nd)].tags) std::fprintf(stderr, " %llx", (unsigned long long)t);
+                                        std::fprintf(stderr, "]");
+                                    };
+                                    pr(int(e[0])); std::fprintf(stderr, " -> "); pr(int(e[1])); std::fprintf(stderr, " lab %llx\n", (unsigned long long)e[2]);
+                                }
+                            }
                             throw std::runtime_error("remesh: open boundary loop in cell " + cellText(mCell));
                         }
                         cur = best;
@@ -1254,6 +1415,25 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         }
     }
 
+    if (const char* dbg = std::getenv("MTCUT_REMESH_DUMP")) {
+        int dx, dy, dz;
+        if (std::sscanf(dbg, "%d,%d,%d", &dx, &dy, &dz) == 3 && mCell == Coord(dx, dy, dz)) {
+            for (const Region& r : regions) {
+                std::fprintf(stderr, "tet %d region cap %llx side %d\n", mTet, (unsigned long long)(r.cap ? r.cap->id : 0), r.side);
+                for (const Loop& l : r.loops) {
+                    for (size_t i = 0; i < l.nodes.size(); ++i) {
+                        const Vert& vv = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)];
+                        std::fprintf(stderr, "   n%d d%d (%.6f %.6f %.6f) p:", l.nodes[i], vv.key.dim, vv.pos.x, vv.pos.y, vv.pos.z);
+                        for (int k = 0; k < vv.key.planeCount; ++k) std::fprintf(stderr, " %llx", (unsigned long long)vv.key.planes[size_t(k)]);
+                        std::fprintf(stderr, " t:");
+                        for (uint64_t t : nodes[size_t(l.nodes[i])].tags) std::fprintf(stderr, " %llx", (unsigned long long)t);
+                        std::fprintf(stderr, "  --%llx-->\n", (unsigned long long)l.labels[i]);
+                    }
+                    std::fprintf(stderr, "   --\n");
+                }
+            }
+        }
+    }
     // Corners: a node is kept when it is a corner of some loop of the tet.
     std::vector<char> corner(nodes.size(), 0);
     for (const Region& r : regions) {
@@ -1432,35 +1612,68 @@ CutRemesher::~CutRemesher() = default;
 size_t CutRemesher::update(const CutMask& mask)
 {
     if (mask.kerf() > 0) throw InputError("remesh: kerf > 0 is not implemented yet (use --kerf 0)");
+    // The cells to re-mesh: the mask's, plus the cells just outside the scan
+    // box that a quad of a border cell touches (the isosurface closes there,
+    // and the mask only holds cells inside the box).
+    std::map<Coord, std::vector<QuadRef>> cells;
+    const Coord last = mVolume->dims - Coord(2);
+    std::map<std::pair<uint32_t, uint32_t>, QuadRegion> regions;
+    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
+        cells[c] = list;
+        const bool border = c.x() == 0 || c.y() == 0 || c.z() == 0 || c.x() == last.x() || c.y() == last.y() ||
+                            c.z() == last.z();
+        if (!border) return;
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) {
+                    const Coord n = c + Coord(dx, dy, dz);
+                    bool outside = false, valid = true;
+                    for (int a = 0; a < 3; ++a) {
+                        outside |= n[a] < 0 || n[a] > last[a];
+                        valid &= n[a] >= -1 && n[a] <= last[a] + 1;
+                    }
+                    if (!outside || !valid) continue;
+                    for (const QuadRef& r : list) {
+                        auto it = regions.find({r.stroke, r.quad});
+                        if (it == regions.end())
+                            it = regions.emplace(std::make_pair(r.stroke, r.quad), QuadRegion(mask.quad(r), mask.kerf(), mask.frame())).first;
+                        if (it->second.touchesCell(glm::ivec3(n.x(), n.y(), n.z()))) cells[n].push_back(r);
+                    }
+                }
+    });
+    for (auto& [c, list] : cells) {
+        if (mask.isCut(c)) continue;
+        std::sort(list.begin(), list.end(), [](const QuadRef& a, const QuadRef& b) {
+            return a.stroke != b.stroke ? a.stroke < b.stroke : a.quad < b.quad;
+        });
+        list.erase(std::unique(list.begin(), list.end()), list.end());
+    }
     // Forget cells that are no longer cut.
     for (auto it = mRecords.begin(); it != mRecords.end();) {
-        if (!mask.isCut(it->first)) {
+        if (!cells.count(it->first)) {
             mCells.erase(it->first);
             it = mRecords.erase(it);
         } else {
             ++it;
         }
     }
-    std::vector<std::pair<Coord, const std::vector<QuadRef>*>> todo;
-    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
+    size_t count = 0;
+    for (const auto& [c, list] : cells) {
         auto it = mRecords.find(c);
         bool changed = it == mRecords.end() || !(it->second.quads == list);
         if (!changed) {
             for (size_t i = 0; i < list.size() && !changed; ++i)
                 changed = it->second.quadCorners[i] != quadSignature(mask, list[i]);
         }
-        if (changed) todo.push_back({c, &list});
-    });
-    std::sort(todo.begin(), todo.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (const auto& w : todo) {
+        if (!changed) continue;
         CellRecord rec;
-        rec.quads = *w.second;
+        rec.quads = list;
         for (const QuadRef& r : rec.quads) rec.quadCorners.push_back(quadSignature(mask, r));
-        CutCellGeometry& g = mCells[w.first];
-        mKernel->remesh(w.first, cellQuads(mask, rec.quads), g);
-        mRecords[w.first] = std::move(rec);
+        mKernel->remesh(c, cellQuads(mask, rec.quads), mCells[c]);
+        mRecords[c] = std::move(rec);
+        ++count;
     }
-    return todo.size();
+    return count;
 }
 
 } // namespace mtcut::cutter

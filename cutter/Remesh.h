@@ -114,7 +114,10 @@ public:
     CutRemesher& operator=(const CutRemesher&) = delete;
 
     /// Brings the cut geometry in line with `mask` (same volume frame). Returns
-    /// the number of cells re-meshed. Throws InputError when the mask's kerf is
+    /// the number of cells re-meshed. The cells re-meshed are the mask's cut
+    /// cells plus the cells just outside the scan box (index -1 or dims-1)
+    /// that a quad of a border cell touches: the isosurface closes there and
+    /// the mask holds only cells inside the box; cells() lists them all. Throws InputError when the mask's kerf is
     /// > 0, and std::runtime_error ("remesh: ... cell (i,j,k)") when a cell
     /// meets a configuration the kernel does not handle (two exactly coplanar,
     /// overlapping quads), rather than produce a broken mesh.
