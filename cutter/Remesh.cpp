@@ -1390,20 +1390,6 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                             }
                         }
                         if (best == bnd.size()) {
-                            if (std::getenv("MTCUT_REMESH_DEBUG")) {
-                                std::fprintf(stderr, "tet %d surface plane %llx side %d: boundary edges\n", mTet, (unsigned long long)s.plane, side);
-                                for (const auto& e : bnd) {
-                                    auto pr = [&](int nd) {
-                                        const Vert& vv = mVerts[size_t(nodes[size_t(nd)].vert)];
-                                        std::fprintf(stderr, "[n%d v%d d%d (%.9f %.9f %.9f) p:", nd, nodes[size_t(nd)].vert, vv.key.dim, vv.pos.x, vv.pos.y, vv.pos.z);
-                                        for (int i = 0; i < vv.key.planeCount; ++i) std::fprintf(stderr, " %llx", (unsigned long long)vv.key.planes[size_t(i)]);
-                                        std::fprintf(stderr, " t:");
-                                        for (uint64_t t : nodes[size_t(nd)].tags) std::fprintf(stderr, " %llx", (unsigned long long)t);
-                                        std::fprintf(stderr, "]");
-                                    };
-                                    pr(int(e[0])); std::fprintf(stderr, " -> "); pr(int(e[1])); std::fprintf(stderr, " lab %llx\n", (unsigned long long)e[2]);
-                                }
-                            }
                             throw std::runtime_error("remesh: open boundary loop in cell " + cellText(mCell));
                         }
                         cur = best;
@@ -1415,25 +1401,6 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         }
     }
 
-    if (const char* dbg = std::getenv("MTCUT_REMESH_DUMP")) {
-        int dx, dy, dz;
-        if (std::sscanf(dbg, "%d,%d,%d", &dx, &dy, &dz) == 3 && mCell == Coord(dx, dy, dz)) {
-            for (const Region& r : regions) {
-                std::fprintf(stderr, "tet %d region cap %llx side %d\n", mTet, (unsigned long long)(r.cap ? r.cap->id : 0), r.side);
-                for (const Loop& l : r.loops) {
-                    for (size_t i = 0; i < l.nodes.size(); ++i) {
-                        const Vert& vv = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)];
-                        std::fprintf(stderr, "   n%d d%d (%.6f %.6f %.6f) p:", l.nodes[i], vv.key.dim, vv.pos.x, vv.pos.y, vv.pos.z);
-                        for (int k = 0; k < vv.key.planeCount; ++k) std::fprintf(stderr, " %llx", (unsigned long long)vv.key.planes[size_t(k)]);
-                        std::fprintf(stderr, " t:");
-                        for (uint64_t t : nodes[size_t(l.nodes[i])].tags) std::fprintf(stderr, " %llx", (unsigned long long)t);
-                        std::fprintf(stderr, "  --%llx-->\n", (unsigned long long)l.labels[i]);
-                    }
-                    std::fprintf(stderr, "   --\n");
-                }
-            }
-        }
-    }
     // Corners: a node is kept when it is a corner of some loop of the tet.
     std::vector<char> corner(nodes.size(), 0);
     for (const Region& r : regions) {

@@ -116,9 +116,16 @@ CutResult cutAndCheck(const CutRemesher& r)
 }
 
 /// Invariant 9: outside the cut cells, the fused triangles are the uncut ones.
-void expectUntouchedOutside(const Mesh& uncut, const Mesh& fused, const CutMask& mask)
+/// The re-meshed cells are the mask's plus the border cells a quad touches.
+void expectUntouchedOutside(const Mesh& uncut, const Mesh& fused, const CutMask& mask, const CutRemesher& remesher)
 {
-    auto outside = [&](const glm::ivec3& c) { return !mask.isCut(Coord(c.x, c.y, c.z)); };
+    for (const auto& c : remesher.cells()) {
+        if (mask.isCut(c.first)) continue;
+        const glm::ivec3 d = mask.frame().dims;
+        EXPECT_TRUE(c.first.x() < 0 || c.first.y() < 0 || c.first.z() < 0 || c.first.x() >= d.x - 1 ||
+                    c.first.y() >= d.y - 1 || c.first.z() >= d.z - 1);
+    }
+    auto outside = [&](const glm::ivec3& c) { return !remesher.cells().count(Coord(c.x, c.y, c.z)); };
     EXPECT_EQ(triangleSet(uncut, outside), triangleSet(fused, outside));
 }
 
@@ -154,7 +161,7 @@ TEST(Remesh, SphereCutThroughByAPlaneGivesTwoShells)
         std::printf("y=%g: cut cells %zu, triangles %zu, volumes %.3f + %.3f (uncut %.3f), small cap error %.4f (bound %.3f)\n",
                     yCut, mask.cutCellCount(), c.fused.triangleCount(), c.fragments[0].volume, c.fragments[1].volume, v0,
                     c.fragments[1].volume - capSmall, bound);
-        expectUntouchedOutside(uncut, c.fused, mask);
+        expectUntouchedOutside(uncut, c.fused, mask, remesher);
     }
 }
 
@@ -188,6 +195,132 @@ TEST(Remesh, BladeStoppingInsideKeepsOneClosedShell)
             EXPECT_GT(c.fragments[1].area, 2 * 20.0); // two caps of the 6 mm blade over ~8 mm
         }
         EXPECT_NEAR(meshVolume(c.fused), v0, 1e-5 * v0);
-        expectUntouchedOutside(uncut, c.fused, mask);
+        expectUntouchedOutside(uncut, c.fused, mask, remesher);
     }
+}
+
+namespace {
+
+struct Stats
+{
+    size_t strokes = 0, cells = 0, defects = 0, failures = 0;
+    double seconds = 0.0;
+};
+
+/// Cuts `vol` with `strokes` one after another (incremental updates), checking
+/// after each: zero defects, untouched outside, volume kept (zero kerf), then
+/// undoes them one by one checking that each earlier mesh comes back exactly.
+void cutRandomly(const vdb::Volume& vol, float iso, const std::vector<std::vector<Pose>>& strokes, Stats& st,
+                 const std::string& what)
+{
+    const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
+    ASSERT_TRUE(checkMesh(uncut).ok());
+    const double v0 = meshVolume(uncut);
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, iso, uncut);
+    std::vector<Mesh> history{uncut};
+    for (size_t s = 0; s < strokes.size(); ++s) {
+        const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
+        mask.beginStroke();
+        for (const Quad& q : quads) mask.addQuad(q);
+        const auto t0 = std::chrono::steady_clock::now();
+        try {
+            st.cells += remesher.update(mask);
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << what << " stroke " << s << ": " << e.what();
+            ++st.failures;
+            return;
+        }
+        Mesh fused = remesher.fusedMesh();
+        st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const MeshCheck check = checkMesh(fused);
+        st.defects += check.defects();
+        ++st.strokes;
+        EXPECT_TRUE(check.ok()) << what << " stroke " << s << "\n" << check.report();
+        EXPECT_NEAR(meshVolume(fused), v0, 1e-6 * std::abs(v0) + 1e-3) << what << " stroke " << s;
+        expectUntouchedOutside(uncut, fused, mask, remesher);
+        history.push_back(std::move(fused));
+    }
+    for (size_t s = strokes.size(); s-- > 0;) {
+        ASSERT_TRUE(mask.undoStroke());
+        remesher.update(mask);
+        const Mesh back = remesher.fusedMesh();
+        EXPECT_TRUE(sameMesh(back, history[s])) << what << ": undo to stroke " << s << " is not the earlier mesh";
+    }
+}
+
+} // namespace
+
+// Seeded random strokes (curved, turning, self-crossing, crossing each other)
+// on the 4 mm head at bone level; strokes accumulate, then are undone.
+// DISABLED: not yet passing. Measured: 89 of 100 strokes clean (zero defects,
+// untouched outside, exact undo); 5 strokes throw (open loop: cap/fold crease
+// disagreement; coplanar overlapping quads) and 3 give boundary edges (fold
+// crease of a clamped MT quad met by a blade plane near a tet face).
+TEST(Remesh, DISABLED_RandomStrokesOnTheHeadHaveZeroDefectsAndUndoExactly)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const IndexFrame frame = frameOf(vol);
+    Stats st;
+    for (uint32_t seed = 1; seed <= 25; ++seed) {
+        const auto strokes = makeRandomStrokes(frame, seed, 4, 300, 0.5 + 0.1 * (seed % 5), 40.0);
+        cutRandomly(vol, 400.0f, strokes, st, "seed " + std::to_string(seed));
+    }
+    std::printf("4 mm head: %zu strokes, %zu cells re-meshed, %zu defects, %zu failures, %.1f us per cell\n", st.strokes,
+                st.cells, st.defects, st.failures, 1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
+    EXPECT_EQ(st.defects, 0u);
+    EXPECT_EQ(st.failures, 0u);
+}
+
+// The LeFort I stroke on the 4 mm and 2 mm heads: zero defects, exact undo.
+// DISABLED: not yet passing. Its 0.05 mm hand tremor moves the base back into
+// cells it left, so the strip folds onto itself (coplanar overlapping quads,
+// which the kernel refuses with an error) and an open loop on the 4 mm head.
+TEST(Remesh, DISABLED_LeFortStrokeOnTheHeads)
+{
+    for (const char* name : {"vhm_head_4mm.nhdr", "vhm_head_2mm.nhdr"}) {
+        const std::string path = mtcut::test::dataPath(name);
+        if (path.empty()) continue;
+        const vdb::Volume vol = vdb::readVolume(path);
+        Stats st;
+        cutRandomly(vol, 400.0f, {makeLeFortStroke(frameOf(vol))}, st, name);
+        std::printf("%s LeFort: %zu cells re-meshed, %zu defects, %.1f us per cell\n", name, st.cells, st.defects,
+                    1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
+        EXPECT_EQ(st.defects, 0u);
+        EXPECT_EQ(st.failures, 0u);
+    }
+}
+
+// Several strokes on the sphere, one after another (incremental updates):
+// a cut through, a second one crossing it, a blade along a grid plane and
+// through grid vertices, a turning stroke; then undo back to the uncut mesh,
+// each step exactly the earlier mesh.
+TEST(Remesh, CrossingAndGridAlignedStrokesOnTheSphereUndoExactly)
+{
+    const double R = 15.0;
+    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    std::vector<std::vector<Pose>> strokes = {
+        straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200),
+        straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200),
+        // x = 5.5 mm is the grid plane i = 25; the base moves through grid vertices.
+        straightStroke(dvec3(5.5, -24.5, 0.5), dvec3(5.5, 24.5, 0.5), dvec3(0, 0, 1), 30.0, 98),
+    };
+    std::vector<Pose> turn;
+    for (int i = 0; i <= 300; ++i) {
+        const double a = 0.01 * i;
+        Pose p;
+        p.time = 0.001 * i;
+        p.base = dvec3(-20 + 12 * std::cos(a), -20 + 12 * std::sin(a), 20);
+        p.direction = glm::normalize(dvec3(0.1 * std::sin(a), 0.05, -1));
+        p.length = 40;
+        turn.push_back(p);
+    }
+    strokes.push_back(turn);
+    Stats st;
+    cutRandomly(vol, 0.0f, strokes, st, "sphere");
+    std::printf("sphere: %zu strokes, %zu cells re-meshed, %zu defects, %.1f us per cell\n", st.strokes, st.cells,
+                st.defects, 1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
+    EXPECT_EQ(st.strokes, strokes.size());
+    EXPECT_EQ(st.defects, 0u);
 }
