@@ -41,35 +41,17 @@ Mesh CutRemesher::fusedMesh() const
         m.triangleVoxels.push_back(c);
     }
     const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
-    auto acc = mVolume->grid->getConstAccessor();
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> added;
     std::vector<std::pair<std::pair<uint64_t, uint64_t>, uint32_t>> edgeMap;
+    std::vector<std::pair<uint64_t, uint64_t>> corners;
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
         auto range = mUncutCells.find(cell);
         if (range != mUncutCells.end()) {
-            uint8_t mask = 0;
-            float values[8];
-            for (int c = 0; c < 8; ++c) {
-                const openvdb::Coord g = cell + openvdb::Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-                const bool inBox = mVolume->indexBox().isInside(g);
-                values[c] = inBox ? acc.getValue(g) : mVolume->grid->background();
-                if (inBox && values[c] >= mIso) mask |= uint8_t(1 << c);
-            }
-            const int parity = cellParity(cell.x(), cell.y(), cell.z());
-            const CellCase& cc = cellCase(parity, mask);
-            const auto& edges = cellEdges(parity);
-            if (cc.triangleCount != range->second.second)
-                throw std::logic_error("fusion: the uncut mesh does not match the volume at a cut cell");
-            for (int k = 0; k < 3 * cc.triangleCount; ++k) {
-                const CellEdge e = edges[cc.edges[size_t(k)]];
-                const openvdb::Coord a = cell + openvdb::Coord(e.lo & 1, (e.lo >> 1) & 1, (e.lo >> 2) & 1);
-                const openvdb::Coord b = cell + openvdb::Coord(e.hi & 1, (e.hi >> 1) & 1, (e.hi >> 2) & 1);
-                uint64_t ia = gridVertexId(a.x(), a.y(), a.z()), ib = gridVertexId(b.x(), b.y(), b.z());
-                if (ib < ia) std::swap(ia, ib);
-                edgeMap.push_back({{ia, ib}, mUncut.indices[3 * size_t(range->second.first) + size_t(k)]});
-            }
+            uncutCornerEdges(cell, corners);
+            for (size_t k = 0; k < corners.size(); ++k)
+                edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(range->second.first) + k]});
         }
         std::vector<uint32_t> index(geom.vertexIds.size());
         for (size_t v = 0; v < geom.vertexIds.size(); ++v) {

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -1576,6 +1577,182 @@ CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& 
 
 CutRemesher::~CutRemesher() = default;
 
+void CutRemesher::uncutCornerEdges(const Coord& cell, std::vector<std::pair<uint64_t, uint64_t>>& out) const
+{
+    out.clear();
+    auto range = mUncutCells.find(cell);
+    if (range == mUncutCells.end()) return;
+    auto acc = mVolume->grid->getConstAccessor();
+    uint8_t inside = 0;
+    for (int c = 0; c < 8; ++c) {
+        const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        const bool inBox = mVolume->indexBox().isInside(g);
+        if (inBox && acc.getValue(g) >= mIso) inside |= uint8_t(1 << c);
+    }
+    const int parity = cellParity(cell.x(), cell.y(), cell.z());
+    const CellCase& cc = cellCase(parity, inside);
+    const auto& edges = cellEdges(parity);
+    if (cc.triangleCount != range->second.second)
+        throw std::logic_error("fusion: the uncut mesh does not match the volume at a cut cell");
+    for (int k = 0; k < 3 * cc.triangleCount; ++k) {
+        const CellEdge e = edges[cc.edges[size_t(k)]];
+        const Coord a = cell + Coord(e.lo & 1, (e.lo >> 1) & 1, (e.lo >> 2) & 1);
+        const Coord b = cell + Coord(e.hi & 1, (e.hi >> 1) & 1, (e.hi >> 2) & 1);
+        uint64_t ia = gridVertexId(a.x(), a.y(), a.z()), ib = gridVertexId(b.x(), b.y(), b.z());
+        if (ib < ia) std::swap(ia, ib);
+        out.push_back({ia, ib});
+    }
+}
+
+namespace {
+
+Coord gridVertexCoord(uint64_t id)
+{
+    constexpr int64_t off = int64_t(1) << 20;
+    constexpr uint64_t m = (uint64_t(1) << 21) - 1;
+    return Coord(int(int64_t(id & m) - off), int(int64_t(id >> 21 & m) - off), int(int64_t(id >> 42 & m) - off));
+}
+
+/// The cells whose closed box holds vertex v: [lo, hi] per axis.
+void cellsHolding(const CutVertexId& v, Coord& lo, Coord& hi)
+{
+    if (v.dim == 3) {
+        lo = hi = gridVertexCoord(v.feature[0]);
+        return;
+    }
+    lo = Coord(std::numeric_limits<int>::min());
+    hi = Coord(std::numeric_limits<int>::max());
+    for (int i = 0; i <= int(v.dim); ++i) {
+        const Coord g = gridVertexCoord(v.feature[size_t(i)]);
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::max(lo[a], g[a] - 1);
+            hi[a] = std::min(hi[a], g[a]);
+        }
+    }
+}
+
+CutVertexId isoEdgeVertex(const std::pair<uint64_t, uint64_t>& e)
+{
+    CutVertexId id;
+    id.dim = 1;
+    id.planeCount = 1;
+    id.planes[0] = 1;
+    id.feature = {e.first, e.second, 0};
+    return id;
+}
+
+} // namespace
+
+void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
+{
+    if (changed.empty()) return;
+    // The triangles of the changed cells and of their 26 neighbours, over
+    // vertex names (the fused mesh's identity: iso edge vertices by edge).
+    std::vector<Coord> region;
+    for (const Coord& c : changed)
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) region.push_back(c + Coord(dx, dy, dz));
+    std::sort(region.begin(), region.end());
+    region.erase(std::unique(region.begin(), region.end()), region.end());
+    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> names;
+    std::vector<CutVertexId> ids;
+    auto nameOf = [&](const CutVertexId& id) {
+        auto [it, added] = names.emplace(id, uint32_t(ids.size()));
+        if (added) ids.push_back(id);
+        return it->second;
+    };
+    struct Tri
+    {
+        uint32_t v[3];
+        Coord cell;
+    };
+    std::vector<Tri> tris;
+    std::vector<std::pair<uint64_t, uint64_t>> corners;
+    for (const Coord& c : region) {
+        auto cut = mCells.find(c);
+        if (cut != mCells.end()) {
+            const CutCellGeometry& g = cut->second;
+            std::vector<uint32_t> local(g.vertexIds.size());
+            for (size_t v = 0; v < local.size(); ++v) local[v] = nameOf(g.vertexIds[v]);
+            for (size_t i = 0; i + 2 < g.indices.size(); i += 3)
+                tris.push_back({{local[g.indices[i]], local[g.indices[i + 1]], local[g.indices[i + 2]]}, c});
+        } else {
+            uncutCornerEdges(c, corners);
+            for (size_t i = 0; i + 2 < corners.size(); i += 3)
+                tris.push_back({{nameOf(isoEdgeVertex(corners[i])), nameOf(isoEdgeVertex(corners[i + 1])),
+                                 nameOf(isoEdgeVertex(corners[i + 2]))},
+                                c});
+        }
+    }
+    // Directed edge uses; an edge matters when a changed cell's closed box holds it
+    // (then every triangle that can use it is in the region).
+    auto isChanged = [&](const Coord& c) { return std::binary_search(changed.begin(), changed.end(), c); };
+    auto matters = [&](uint32_t a, uint32_t b, const Coord& cell) {
+        if (isChanged(cell)) return true;
+        Coord la, ha, lb, hb;
+        cellsHolding(ids[a], la, ha);
+        cellsHolding(ids[b], lb, hb);
+        Coord lo, hi;
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::max(la[k], lb[k]);
+            hi[k] = std::min(ha[k], hb[k]);
+            if (lo[k] > hi[k]) return false;
+        }
+        for (int x = lo.x(); x <= hi.x(); ++x)
+            for (int y = lo.y(); y <= hi.y(); ++y)
+                for (int z = lo.z(); z <= hi.z(); ++z)
+                    if (isChanged(Coord(x, y, z))) return true;
+        return false;
+    };
+    std::unordered_map<uint64_t, std::pair<uint32_t, uint32_t>> uses; // directed edge -> (count, triangle)
+    std::vector<uint64_t> relevant;
+    auto fail = [&](const std::string& what, const Coord& c) {
+        throw std::runtime_error("remesh: open or inconsistent surface (" + what + ") in cell " + cellText(c));
+    };
+    for (size_t t = 0; t < tris.size(); ++t) {
+        const Tri& tr = tris[t];
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
+            if (a == b) {
+                if (isChanged(tr.cell)) fail("a triangle repeats a vertex", tr.cell);
+                continue;
+            }
+            if (!matters(a, b, tr.cell)) continue;
+            const uint64_t key = uint64_t(a) << 32 | b;
+            auto& u = uses[key];
+            if (u.first++ == 0) u.second = uint32_t(t);
+            relevant.push_back(key);
+        }
+    }
+    for (uint64_t key : relevant) {
+        const auto& u = uses[key];
+        const uint64_t rev = (key << 32) | (key >> 32);
+        auto r = uses.find(rev);
+        const uint32_t back = r == uses.end() ? 0 : r->second.first;
+        if (u.first == 1 && back == 1) continue;
+        // Name a changed cell: the triangle's own, else a changed cell holding the edge.
+        Coord cell = tris[u.second].cell;
+        if (!isChanged(cell) && r != uses.end() && isChanged(tris[r->second.second].cell)) cell = tris[r->second.second].cell;
+        if (!isChanged(cell)) {
+            Coord la, ha, lb, hb;
+            cellsHolding(ids[uint32_t(key >> 32)], la, ha);
+            cellsHolding(ids[uint32_t(key)], lb, hb);
+            for (const Coord& c : changed) {
+                bool in = true;
+                for (int k = 0; k < 3; ++k) in = in && std::max(la[k], lb[k]) <= c[k] && c[k] <= std::min(ha[k], hb[k]);
+                if (in) {
+                    cell = c;
+                    break;
+                }
+            }
+        }
+        std::ostringstream os;
+        os << "an edge used " << u.first << " time(s) one way and " << back << " the other";
+        fail(os.str(), cell);
+    }
+}
+
 size_t CutRemesher::update(const CutMask& mask)
 {
     if (mask.kerf() > 0) throw InputError("remesh: kerf > 0 is not implemented yet (use --kerf 0)");
@@ -1615,9 +1792,44 @@ size_t CutRemesher::update(const CutMask& mask)
         });
         list.erase(std::unique(list.begin(), list.end()), list.end());
     }
+    // Every change is saved first, so a throw leaves the remesher as it was.
+    struct Saved
+    {
+        Coord cell;
+        bool had = false;
+        CutCellGeometry geometry;
+        CellRecord record;
+    };
+    std::vector<Saved> saved;
+    std::vector<Coord> changedCells;
+    auto save = [&](const Coord& c) {
+        Saved sv;
+        sv.cell = c;
+        auto r = mRecords.find(c);
+        if (r != mRecords.end()) {
+            sv.had = true;
+            sv.record = std::move(r->second);
+            auto g = mCells.find(c);
+            if (g != mCells.end()) sv.geometry = std::move(g->second);
+        }
+        saved.push_back(std::move(sv));
+        changedCells.push_back(c);
+    };
+    auto restore = [&] {
+        for (auto it = saved.rbegin(); it != saved.rend(); ++it) {
+            if (it->had) {
+                mRecords[it->cell] = std::move(it->record);
+                mCells[it->cell] = std::move(it->geometry);
+            } else {
+                mRecords.erase(it->cell);
+                mCells.erase(it->cell);
+            }
+        }
+    };
     // Forget cells that are no longer cut.
     for (auto it = mRecords.begin(); it != mRecords.end();) {
         if (!cells.count(it->first)) {
+            save(it->first);
             mCells.erase(it->first);
             it = mRecords.erase(it);
         } else {
@@ -1625,20 +1837,30 @@ size_t CutRemesher::update(const CutMask& mask)
         }
     }
     size_t count = 0;
-    for (const auto& [c, list] : cells) {
-        auto it = mRecords.find(c);
-        bool changed = it == mRecords.end() || !(it->second.quads == list);
-        if (!changed) {
-            for (size_t i = 0; i < list.size() && !changed; ++i)
-                changed = it->second.quadCorners[i] != quadSignature(mask, list[i]);
+    try {
+        for (const auto& [c, list] : cells) {
+            auto it = mRecords.find(c);
+            bool changed = it == mRecords.end() || !(it->second.quads == list);
+            if (!changed) {
+                for (size_t i = 0; i < list.size() && !changed; ++i)
+                    changed = it->second.quadCorners[i] != quadSignature(mask, list[i]);
+            }
+            if (!changed) continue;
+            CellRecord rec;
+            rec.quads = list;
+            for (const QuadRef& r : rec.quads) rec.quadCorners.push_back(quadSignature(mask, r));
+            save(c);
+            CutCellGeometry& geometry = mCells[c];
+            mRecords[c] = std::move(rec);
+            mKernel->remesh(c, cellQuads(mask, mRecords[c].quads), geometry);
+            if (mCellHook) mCellHook(c, geometry);
+            ++count;
         }
-        if (!changed) continue;
-        CellRecord rec;
-        rec.quads = list;
-        for (const QuadRef& r : rec.quads) rec.quadCorners.push_back(quadSignature(mask, r));
-        mKernel->remesh(c, cellQuads(mask, rec.quads), mCells[c]);
-        mRecords[c] = std::move(rec);
-        ++count;
+        std::sort(changedCells.begin(), changedCells.end());
+        checkLocally(changedCells);
+    } catch (...) {
+        restore();
+        throw;
     }
     return count;
 }

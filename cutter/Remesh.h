@@ -44,6 +44,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <vector>
@@ -121,7 +122,24 @@ public:
     /// > 0, and std::runtime_error ("remesh: ... cell (i,j,k)") when a cell
     /// meets a configuration the kernel does not handle (two exactly coplanar,
     /// overlapping quads), rather than produce a broken mesh.
+    ///
+    /// Never silent: after re-meshing, every edge of the re-meshed (and
+    /// forgotten) cells' triangles, and of their neighbours' triangles inside
+    /// those cells, must be used by exactly two triangles of the fused mesh,
+    /// once each way, and no triangle may repeat a vertex; otherwise it throws
+    /// std::runtime_error("remesh: open or inconsistent surface ... in cell
+    /// (i, j, k)"). Cost proportional to the changed cells. On any throw the
+    /// remesher is left exactly as before the call (strong guarantee), so
+    /// fusedMesh() still returns the last good mesh; the caller should undo
+    /// the stroke in the mask (the next update then has nothing to do).
     size_t update(const CutMask& mask);
+
+    /// For tests only: called on each cell's new geometry right after the
+    /// kernel made it (e.g. to corrupt it and see the check fire). Empty: none.
+    void setCellHookForTesting(std::function<void(const openvdb::Coord&, CutCellGeometry&)> hook)
+    {
+        mCellHook = std::move(hook);
+    }
 
     /// The fused mesh (DESIGN "Fusion"): the uncut triangles outside the cut
     /// cells in their original order, then the cut cells' triangles (cells in
@@ -150,6 +168,15 @@ private:
     std::map<openvdb::Coord, CellRecord> mRecords;
     /// Uncut triangles per cell: first triangle, count.
     std::map<openvdb::Coord, std::pair<uint32_t, uint32_t>> mUncutCells;
+    std::function<void(const openvdb::Coord&, CutCellGeometry&)> mCellHook;
+
+    /// The grid edge (lower, higher gridVertexId) of each corner of the
+    /// uncut triangles of `cell`, 3 per triangle in mesh order; empty when
+    /// the cell has none. Throws std::logic_error when the uncut mesh does not
+    /// match the volume there.
+    void uncutCornerEdges(const openvdb::Coord& cell, std::vector<std::pair<uint64_t, uint64_t>>& out) const;
+    /// The local closedness check of update() over `changed` (sorted cells).
+    void checkLocally(const std::vector<openvdb::Coord>& changed) const;
 };
 
 /// Re-meshes one cell cut by the given quads of `mask` into `out` (cleared
