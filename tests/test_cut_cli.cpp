@@ -1,0 +1,213 @@
+// `mtcut cut` end to end: a ball cut straight through by a path file gives two
+// closed fragments whose volumes add up to the uncut one, cut.vdb, slices.exr
+// and summary.json; kerf > 0 and a bad path file fail cleanly.
+#include "TestUtil.h"
+
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/MeshIO.h"
+#include "vdb/VolumeIO.h"
+
+#include <openvdb/openvdb.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+using namespace mtcut;
+using mtcut::test::runMtcut;
+using mtcut::test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kRadius = 15.0;
+
+/// A dense 40^3 ball at 1 mm: value = radius - distance (mm), iso 0 is the sphere.
+std::string writeBall(const TempDir& dir)
+{
+    vdb::DenseScan scan;
+    const openvdb::Coord dims(40);
+    scan.geometry.dims = dims;
+    scan.geometry.spacing = openvdb::Vec3d(1.0);
+    scan.geometry.origin = openvdb::Vec3d(-19.5);
+    scan.values.reserve(size_t(dims.x()) * dims.y() * dims.z());
+    for (int k = 0; k < dims.z(); ++k)
+        for (int j = 0; j < dims.y(); ++j)
+            for (int i = 0; i < dims.x(); ++i) {
+                const openvdb::Vec3d p = scan.geometry.origin + openvdb::Vec3d(i, j, k);
+                scan.values.push_back(float(kRadius - p.length()));
+            }
+    scan.units = "mm";
+    vdb::SparseOptions sparse;
+    sparse.airThreshold = -25.0f; // nothing pruned
+    const vdb::Volume vol = vdb::makeVolume(std::move(scan), "ball", sparse);
+    const std::string path = dir.file("ball.vdb");
+    vdb::writeVolume(vol, path);
+    return path;
+}
+
+/// A path file (cutter/PATH_FORMAT.md): one stroke along x at y = 0.37, the
+/// blade pointing down (-z) from above the ball to below it: cuts it in two.
+std::string writeStraightPath(const TempDir& dir)
+{
+    const std::string path = dir.file("cut.csv");
+    std::ofstream out(path);
+    out << "# straight cut through the ball\n";
+    out << "t,x,y,z,dx,dy,dz,length\n";
+    const int steps = 200;
+    for (int i = 0; i <= steps; ++i) {
+        const double x = -25.0 + 50.0 * double(i) / steps;
+        out << 0.001 * i << "," << x << ",0.37,22,0,0,-1,45\n";
+    }
+    return path;
+}
+
+std::string readText(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream os;
+    os << in.rdbuf();
+    return os.str();
+}
+
+size_t countOf(const std::string& text, const std::string& what)
+{
+    size_t n = 0;
+    for (size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + what.size())) ++n;
+    return n;
+}
+
+std::vector<std::string> filesIn(const std::string& dir)
+{
+    std::vector<std::string> names;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+} // namespace
+
+TEST(CutCli, StraightCutThroughABallGivesTwoClosedFragmentsAndAllOutputs)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = writeStraightPath(dir);
+    const std::string out = dir.file("out");
+
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    std::printf("%s", r.output.c_str());
+
+    // Exactly two fragment files, each closed and valid.
+    std::vector<std::string> fragments;
+    for (const std::string& name : filesIn(out)) {
+        if (name.rfind("fragment_", 0) == 0) fragments.push_back(name);
+    }
+    ASSERT_EQ(fragments, (std::vector<std::string>{"fragment_000.stl", "fragment_001.stl"}));
+    double sum = 0.0;
+    for (const std::string& name : fragments) {
+        const cutter::Mesh m = cutter::readMesh(out + "/" + name);
+        const cutter::MeshCheck check = cutter::checkMesh(m);
+        EXPECT_TRUE(check.ok()) << name << "\n" << check.report();
+        EXPECT_EQ(check.shells, 1u) << name;
+        sum += cutter::meshVolume(m);
+    }
+    // The uncut isosurface of the same ball.
+    const vdb::Volume vol = vdb::readVolume(ball);
+    const double uncut = cutter::meshVolume(cutter::extractIsosurface(vol, 0.0f));
+    EXPECT_NEAR(sum, uncut, 1e-3 * uncut);
+    const double largest = cutter::meshVolume(cutter::readMesh(out + "/fragment_000.stl"));
+    EXPECT_GE(largest, 0.5 * uncut); // largest first
+
+    // summary.json
+    const std::string json = readText(out + "/summary.json");
+    EXPECT_NE(json.find("\"cut_cells\": "), std::string::npos) << json;
+    EXPECT_EQ(json.find("\"cut_cells\": 0,"), std::string::npos) << json;
+    EXPECT_EQ(countOf(json, "\"file\": "), 2u) << json;
+    EXPECT_NE(json.find("\"fragment_000.stl\""), std::string::npos) << json;
+    EXPECT_NE(json.find("\"fragment_001.stl\""), std::string::npos) << json;
+    EXPECT_NE(json.find("\"defects\": 0}"), std::string::npos) << json;
+    for (const char* key : {"\"input\"", "\"isovalue\"", "\"kerf_mm\"", "\"path\"", "\"timings_s\"", "\"read\"",
+                            "\"extract\"", "\"mask\"", "\"remesh\"", "\"write\"", "\"volume_mm3\"", "\"area_mm2\""}) {
+        EXPECT_NE(json.find(key), std::string::npos) << key << "\n" << json;
+    }
+
+    // cut.vdb: carved, cut_mask, fragment_000, fragment_001.
+    {
+        openvdb::io::File file(out + "/cut.vdb");
+        file.open();
+        std::set<std::string> names;
+        for (auto it = file.beginName(); it != file.endName(); ++it) names.insert(it.gridName());
+        EXPECT_EQ(names, (std::set<std::string>{"carved", "cut_mask", "fragment_000", "fragment_001"}));
+        const auto mask = openvdb::gridPtrCast<openvdb::Int32Grid>(file.readGrid("cut_mask"));
+        ASSERT_TRUE(mask);
+        EXPECT_GT(mask->activeVoxelCount(), 0u);
+        const auto carved = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("carved"));
+        ASSERT_TRUE(carved);
+        // Kerf 0 removes nothing: the carved volume keeps every input value.
+        EXPECT_EQ(carved->activeVoxelCount(), vol.grid->activeVoxelCount());
+        const auto f0 = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("fragment_000"));
+        ASSERT_TRUE(f0);
+        EXPECT_EQ(f0->getGridClass(), openvdb::GRID_LEVEL_SET);
+        file.close();
+    }
+    EXPECT_TRUE(fs::is_regular_file(out + "/slices.exr"));
+    EXPECT_GT(fs::file_size(out + "/slices.exr"), 0u);
+    // No temporaries left behind.
+    for (const std::string& name : filesIn(out)) {
+        EXPECT_TRUE(name == "cut.vdb" || name == "slices.exr" || name == "summary.json" ||
+                    name.rfind("fragment_", 0) == 0)
+            << name;
+    }
+
+    // --format obj writes .obj fragments; a rerun replaces the earlier .stl ones.
+    const test::RunResult r2 = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --format obj");
+    ASSERT_EQ(r2.exitCode, 0) << r2.output;
+    std::vector<std::string> objs;
+    for (const std::string& name : filesIn(out)) {
+        if (name.rfind("fragment_", 0) == 0) objs.push_back(name);
+    }
+    EXPECT_EQ(objs, (std::vector<std::string>{"fragment_000.obj", "fragment_001.obj"}));
+}
+
+TEST(CutCli, KerfAboveZeroFailsWithOneLineAndWritesNothing)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = writeStraightPath(dir);
+    const std::string out = dir.file("out");
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " --kerf 1 -o " + out);
+    EXPECT_EQ(r.exitCode, 1) << r.output;
+    EXPECT_EQ(r.output.rfind("mtcut: error: ", 0), 0u) << r.output;
+    EXPECT_NE(r.output.find("kerf"), std::string::npos) << r.output;
+    EXPECT_EQ(countOf(r.output, "\n"), 1u) << r.output;
+    EXPECT_TRUE(filesIn(out).empty()) << "partial output in " << out;
+}
+
+TEST(CutCli, BadPathFileFailsNamingTheLine)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = dir.file("bad.csv");
+    {
+        std::ofstream f(path);
+        f << "t,x,y,z,dx,dy,dz,length\n";
+        f << "0,-25,0.37,22,0,0,-1,45\n";
+        f << "0.001,-24,0.37,22,0,0,-1\n"; // line 3: 7 fields
+    }
+    const std::string out = dir.file("out");
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out);
+    EXPECT_EQ(r.exitCode, 1) << r.output;
+    EXPECT_EQ(r.output.rfind("mtcut: error: ", 0), 0u) << r.output;
+    EXPECT_NE(r.output.find("bad.csv:3:"), std::string::npos) << r.output;
+    EXPECT_EQ(countOf(r.output, "\n"), 1u) << r.output;
+    EXPECT_TRUE(filesIn(out).empty());
+}

@@ -1,0 +1,362 @@
+// mtcut cut: one batch cut of a scan along a blade path (or the built-in
+// LeFort I-like stroke): the isosurface, the cut mask, the re-meshed cut
+// cells fused with the uncut surface, and the outputs - one mesh per fragment,
+// cut.vdb, slices.exr and summary.json - in an output folder.
+#include "cutter/CutMask.h"
+#include "cutter/Fusion.h"
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/MeshIO.h"
+#include "cutter/PathFile.h"
+#include "cutter/Remesh.h"
+#include "tools/Cli.h"
+#include "vdb/AtomicFile.h"
+#include "vdb/CutOutputs.h"
+#include "vdb/Phantom.h"
+#include "vdb/SliceExr.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+
+namespace mtcut::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+double secondsSince(Clock::time_point t0)
+{
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// -- summary.json, by hand ----------------------------------------------------
+
+std::string jsonString(const std::string& s)
+{
+    std::string out = "\"";
+    for (const char ch : s) {
+        const unsigned char c = static_cast<unsigned char>(ch);
+        switch (c) {
+        case '"': out += "\\\""; break;
+        case '\\': out += "\\\\"; break;
+        case '\b': out += "\\b"; break;
+        case '\f': out += "\\f"; break;
+        case '\n': out += "\\n"; break;
+        case '\r': out += "\\r"; break;
+        case '\t': out += "\\t"; break;
+        default:
+            if (c < 0x20 || c == 0x7f) {
+                char buf[8];
+                std::snprintf(buf, sizeof buf, "\\u%04x", unsigned(c));
+                out += buf;
+            } else {
+                out += ch; // UTF-8 bytes pass through
+            }
+        }
+    }
+    return out + "\"";
+}
+
+/// Round-trip precision; JSON has no NaN/Inf, so those become null.
+std::string jsonNumber(double v)
+{
+    if (!std::isfinite(v)) return "null";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+struct FragmentRecord
+{
+    std::string file;
+    size_t triangles = 0;
+    double volume = 0.0, area = 0.0;
+};
+
+struct Timings
+{
+    double read = 0, extract = 0, mask = 0, remesh = 0, check = 0, write = 0;
+};
+
+std::string summaryJson(const std::string& input, float iso, double kerf, const std::string& path, size_t cutCells,
+                        const std::vector<FragmentRecord>& fragments, const cutter::MeshCheck& c, const Timings& t)
+{
+    std::ostringstream os;
+    os << "{\n";
+    os << "  \"input\": " << jsonString(input) << ",\n";
+    os << "  \"isovalue\": " << jsonNumber(double(iso)) << ",\n";
+    os << "  \"kerf_mm\": " << jsonNumber(kerf) << ",\n";
+    os << "  \"path\": " << (path.empty() ? std::string("null") : jsonString(path)) << ",\n";
+    os << "  \"stroke\": " << jsonString(path.empty() ? "built-in LeFort I" : "path file") << ",\n";
+    os << "  \"cut_cells\": " << cutCells << ",\n";
+    os << "  \"fragments\": [";
+    for (size_t i = 0; i < fragments.size(); ++i) {
+        const FragmentRecord& f = fragments[i];
+        os << (i ? ",\n" : "\n") << "    {\"file\": " << jsonString(f.file) << ", \"triangles\": " << f.triangles
+           << ", \"volume_mm3\": " << jsonNumber(f.volume) << ", \"area_mm2\": " << jsonNumber(f.area) << "}";
+    }
+    os << (fragments.empty() ? "],\n" : "\n  ],\n");
+    os << "  \"check\": {\"triangles\": " << c.triangles << ", \"vertices\": " << c.vertices
+       << ", \"shells\": " << c.shells << ", \"unused_vertices\": " << c.unusedVertices
+       << ", \"bad_index_triangles\": " << c.badIndexTriangles << ", \"boundary_edges\": " << c.boundaryEdges
+       << ", \"non_manifold_edges\": " << c.nonManifoldEdges << ", \"inconsistent_edges\": " << c.inconsistentEdges
+       << ", \"non_manifold_vertices\": " << c.nonManifoldVertices
+       << ", \"degenerate_triangles\": " << c.degenerateTriangles
+       << ", \"non_finite_triangles\": " << c.nonFiniteTriangles
+       << ", \"negative_volume_shells\": " << c.negativeVolumeShells << ", \"cavities\": " << c.cavities
+       << ", \"malformed_arrays\": " << c.malformedArrays << ", \"defects\": " << c.defects() << "},\n";
+    os << "  \"timings_s\": {\"read\": " << jsonNumber(t.read) << ", \"extract\": " << jsonNumber(t.extract)
+       << ", \"mask\": " << jsonNumber(t.mask) << ", \"remesh\": " << jsonNumber(t.remesh)
+       << ", \"check\": " << jsonNumber(t.check) << ", \"write\": " << jsonNumber(t.write) << "}\n";
+    os << "}\n";
+    return os.str();
+}
+
+// -- the stroke ---------------------------------------------------------------
+
+/// Is this the procedural phantom's grid (any size)? Its field of view is
+/// fixed and centred on the world origin (vdb/Phantom.h).
+bool looksLikePhantom(const vdb::Volume& vol)
+{
+    if (vol.source == "phantom") return true;
+    const openvdb::Vec3d fov = vdb::phantomFieldOfView();
+    const openvdb::Vec3d s = vol.spacing(), o = vol.origin();
+    for (int a = 0; a < 3; ++a) {
+        const double extent = s[a] * double(vol.dims[a]);
+        if (std::abs(extent - fov[a]) > 1e-6 * fov[a]) return false;
+        if (std::abs(o[a] - (-0.5 * fov[a] + 0.5 * s[a])) > 1e-6 * fov[a]) return false;
+    }
+    return true;
+}
+
+/// The built-in stroke: makeLeFortStroke on the volume's frame; on the
+/// phantom, at the height of its LeFort I plane.
+std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::IndexFrame& frame, bool* onPhantom)
+{
+    cutter::LeFortOptions options;
+    *onPhantom = looksLikePhantom(vol);
+    if (*onPhantom) {
+        const double lo = frame.toWorld(glm::dvec3(0.0)).z;
+        const double hi = frame.toWorld(glm::dvec3(0.0, 0.0, double(std::max(frame.dims.z - 1, 0)))).z;
+        if (hi > lo) options.zFraction = (vdb::phantomLandmarks().leFortZ - lo) / (hi - lo);
+    }
+    return cutter::makeLeFortStroke(frame, options);
+}
+
+cutter::MeshFormat parseFormat(const std::string& name, std::string* ext)
+{
+    if (name == "stl" || name == "obj" || name == "ply" || name == "off") {
+        *ext = name;
+        return cutter::meshFormatFromPath("x." + name);
+    }
+    throw InputError("--format " + name + ": expected stl, obj, ply or off");
+}
+
+/// Removes fragment_NNN.{stl,obj,ply,off} files of an earlier run that this
+/// run did not write, so the folder holds exactly this cut's fragments.
+void removeStaleFragments(const std::string& dir, const std::set<std::string>& written)
+{
+    static const std::regex pattern("fragment_[0-9]{3,}\\.(stl|obj|ply|off)");
+    std::error_code ec;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+        const std::string name = e.path().filename().string();
+        if (std::regex_match(name, pattern) && !written.count(name)) fs::remove(e.path(), ec);
+    }
+}
+
+int runCut(const Args& args)
+{
+    // -- arguments: everything checked before the long work --------------------
+    if (!args.has("iso")) throw InputError("mtcut cut needs --iso V (the isovalue, in the scan's units)");
+    if (!args.has("output")) throw InputError("mtcut cut needs -o OUTDIR");
+    const double isoArg = args.getDouble("iso", 0.0);
+    if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
+    const float iso = float(isoArg);
+    const double kerf = args.getDouble("kerf", 0.0);
+    if (!std::isfinite(kerf) || kerf < 0.0) throw InputError("--kerf " + args.get("kerf") + ": expected a number >= 0 (mm)");
+    std::string ext;
+    (void)parseFormat(args.get("format", "stl"), &ext);
+    const std::string outDir = args.get("output");
+    if (outDir.empty()) throw InputError("-o: empty output folder name");
+    {
+        std::error_code ec;
+        if (fs::exists(outDir, ec) && !fs::is_directory(outDir, ec)) {
+            throw InputError(outDir + ": exists and is not a folder");
+        }
+    }
+    const std::string pathFile = args.get("path");
+    std::vector<std::vector<cutter::Pose>> strokes;
+    if (!pathFile.empty()) {
+        strokes = cutter::readPathFile(pathFile); // InputError "FILE:LINE: field ..."
+        if (strokes.empty()) throw InputError(pathFile + ": no poses (an empty path cuts nothing)");
+    }
+
+    Timings t;
+    auto t0 = Clock::now();
+    const vdb::Volume vol = readInput(args.positional[0], args);
+    t.read = secondsSince(t0);
+    const std::string warning = cutter::isosurfaceWarning(vol, iso);
+    if (!warning.empty()) std::fprintf(stderr, "mtcut: warning: %s\n", warning.c_str());
+
+    // -- isosurface -------------------------------------------------------------
+    t0 = Clock::now();
+    cutter::Mesh uncut;
+    {
+        ProgressBar progress;
+        cutter::IsosurfaceOptions options;
+        options.interrupter = &progress;
+        uncut = cutter::extractIsosurface(vol, iso, options);
+    }
+    t.extract = secondsSince(t0);
+    if (uncut.empty()) throw InputError("no surface at iso " + args.get("iso") + ": nothing to cut");
+
+    // -- cut mask ---------------------------------------------------------------
+    t0 = Clock::now();
+    const cutter::IndexFrame frame = cutter::frameOf(vol);
+    bool onPhantom = false;
+    if (strokes.empty()) strokes.push_back(builtinStroke(vol, frame, &onPhantom));
+    cutter::CutMask mask(frame, kerf);
+    size_t quadCount = 0;
+    for (const std::vector<cutter::Pose>& stroke : strokes) {
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(stroke, frame);
+        if (quads.empty()) continue; // a stroke that never left its first cell cuts nothing
+        mask.beginStroke();
+        for (const cutter::Quad& q : quads) mask.addQuad(q);
+        quadCount += quads.size();
+    }
+    t.mask = secondsSince(t0);
+
+    // -- re-mesh and fuse ---------------------------------------------------------
+    t0 = Clock::now();
+    cutter::Mesh fused;
+    std::vector<cutter::Fragment> fragments;
+    try {
+        cutter::CutRemesher remesher(vol, iso, uncut);
+        remesher.update(mask);
+        fused = remesher.fusedMesh();
+    } catch (const InputError&) {
+        throw;
+    } catch (const Cancelled&) {
+        throw;
+    } catch (const std::runtime_error& e) {
+        throw InputError(e.what()); // "remesh: ... cell (i,j,k)": a configuration the kernel refuses
+    }
+    const size_t uncutTriangles = uncut.triangleCount();
+    uncut = cutter::Mesh(); // free it
+    fragments = cutter::fragmentsOf(fused);
+    t.remesh = secondsSince(t0);
+
+    t0 = Clock::now();
+    const cutter::MeshCheck check = cutter::checkMesh(fused);
+    t.check = secondsSince(t0);
+    if (fragments.empty()) throw InputError("the cut left no surface");
+
+    // -- outputs (each file atomic; summary.json last) ------------------------
+    t0 = Clock::now();
+    fs::create_directories(outDir);
+    std::vector<FragmentRecord> records;
+    std::set<std::string> written;
+    std::vector<vdb::FragmentMesh> fragmentMeshes;
+    static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "glm::vec3 must be three packed floats");
+    for (size_t i = 0; i < fragments.size(); ++i) {
+        const cutter::Fragment& f = fragments[i];
+        char name[64];
+        std::snprintf(name, sizeof name, "fragment_%03zu.%s", i, ext.c_str());
+        cutter::writeMesh(f.mesh, (fs::path(outDir) / name).string());
+        written.insert(name);
+        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area});
+        vdb::FragmentMesh fm;
+        fm.worldPositions = f.mesh.positions.empty() ? nullptr : &f.mesh.positions[0].x;
+        fm.vertexCount = f.mesh.positions.size();
+        fm.triangleIndices = f.mesh.indices.data();
+        fm.triangleCount = f.mesh.triangleCount();
+        fragmentMeshes.push_back(fm);
+    }
+    removeStaleFragments(outDir, written);
+
+    // Carved volume: voxels whose centre lies in the removed region. With
+    // kerf 0 the blade removes nothing, so the removed set is empty.
+    const openvdb::MaskGrid removed;
+    vdb::Volume carved = vol;
+    carved.grid = vdb::carveVolume(vol, removed);
+    const openvdb::Int32Grid& cutMaskGrid = *mask.grid();
+    vdb::CutInfo info;
+    info.isovalue = iso;
+    info.kerfMm = float(kerf);
+    info.pathFile = pathFile;
+    const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
+    const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
+    const std::string jsonPath = (fs::path(outDir) / "summary.json").string();
+    {
+        ProgressBar progress;
+        vdb::writeCutVdb(vdbPath, vol, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, &progress);
+    }
+    {
+        ProgressBar progress;
+        vdb::writeSliceStack(exrPath, carved, cutMaskGrid, iso, &progress);
+    }
+    t.write = secondsSince(t0);
+    const std::string json =
+        summaryJson(args.positional[0], iso, kerf, pathFile, mask.cutCellCount(), records, check, t);
+    writeFileAtomically(jsonPath, [&](const std::string& tmp) {
+        std::ofstream out(tmp, std::ios::binary);
+        out << json;
+        out.close();
+        if (!out) throw InputError(jsonPath + ": cannot write");
+    });
+
+    // -- report -------------------------------------------------------------------
+    std::printf("stroke:     %s, %zu stroke(s), %zu quads, kerf %g mm%s\n",
+                pathFile.empty() ? (onPhantom ? "built-in LeFort I (phantom's LeFort plane)" : "built-in LeFort I")
+                                 : pathFile.c_str(),
+                strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "");
+    std::printf("cut cells:  %zu\n", mask.cutCellCount());
+    std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
+                uncutTriangles, fused.triangleCount(),
+                fragments.size());
+    for (const FragmentRecord& r : records) {
+        std::printf("  %-18s %10.1f mm^3 %10.1f mm^2 %9zu triangles\n", r.file.c_str(), r.volume, r.area, r.triangles);
+    }
+    std::printf("time:       read %.2f s, extract %.2f s, mask %.2f s, remesh %.2f s, check %.2f s, write %.2f s\n",
+                t.read, t.extract, t.mask, t.remesh, t.check, t.write);
+    std::printf("wrote:      %s/{fragment_000..%03zu.%s, cut.vdb, slices.exr, summary.json}\n", outDir.c_str(),
+                fragments.size() - 1, ext.c_str());
+
+    if (!check.ok()) {
+        if (args.has("check")) {
+            std::printf("%s", check.report().c_str());
+            return 1;
+        }
+        std::fprintf(stderr, "mtcut: warning: the cut mesh has %zu defects (run with --check for the report)\n",
+                     check.defects());
+    } else if (args.has("check")) {
+        std::printf("%s", check.report().c_str());
+    }
+    return 0;
+}
+
+std::vector<std::string> cutOptions()
+{
+    std::vector<std::string> o = kInputOptions;
+    for (const char* name : {"iso", "path", "kerf", "output", "format"}) o.push_back(name);
+    return o;
+}
+
+const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--check]",
+                            "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
+                            "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. Only "
+                            "kerf 0 so far (a zero-width blade: the carved volume equals the input); --check: exit 1 "
+                            "on any mesh defect",
+                            cutOptions(), {"check"}, 1, 1, runCut});
+
+} // namespace
+
+} // namespace mtcut::cli
