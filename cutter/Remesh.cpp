@@ -421,9 +421,10 @@ bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, c
         }
         if (best == 1e300) return false;
         const std::vector<int>& hole = holes[bh];
+        // outer[bo] -> the hole from bj round to bj -> back to (a copy of) outer[bo].
         std::vector<int> splice;
-        splice.push_back(outer[bo]);
         for (size_t k = 0; k <= hole.size(); ++k) splice.push_back(hole[(bj + k) % hole.size()]);
+        splice.push_back(outer[bo]);
         outer.insert(outer.begin() + long(bo) + 1, splice.begin(), splice.end());
         holes.erase(holes.begin() + long(bh));
     }
@@ -481,6 +482,18 @@ private:
     Plane mTriPlane[2];
     std::vector<int> mTriVerts[2];
     int mFaceTri[4];      // which iso triangle has its edge on tet face f (opposite vertex f), -1 none
+    std::vector<uint8_t> mTriEdgeMasks[2]; // tet-local vertex masks of the grid edges of each iso triangle's corners
+    /// Does iso triangle k (kIsoA + k) hold the MT geometry of the face or edge `support`?
+    bool triOwns(int k, uint8_t support) const
+    {
+        if (mTriCount < 2) return true;
+        if (bits(support) == 3) {
+            int f = 0;
+            while (support >> f & 1) ++f;
+            return mFaceTri[f] == k;
+        }
+        return std::find(mTriEdgeMasks[k].begin(), mTriEdgeMasks[k].end(), support) != mTriEdgeMasks[k].end();
+    }
     bool mFoldConvex = true;
 
     const Plane* planeById(uint64_t id) const
@@ -695,7 +708,10 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     // arrangement) are used only when the active ones do not fix the point.
     std::vector<uint64_t> planes;
     for (uint64_t& p : defining) {
-        if (key.dim < 3 && (p == kIsoA || p == kIsoB)) p = kIso;
+        // An iso triangle's plane is the iso surface only on the faces and
+        // edges that hold that triangle's MT geometry; elsewhere (a fold's
+        // plane extended over the other triangle's face) it is a tet-local plane.
+        if (key.dim < 3 && (p == kIsoA || p == kIsoB) && triOwns(int(p - kIsoA), support)) p = kIso;
         if (p <= kIsoB) planes.push_back(p);
     }
     if (key.dim < 3) {
@@ -1053,6 +1069,8 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         s.normal = -mTriPlane[k].n;
         const size_t n = triEdges[size_t(k)].size();
         mTriVerts[k].clear();
+        mTriEdgeMasks[k].clear();
+        for (const auto& e : triEdges[size_t(k)]) mTriEdgeMasks[k].push_back(uint8_t(1 << e[0] | 1 << e[1]));
         for (size_t c = 0; c < n; ++c) {
             const auto& e = triEdges[size_t(k)][c];
             s.poly.v.push_back(makeVertex(uint8_t(1 << e[0] | 1 << e[1]), {kIsoA + uint64_t(k)}, triPts[k][c]));
@@ -1443,7 +1461,15 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                 if (loop.empty()) continue;
                 throw std::runtime_error("remesh: degenerate boundary loop in cell " + cellText(mCell));
             }
-            (signedArea(loop, pts) > 0 ? outers : holes).push_back(loop);
+            // A loop of (nearly) zero area is a slit inside the region (a blade
+            // corner through the surface): a hole, whatever its rounding says.
+            double perim = 0.0;
+            for (size_t i = 0; i < loop.size(); ++i) {
+                const Vec2 &a = pts[size_t(loop[i])], &b = pts[size_t(loop[(i + 1) % loop.size()])];
+                perim += std::hypot(a.x - b.x, a.y - b.y);
+            }
+            const double area = signedArea(loop, pts);
+            (area > 1e-9 * perim * perim ? outers : holes).push_back(loop);
         }
         if (outers.empty()) {
             if (holes.empty()) continue;

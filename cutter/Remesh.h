@@ -21,7 +21,9 @@
 // cell + tet for the inside) plus the set of planes it lies on that are active
 // there (the iso surface; a quad's plane or side where the point lies in the
 // closed quad; junction planes between consecutive quads of a stroke force
-// both quads), plus, for zero kerf, a side tag (quad, +/-) for every quad
+// both quads; a fold triangle's plane is the iso surface only on the tet faces
+// and edges that hold that triangle's MT geometry, elsewhere a tet-local
+// plane), plus, for zero kerf, a side tag (quad, +/-) for every quad
 // whose open slit holds the point. The position is a function of that name
 // alone (canonical order, double), and every side test is evaluated on it
 // with one tie rule (|h| <= 1e-13 (1 + |x|) voxel counts as on the plane), so
