@@ -211,3 +211,27 @@ TEST(CutCli, BadPathFileFailsNamingTheLine)
     EXPECT_EQ(countOf(r.output, "\n"), 1u) << r.output;
     EXPECT_TRUE(filesIn(out).empty());
 }
+
+// The README demo's cut: the phantom's LeFort I plane, cut by tools/phantom_lefort.csv, must
+// come out clean and split off exactly one more piece (the maxilla with the upper teeth).
+TEST(CutCli, DemoLeFortStrokeSeparatesThePhantomMaxilla)
+{
+    TempDir dir;
+    const std::string phantom = dir.file("p.vdb");
+    ASSERT_EQ(runMtcut("phantom " + phantom + " --size 128,128,64").exitCode, 0);
+    const auto mesh = runMtcut("mesh " + phantom + " --iso 400 -o " + dir.file("bone.stl"));
+    ASSERT_EQ(mesh.exitCode, 0) << mesh.output;
+    const size_t shellsAt = mesh.output.find(" shells at iso");
+    ASSERT_NE(shellsAt, std::string::npos) << mesh.output;
+    const int uncutShells = std::stoi(mesh.output.substr(mesh.output.rfind(' ', shellsAt - 1) + 1));
+
+    const std::string path = std::string(MTCUT_SOURCE_ROOT) + "/tools/phantom_lefort.csv";
+    const auto cut = runMtcut("cut " + phantom + " --iso 400 --path " + path + " -o " + dir.file("out") + " --check");
+    ASSERT_EQ(cut.exitCode, 0) << cut.output;
+    EXPECT_NE(cut.output.find("defects:                0 (valid)"), std::string::npos) << cut.output;
+    const std::string tag = " fragment(s)";
+    const size_t at = cut.output.find(tag);
+    ASSERT_NE(at, std::string::npos) << cut.output;
+    const int fragments = std::stoi(cut.output.substr(cut.output.rfind(' ', at - 1) + 1));
+    EXPECT_EQ(fragments, uncutShells + 1) << cut.output;
+}

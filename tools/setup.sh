@@ -58,7 +58,8 @@ demo() {
   "$mtcut" phantom "$out/phantom.vdb"
   "$mtcut" info "$out/phantom.vdb"
   "$mtcut" mesh "$out/phantom.vdb" --iso 400 -o "$out/phantom_bone.stl" --check
-  echo "demo: files in $out"
+  "$mtcut" cut "$out/phantom.vdb" --iso 400 --path "$ROOT/tools/phantom_lefort.csv" -o "$out/cut" --check
+  echo "demo: files in $out (the cut fragments, cut.vdb, slices.exr and summary.json in $out/cut)"
 }
 
 run_tests() {
