@@ -627,7 +627,8 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                         if (map.blockIndex[i] < 0) continue;
                         map.blockIndex[i] = int32_t(blocks.size());
                         Block block;
-                        block.origin = (map.lo + Coord(x, y, z)) << 3;
+                        const Coord b = map.lo + Coord(x, y, z); // block coords, may be -1
+                        block.origin = Coord(b.x() * 8, b.y() * 8, b.z() * 8); // not << 3: UB when < 0
                         blocks.push_back(block);
                     }
         } else {

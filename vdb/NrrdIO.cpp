@@ -211,6 +211,10 @@ DenseScan readNrrd(const std::string& path, Interrupter* interrupter)
     const uint64_t voxels = uint64_t(dims[0]) * uint64_t(dims[1]) * uint64_t(dims[2]);
     checkDataSize(path, *nio, voxels * scalarSize(*type), voxels);
     if (nrrd->sampleUnits && std::string(nrrd->sampleUnits) == "HU") scan.units = "HU";
+    if (char* units = nrrdKeyValueGet(nrrd.get(), "units")) {
+        if (std::string(units) == "HU") scan.units = "HU";
+        if (!nrrdStateKeyValueReturnInternalPointers) std::free(units);
+    }
 
     const int headerType = nrrd->type;
     // Now the data (teem re-reads the header; it is small).
@@ -265,7 +269,11 @@ void writeNrrd(const DenseScan& scan, const std::string& path)
     if (nrrdSpaceOriginSet(nrrd.get(), origin) != 0) throw InputError(path + ": " + biffMessage());
     nrrdAxisInfoSet_va(nrrd.get(), nrrdAxisInfoSpaceDirection, dirs[0], dirs[1], dirs[2]);
     nrrdAxisInfoSet_va(nrrd.get(), nrrdAxisInfoKind, nrrdKindDomain, nrrdKindDomain, nrrdKindDomain);
-    if (!scan.units.empty()) nrrd->sampleUnits = airStrdup(scan.units.c_str());
+    // Units go in a key/value pair: teem 1.12 under-allocates its "sample units" line by the
+    // quotes it adds (a heap overflow that AddressSanitizer reports). We read both.
+    if (!scan.units.empty() && nrrdKeyValueAdd(nrrd.get(), "units", scan.units.c_str()) != 0) {
+        throw InputError(path + ": " + biffMessage());
+    }
 
     NioPtr nio(nrrdIoStateNew());
     nio->format = nrrdFormatNRRD;
