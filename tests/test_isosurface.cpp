@@ -3,6 +3,7 @@
 // blocks, analytic sphere and torus convergence, the phantom and the real
 // heads, thread-count independence, NaN, empty and cancelled extraction.
 #include "TestUtil.h"
+#include "TestVolumes.h"
 
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
@@ -269,29 +270,13 @@ TEST(Isosurface, SeededRandomTwoByTwoByTwoBlocks)
 
 namespace {
 
-/// A volume sampling f (world mm) at voxel centres, nothing pruned.
+/// A volume sampling f (world mm) at voxel centres, centred on the origin, nothing pruned.
 template <typename F>
 vdb::Volume fieldVolume(Coord dims, double spacing, F f)
 {
-    vdb::DenseScan scan;
-    scan.geometry.dims = dims;
-    scan.geometry.spacing = Vec3d(spacing);
-    scan.geometry.origin = Vec3d(-0.5 * spacing * (dims.x() - 1), -0.5 * spacing * (dims.y() - 1),
-                                 -0.5 * spacing * (dims.z() - 1));
-    scan.values.resize(size_t(dims.x()) * dims.y() * dims.z());
-    float lo = 1e30f;
-    size_t n = 0;
-    for (int k = 0; k < dims.z(); ++k)
-        for (int j = 0; j < dims.y(); ++j)
-            for (int i = 0; i < dims.x(); ++i) {
-                const Vec3d p = scan.geometry.origin + Vec3d(i, j, k) * spacing;
-                scan.values[n] = float(f(p));
-                lo = std::min(lo, scan.values[n++]);
-            }
-    scan.units = "mm";
-    vdb::SparseOptions sparse;
-    sparse.airThreshold = lo - 1.0f;
-    return vdb::makeVolume(std::move(scan), "field", sparse);
+    const Vec3d origin(-0.5 * spacing * (dims.x() - 1), -0.5 * spacing * (dims.y() - 1),
+                       -0.5 * spacing * (dims.z() - 1));
+    return mtcut::test::fieldVolume(dims, Vec3d(spacing), origin, f);
 }
 
 struct Convergence

@@ -7,6 +7,7 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
 #include "tests/TestUtil.h"
+#include "tests/TestVolumes.h"
 #include "vdb/VolumeIO.h"
 
 #include <gtest/gtest.h>
@@ -28,29 +29,7 @@ using openvdb::Vec3d;
 
 namespace {
 
-/// A volume sampling f (world mm) at voxel centres, nothing pruned.
-template <typename F>
-vdb::Volume fieldVolume(Coord dims, Vec3d spacing, Vec3d origin, F f)
-{
-    vdb::DenseScan scan;
-    scan.geometry.dims = dims;
-    scan.geometry.spacing = spacing;
-    scan.geometry.origin = origin;
-    scan.values.resize(size_t(dims.x()) * dims.y() * dims.z());
-    float lo = 1e30f;
-    size_t n = 0;
-    for (int k = 0; k < dims.z(); ++k)
-        for (int j = 0; j < dims.y(); ++j)
-            for (int i = 0; i < dims.x(); ++i) {
-                const Vec3d p = origin + Vec3d(i, j, k) * spacing;
-                scan.values[n] = float(f(p));
-                lo = std::min(lo, scan.values[n++]);
-            }
-    scan.units = "mm";
-    vdb::SparseOptions sparse;
-    sparse.airThreshold = lo - 1.0f;
-    return vdb::makeVolume(std::move(scan), "field", sparse);
-}
+using mtcut::test::fieldVolume;
 
 /// A straight stroke: the base moves from `from` to `to` in `steps` poses,
 /// the blade pointing along `dir` with length `len` (world mm).
