@@ -1,0 +1,153 @@
+// The GL foundation of render/: a headless GL 4.5 core context (EGL), the
+// embedded shaders, compile/link errors with the info log, move-only GL objects.
+#include "render/Context.h"
+#include "render/GlObjects.h"
+#include "render/Shaders.h"
+#include "tests/test_render_util.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <type_traits>
+
+using namespace mtcut::render;
+
+TEST(RenderGl, HeadlessContextIsGl45Core)
+{
+    MTCUT_REQUIRE_GL();
+    EXPECT_GE(epoxy_gl_version(), 45);
+    GLint profile = 0;
+    glGetIntegerv(GL_CONTEXT_PROFILE_MASK, &profile);
+    EXPECT_TRUE(profile & GL_CONTEXT_CORE_PROFILE_BIT);
+    GLint drawBuffers = 0;
+    glGetIntegerv(GL_MAX_DRAW_BUFFERS, &drawBuffers);
+    EXPECT_GE(drawBuffers, 4); // the mask coding writes 4 integer attachments
+    EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+}
+
+TEST(RenderGl, EveryEmbeddedShaderCompiles)
+{
+    MTCUT_REQUIRE_GL();
+    const std::vector<std::string> names = shaderNames();
+    ASSERT_FALSE(names.empty());
+    EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));
+    for (const std::string& name : names) {
+        if (name.size() > 5 && name.substr(name.size() - 5) == ".glsl") continue; // libraries, prepended to others
+        const std::string source = shaderSource(name);
+        ASSERT_EQ(source.compare(0, 8, "#version"), 0) << name;
+        // Every stage compiles with the libraries in front (the mask lookup).
+        EXPECT_NO_THROW(Shader(shaderStageOf(name), withDefines(source, shaderSource("mask.glsl")), name)) << name;
+    }
+}
+
+TEST(RenderGl, BrokenShaderReportsItsInfoLog)
+{
+    MTCUT_REQUIRE_GL();
+    const std::string broken = "#version 450 core\nout vec4 c;\nvoid main() { c = undefinedThing; }\n";
+    try {
+        buildProgram({ShaderText{"broken.frag", broken}});
+        FAIL() << "a broken shader compiled";
+    } catch (const std::runtime_error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("broken.frag: compile error"), std::string::npos) << what;
+        EXPECT_NE(what.find("undefinedThing"), std::string::npos) << what; // the driver's log itself
+    }
+    // A link error: a fragment input no vertex shader writes with that type.
+    const std::string vert = "#version 450 core\nout float v;\nvoid main() { v = 1.0; gl_Position = vec4(0); }\n";
+    const std::string frag = "#version 450 core\nin vec3 v;\nout vec4 c;\nvoid main() { c = vec4(v, 1); }\n";
+    try {
+        buildProgram({ShaderText{"a.vert", vert}, ShaderText{"b.frag", frag}});
+        FAIL() << "mismatched stages linked";
+    } catch (const std::runtime_error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("a.vert+b.frag: link error:\n"), std::string::npos) << what;
+        EXPECT_GT(what.size(), std::string("a.vert+b.frag: link error:\n").size()) << "empty info log";
+    }
+    // Unknown files and stages say so.
+    EXPECT_THROW(shaderSource("nope.frag"), std::runtime_error);
+    EXPECT_THROW(shaderStageOf("x.txt"), std::runtime_error);
+}
+
+TEST(RenderGl, DefinesGoAfterTheVersionLineAndKeepLineNumbers)
+{
+    MTCUT_REQUIRE_GL();
+    const std::string src = "#version 450 core\nout vec4 c;\nvoid main() { c = vec4(VALUE); }\n";
+    EXPECT_EQ(withDefines(src, "#define VALUE 1.0"),
+              "#version 450 core\n#define VALUE 1.0\n#line 2\nout vec4 c;\nvoid main() { c = vec4(VALUE); }\n");
+    EXPECT_NO_THROW(buildProgram({ShaderText{"v.frag", withDefines(src, "#define VALUE 1.0")}}));
+    // The error names line 3 of the file, whatever was inserted.
+    try {
+        buildProgram({ShaderText{"v.frag", withDefines(src, "#define A 1\n#define B 2\n")}});
+        FAIL();
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("3"), std::string::npos) << e.what();
+    }
+}
+
+TEST(RenderGl, ObjectsAreMoveOnlyAndFreeTheirNames)
+{
+    static_assert(!std::is_copy_constructible_v<Buffer> && !std::is_copy_assignable_v<Buffer>);
+    static_assert(std::is_nothrow_move_constructible_v<Buffer> && std::is_nothrow_move_assignable_v<Texture>);
+    static_assert(!std::is_copy_constructible_v<Program> && !std::is_copy_constructible_v<Framebuffer>);
+    static_assert(!std::is_copy_constructible_v<VertexArray> && !std::is_copy_constructible_v<Query>);
+    static_assert(!std::is_copy_constructible_v<Renderbuffer> && !std::is_copy_constructible_v<Shader>);
+    MTCUT_REQUIRE_GL();
+    GLuint bufferId = 0, textureId = 0;
+    {
+        Buffer a(16, nullptr);
+        bufferId = a.id();
+        ASSERT_TRUE(glIsBuffer(bufferId));
+        Buffer b = std::move(a);
+        EXPECT_EQ(a.id(), 0u);
+        EXPECT_EQ(b.id(), bufferId);
+        Texture t(GL_TEXTURE_2D);
+        textureId = t.id();
+        Texture u(GL_TEXTURE_2D);
+        u = std::move(t); // u's own name is freed here
+        EXPECT_EQ(u.id(), textureId);
+        EXPECT_TRUE(glIsTexture(textureId));
+        Framebuffer f;
+        Renderbuffer r(GL_RGBA8, 4, 4);
+        VertexArray v;
+        Query q(GL_SAMPLES_PASSED);
+        EXPECT_NE(f.id(), 0u);
+        EXPECT_NE(r.id(), 0u);
+        EXPECT_NE(v.id(), 0u);
+        EXPECT_NE(q.id(), 0u);
+    }
+    EXPECT_FALSE(glIsBuffer(bufferId));
+    EXPECT_FALSE(glIsTexture(textureId));
+    EXPECT_NO_THROW(checkGlError("objects"));
+}
+
+TEST(RenderGl, UnknownEglPlatformFailsWithAMessage)
+{
+    // A platform no EGL knows: either a clear error naming it, or (some
+    // drivers ignore the variable) a working context.
+    MTCUT_REQUIRE_GL();
+    const char* old = std::getenv("EGL_PLATFORM");
+    const std::string saved = old ? old : "";
+    ::setenv("EGL_PLATFORM", "no-such-platform", 1);
+    try {
+        auto ctx = createHeadlessContext();
+        EXPECT_GE(epoxy_gl_version(), 45);
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("no headless OpenGL 4.5 core context"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("EGL_PLATFORM=no-such-platform"), std::string::npos) << e.what();
+    }
+    if (old) ::setenv("EGL_PLATFORM", saved.c_str(), 1); else ::unsetenv("EGL_PLATFORM");
+    MTCUT_REQUIRE_GL(); // the shared context again
+    EXPECT_GE(epoxy_gl_version(), 45);
+}
+
+TEST(RenderGl, WindowContextWorksOrSaysWhy)
+{
+    // No display on a CI machine: a one-line reason, not a crash.
+    try {
+        auto ctx = createWindowContext(64, 64, "test", false);
+        EXPECT_TRUE(ctx->hasWindow());
+        EXPECT_GE(epoxy_gl_version(), 45);
+    } catch (const std::runtime_error& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("GLFW", 0), 0u) << e.what();
+    }
+}
