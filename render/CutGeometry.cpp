@@ -1,0 +1,158 @@
+#include "render/CutGeometry.h"
+
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace mtcut::render {
+
+using openvdb::Coord;
+
+namespace {
+
+Coord gridVertexOf(uint64_t id)
+{
+    constexpr uint64_t mask = (uint64_t(1) << 21) - 1;
+    constexpr int64_t off = int64_t(1) << 20;
+    return Coord(int(int64_t(id & mask) - off), int(int64_t((id >> 21) & mask) - off), int(int64_t(id >> 42) - off));
+}
+
+/// A quad's own plane (kind 0 of a stroke >= 1): see planeIdOf in cutter/Remesh.cpp.
+bool isQuadPlane(uint64_t planeId)
+{
+    return planeId >= (uint64_t(1) << 36) && (planeId & 15u) == 0 && (planeId >> 63) == 0;
+}
+
+bool sharesQuadPlane(const cutter::CutVertexId& a, const cutter::CutVertexId& b, const cutter::CutVertexId& c)
+{
+    for (int i = 0; i < a.planeCount; ++i) {
+        const uint64_t p = a.planes[size_t(i)];
+        if (!isQuadPlane(p)) continue;
+        const bool inB = std::find(b.planes.begin(), b.planes.begin() + b.planeCount, p) != b.planes.begin() + b.planeCount;
+        const bool inC = std::find(c.planes.begin(), c.planes.begin() + c.planeCount, p) != c.planes.begin() + c.planeCount;
+        if (inB && inC) return true;
+    }
+    return false;
+}
+
+/// The gradient normal of the marching-tetrahedra vertex on grid edge
+/// (p0, p1), p0 the lower-keyed end: extractIsosurface's formula (central
+/// differences at both ends, interpolated at the crossing, pointing to lower
+/// values, world space), evaluated in the same float/double steps.
+glm::vec3 gradientNormal(const openvdb::FloatGrid::ConstAccessor& acc, const Coord& dims, float iso,
+                         const openvdb::Vec3d& spacing, const Coord& p0, const Coord& p1)
+{
+    auto value = [&](const Coord& p) { return acc.getValue(p); };
+    auto inBox = [&](const Coord& p) {
+        return p.x() >= 0 && p.y() >= 0 && p.z() >= 0 && p.x() < dims.x() && p.y() < dims.y() && p.z() < dims.z();
+    };
+    const float v0 = value(p0), v1 = value(p1);
+    const double t = cutter::edgeCrossing(v0, v1, iso);
+    glm::vec3 g;
+    for (int a = 0; a < 3; ++a) {
+        Coord e(0);
+        e[a] = 1;
+        const float g0 = 0.5f * (value(p0 + e) - value(p0 - e));
+        const float g1 = 0.5f * (value(p1 + e) - value(p1 - e));
+        g[a] = float(-(g0 + t * (g1 - g0)) * (1.0 / spacing[a]));
+    }
+    const float len = std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+    if (len > 0.0f && std::isfinite(len)) return g / len;
+    const bool in0 = inBox(p0) && v0 >= iso;
+    const float sign = in0 ? 1.0f : -1.0f;
+    for (int a = 0; a < 3; ++a) g[a] = sign * float((p1[a] - p0[a]) * spacing[a]);
+    return g / std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+}
+
+} // namespace
+
+CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue)
+{
+    CutGeometry out;
+    cutter::Mesh& m = out.mesh;
+    const openvdb::Vec3d origin = volume.origin(), spacing = volume.spacing();
+    const openvdb::FloatGrid::ConstAccessor acc = volume.grid->getConstAccessor();
+    std::unordered_map<cutter::CutVertexId, uint32_t, cutter::CutVertexIdHash> welded;
+    std::vector<uint8_t> isIsoVertex;
+    std::vector<uint32_t> index;
+    for (const auto& [cell, geom] : remesher.cells()) {
+        index.resize(geom.vertexIds.size());
+        for (size_t v = 0; v < geom.vertexIds.size(); ++v) {
+            const cutter::CutVertexId& id = geom.vertexIds[v];
+            auto [it, isNew] = welded.emplace(id, uint32_t(m.positions.size()));
+            index[v] = it->second;
+            if (!isNew) continue;
+            const glm::dvec3& p = geom.indexPositions[v];
+            m.positions.push_back(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
+                                            float(origin[2] + spacing[2] * p.z)));
+            const bool iso = id.isIsoEdgeVertex();
+            isIsoVertex.push_back(uint8_t(iso));
+            m.normals.push_back(iso ? gradientNormal(acc, volume.dims, isovalue, spacing, gridVertexOf(id.feature[0]),
+                                                     gridVertexOf(id.feature[1]))
+                                    : glm::vec3(0.0f));
+        }
+        for (size_t i = 0; i < geom.indices.size(); i += 3) {
+            for (int j = 0; j < 3; ++j) m.indices.push_back(index[geom.indices[i + size_t(j)]]);
+            m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
+            out.triangleIsCap.push_back(uint8_t(sharesQuadPlane(geom.vertexIds[geom.indices[i]],
+                                                                geom.vertexIds[geom.indices[i + 1]],
+                                                                geom.vertexIds[geom.indices[i + 2]])));
+        }
+    }
+    // Area-weighted normals of the new vertices, in triangle order (as fusedMesh).
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+        const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
+        if (isIsoVertex[a] && isIsoVertex[b] && isIsoVertex[c]) continue;
+        const glm::vec3 n = glm::cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);
+        for (uint32_t v : {a, b, c})
+            if (!isIsoVertex[v]) m.normals[v] += n;
+    }
+    for (size_t v = 0; v < m.normals.size(); ++v) {
+        if (isIsoVertex[v]) continue;
+        const float l = glm::length(m.normals[v]);
+        m.normals[v] = l > 0 ? m.normals[v] / l : glm::vec3(0, 0, 1);
+    }
+    return out;
+}
+
+std::vector<uint32_t> fragmentIdsOf(const cutter::Mesh& mesh)
+{
+    const std::vector<cutter::Shell> shells = cutter::findShells(mesh);
+    std::vector<size_t> order(shells.size());
+    std::iota(order.begin(), order.end(), size_t(0));
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return shells[a].volume > shells[b].volume; });
+    std::vector<uint32_t> ids(mesh.triangleCount(), 0u);
+    for (size_t rank = 0; rank < order.size(); ++rank) {
+        for (uint32_t t : shells[order[rank]].triangles) ids[t] = uint32_t(rank + 1);
+    }
+    return ids;
+}
+
+void discardFragmentIds(const cutter::CutRemesher& remesher, const cutter::Mesh& fused,
+                        std::vector<uint32_t>& uncutIds, std::vector<uint32_t>& cutIds)
+{
+    const std::vector<uint32_t> ids = fragmentIdsOf(fused);
+    const cutter::Mesh& uncut = remesher.uncut();
+    const auto& cells = remesher.cells();
+    uncutIds.assign(uncut.triangleCount(), 0u);
+    size_t k = 0;
+    for (size_t t = 0; t < uncut.triangleCount(); ++t) {
+        const glm::ivec3 c = uncut.triangleVoxels[t];
+        if (cells.count(Coord(c.x, c.y, c.z))) continue;
+        if (k >= ids.size()) throw std::logic_error("discardFragmentIds: the fused mesh has fewer triangles");
+        uncutIds[t] = ids[k++];
+    }
+    cutIds.assign(ids.begin() + long(k), ids.end());
+    size_t cutTriangles = 0;
+    for (const auto& entry : cells) cutTriangles += entry.second.indices.size() / 3;
+    if (cutIds.size() != cutTriangles) throw std::logic_error("discardFragmentIds: the fused mesh's order is not as expected");
+}
+
+} // namespace mtcut::render

@@ -1,0 +1,50 @@
+// The CPU-made cut geometry in the form the GPU passes draw it, until the
+// GPU cut pass (pass 3) makes it itself: the re-meshed cells of a
+// CutRemesher as one world-space mesh, plus per-triangle data (fragment ids,
+// cap flags). No GL here.
+#pragma once
+
+#include "cutter/Mesh.h"
+#include "cutter/Remesh.h"
+#include "vdb/Volume.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace mtcut::render {
+
+/// The cut cells' triangles as one mesh.
+struct CutGeometry
+{
+    /// World mm; cells ascending, each cell's triangles in order (so the
+    /// triangles are, in order, those fusedMesh() appends after the uncut
+    /// ones). Vertices welded by CutVertexId, as fusedMesh does.
+    /// Normals: marching-tetrahedra vertices (iso edge vertices) get the
+    /// gradient normal extractIsosurface gives them, computed here from the
+    /// volume; every other vertex the area-weighted normal of its cut
+    /// triangles, as fusedMesh.
+    cutter::Mesh mesh;
+    /// 1 for a cap triangle (its three vertices share a blade quad's plane),
+    /// 0 for isosurface pieces. One per triangle.
+    std::vector<uint8_t> triangleIsCap;
+};
+
+/// Builds the cut geometry of `remesher` (updated to its mask) on `volume`
+/// at `isovalue` (the remesher's). Cost O(cut cells' triangles).
+CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue);
+
+/// Fragment id of every triangle of `mesh`: 1 + the index of its shell in
+/// cutter::fragmentsOf order (largest volume first, ties by first triangle),
+/// i.e. fragment_000 -> 1. Cost O(triangles).
+std::vector<uint32_t> fragmentIdsOf(const cutter::Mesh& mesh);
+
+/// Fragment ids for the discard render of a cut, from the shells of
+/// `fused` = remesher.fusedMesh() (fragmentIdsOf): one per uncut triangle
+/// (0 where its cell is re-meshed: the discard pass drops it) and one per
+/// cut-geometry triangle (cutGeometryOf order). Relies on fusedMesh's order:
+/// kept uncut triangles in order, then the cut cells' triangles. Throws
+/// std::logic_error when the counts disagree.
+void discardFragmentIds(const cutter::CutRemesher& remesher, const cutter::Mesh& fused,
+                        std::vector<uint32_t>& uncutIds, std::vector<uint32_t>& cutIds);
+
+} // namespace mtcut::render

@@ -1,0 +1,93 @@
+// The surface passes (DESIGN "GPU passes"): the uncut isosurface in one
+// vertex buffer, uploaded once and never modified, drawn with the discard
+// pass (triangles whose cell is in the GPU-coded cut mask are discarded by
+// their gl_PrimitiveID's cell, not by position), then the cut geometry as a
+// second buffer (for now the CPU re-mesher's, render/CutGeometry.h; the GPU
+// cut pass comes later). Phong shading with the meshes' normals (gradient
+// normals on the isosurface, the blade's plane on caps); optional highlight
+// colour for the caps. Renders off-screen into a framebuffer object with
+// colour, world normal, view depth and fragment-id targets; readFrame()
+// brings them back. Needs a current GL 4.5 context for its whole life.
+#pragma once
+
+#include "cutter/Mesh.h"
+#include "render/Camera.h"
+#include "render/Frame.h"
+#include "render/GlObjects.h"
+#include "render/MaskAtlas.h"
+#include "render/MaskTiling.h"
+
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include <memory>
+#include <vector>
+
+namespace mtcut::render {
+
+struct RenderStyle
+{
+    glm::vec3 colour{0.89f, 0.85f, 0.74f};         ///< bone
+    /// With highlight on: the cut geometry's caps in this colour, its
+    /// isosurface pieces half-way between colour and this.
+    glm::vec3 highlightColour{0.85f, 0.20f, 0.16f};
+    glm::vec4 background{0.0f, 0.0f, 0.0f, 0.0f};   ///< transparent
+    bool highlight = false;
+};
+
+class SurfaceRenderer
+{
+public:
+    /// Off-screen targets of width x height pixels. Throws InputError when the
+    /// size is not in [1, GL_MAX_RENDERBUFFER_SIZE / viewport limit].
+    SurfaceRenderer(int width, int height);
+    ~SurfaceRenderer();
+    SurfaceRenderer(const SurfaceRenderer&) = delete;
+    SurfaceRenderer& operator=(const SurfaceRenderer&) = delete;
+
+    int width() const { return mWidth; }
+    int height() const { return mHeight; }
+
+    /// Uploads the uncut isosurface (positions, normals, indices, per-triangle
+    /// cells; world mm) once. fragmentIds: one per triangle (empty: all 1).
+    /// Clears the cut cells and cut geometry.
+    void setSurface(const cutter::Mesh& uncut, const std::vector<uint32_t>& fragmentIds = {});
+    /// The cells whose surface triangles the discard pass drops, coded on the
+    /// GPU (one point per cell, OR logic-op) or, with gpuCoding false,
+    /// uploaded from the CPU tiles.
+    void setCutCells(const MaskTiling& tiling, bool gpuCoding = true);
+    /// The cut geometry drawn after the surface (world mm, with normals);
+    /// fragmentIds and isCap: one per triangle (empty: all 1 / no caps).
+    /// Fragment ids must be < 2^30.
+    void setCutGeometry(const cutter::Mesh& mesh, const std::vector<uint32_t>& fragmentIds = {},
+                        const std::vector<uint8_t>& isCap = {});
+    /// Drops the cut cells and the cut geometry (the surface alone again).
+    void clearCut();
+
+    /// Bounds of what is drawn (the surface and the cut geometry), world mm.
+    Bounds bounds() const;
+
+    /// Draws a frame (surface with discard, then the cut geometry).
+    void render(const Camera& camera, const RenderStyle& style);
+    /// The last frame's targets.
+    Frame readFrame() const;
+
+    /// The cut mask on the GPU (null before setCutCells).
+    const MaskAtlas* maskAtlas() const { return mAtlas.get(); }
+
+private:
+    struct DrawMesh;
+    std::unique_ptr<DrawMesh> upload(const cutter::Mesh& mesh, const std::vector<uint32_t>& fragmentIds,
+                                     const std::vector<uint8_t>& isCap, bool cutGeometry) const;
+    void draw(const DrawMesh& mesh, const Program& program) const;
+
+    int mWidth, mHeight;
+    Framebuffer mFbo;
+    Texture mColour{GL_TEXTURE_2D}, mNormal{GL_TEXTURE_2D}, mDepthOut{GL_TEXTURE_2D}, mFragment{GL_TEXTURE_2D};
+    Texture mDepth{GL_TEXTURE_2D};
+    Program mDiscardProgram, mPlainProgram;
+    std::unique_ptr<DrawMesh> mSurface, mCut;
+    std::unique_ptr<MaskAtlas> mAtlas;
+};
+
+} // namespace mtcut::render

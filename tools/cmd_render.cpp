@@ -1,0 +1,195 @@
+// mtcut render: a frame of a scan's isosurface, optionally cut along a blade
+// path, drawn headless on the GPU (EGL; Mesa llvmpipe without one): the uncut
+// surface with the cut cells discarded by the GPU-coded mask, plus the cut
+// cells' geometry (from the CPU re-mesher until the GPU cut pass lands).
+// PNG for people; EXR with RGBA, Z, N.X/N.Y/N.Z and fragment channels.
+#include "cutter/CutMask.h"
+#include "cutter/Isosurface.h"
+#include "cutter/PathFile.h"
+#include "cutter/Remesh.h"
+#include "render/Camera.h"
+#include "render/Context.h"
+#include "render/CutGeometry.h"
+#include "render/MaskTiling.h"
+#include "render/SurfaceRenderer.h"
+#include "tools/Cli.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include <unistd.h>
+
+namespace mtcut::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+constexpr long long kMaxImageSide = 8192;
+
+double secondsSince(Clock::time_point t0)
+{
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+int imageSide(const Args& args, const char* name, long long fallback)
+{
+    const long long v = args.getInt(name, fallback);
+    if (v < 1 || v > kMaxImageSide) {
+        throw InputError(std::string("--") + name + " " + args.get(name) + ": expected an integer in [1, " +
+                         std::to_string(kMaxImageSide) + "]");
+    }
+    return int(v);
+}
+
+std::string lowerExtension(const std::string& path)
+{
+    std::string ext = fs::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return ext;
+}
+
+int runRender(const Args& args)
+{
+    // -- arguments: everything checked before the long work --------------------
+    if (!args.has("iso")) throw InputError("mtcut render needs --iso V (the isovalue, in the scan's units)");
+    if (!args.has("output")) throw InputError("mtcut render needs -o OUT.png or -o OUT.exr");
+    const double isoArg = args.getDouble("iso", 0.0);
+    if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
+    const float iso = float(isoArg);
+    const std::string pathFile = args.get("path");
+    const double kerf = args.getDouble("kerf", 0.0);
+    if (!std::isfinite(kerf) || kerf < 0.0) throw InputError("--kerf " + args.get("kerf") + ": expected a number >= 0 (mm)");
+    if (args.has("kerf") && pathFile.empty()) throw InputError("--kerf needs --path (there is no cut without a path)");
+    const int width = imageSide(args, "width", 1024);
+    const int height = imageSide(args, "height", 1024);
+    const std::string view = args.get("view", "front");
+    // The view's syntax, checked now on a unit box (the real bounds come later).
+    (void)render::cameraFor(view, render::Bounds{glm::dvec3(-1.0), glm::dvec3(1.0)}, double(width) / height);
+    const std::string out = args.get("output");
+    const std::string ext = lowerExtension(out);
+    if (ext != ".png" && ext != ".exr") throw InputError("-o " + out + ": expected a .png or .exr file name");
+    {
+        const fs::path parent = fs::path(out).has_parent_path() ? fs::path(out).parent_path() : fs::path(".");
+        std::error_code ec;
+        if (!fs::is_directory(parent, ec)) throw InputError("-o " + out + ": folder " + parent.string() + " does not exist");
+        if (::access(parent.c_str(), W_OK) != 0) throw InputError("-o " + out + ": folder " + parent.string() + " is not writable");
+        if (fs::is_directory(out, ec)) throw InputError("-o " + out + ": is a folder");
+    }
+    std::vector<std::vector<cutter::Pose>> strokes;
+    if (!pathFile.empty()) {
+        strokes = cutter::readPathFile(pathFile); // InputError "FILE:LINE: field ..."
+        if (strokes.empty()) throw InputError(pathFile + ": no poses (an empty path cuts nothing)");
+    }
+
+    // -- the GL context first: no point reading a scan we cannot draw -----------
+    auto t0 = Clock::now();
+    const std::unique_ptr<render::GlContext> context = render::createHeadlessContext();
+
+    const vdb::Volume vol = readInput(args.positional[0], args);
+    const double readSeconds = secondsSince(t0);
+    const std::string warning = cutter::isosurfaceWarning(vol, iso);
+    if (!warning.empty()) std::fprintf(stderr, "mtcut: warning: %s\n", warning.c_str());
+
+    t0 = Clock::now();
+    cutter::Mesh uncut;
+    {
+        ProgressBar progress;
+        cutter::IsosurfaceOptions options;
+        options.interrupter = &progress;
+        uncut = cutter::extractIsosurface(vol, iso, options);
+    }
+    if (uncut.empty()) throw InputError("no surface at iso " + args.get("iso") + ": nothing to render");
+
+    // -- the cut (CPU re-mesher) ---------------------------------------------------
+    render::SurfaceRenderer renderer(width, height);
+    size_t cutCells = 0, fragments = 0, cutTriangles = 0;
+    if (strokes.empty()) {
+        const std::vector<uint32_t> ids = render::fragmentIdsOf(uncut);
+        fragments = ids.empty() ? 0 : *std::max_element(ids.begin(), ids.end());
+        renderer.setSurface(uncut, ids);
+    } else {
+        const cutter::IndexFrame frame = cutter::frameOf(vol);
+        cutter::CutMask mask(frame, kerf);
+        for (const std::vector<cutter::Pose>& stroke : strokes) {
+            const std::vector<cutter::Quad> quads = cutter::filterStroke(stroke, frame);
+            if (quads.empty()) continue;
+            mask.beginStroke();
+            for (const cutter::Quad& q : quads) mask.addQuad(q);
+        }
+        try {
+            cutter::CutRemesher remesher(vol, iso, uncut);
+            remesher.update(mask);
+            const cutter::Mesh fused = remesher.fusedMesh();
+            const render::CutGeometry cut = render::cutGeometryOf(remesher, vol, iso);
+            std::vector<uint32_t> uncutIds, cutIds;
+            render::discardFragmentIds(remesher, fused, uncutIds, cutIds);
+            for (uint32_t id : uncutIds) fragments = std::max<size_t>(fragments, id);
+            for (uint32_t id : cutIds) fragments = std::max<size_t>(fragments, id);
+            renderer.setSurface(uncut, uncutIds);
+            renderer.setCutCells(render::tileMask(render::remeshedCellGrid(remesher)->tree()));
+            renderer.setCutGeometry(cut.mesh, cutIds, cut.triangleIsCap);
+            cutCells = mask.cutCellCount();
+            cutTriangles = cut.mesh.triangleCount();
+        } catch (const InputError&) {
+            throw;
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::runtime_error& e) {
+            throw InputError(e.what()); // "remesh: ... cell (i,j,k)": a configuration the kernel refuses
+        }
+    }
+    const double cutSeconds = secondsSince(t0);
+
+    // -- draw and write ------------------------------------------------------------
+    t0 = Clock::now();
+    const render::Camera camera = render::cameraFor(view, renderer.bounds(), double(width) / height);
+    render::RenderStyle style;
+    style.highlight = args.has("highlight");
+    renderer.render(camera, style);
+    const render::Frame frame = renderer.readFrame();
+    const double renderSeconds = secondsSince(t0);
+    if (ext == ".png") {
+        render::writePng(frame, out);
+    } else {
+        render::writeExr(frame, out);
+    }
+
+    std::printf("surface:    %zu triangles at iso %g, %zu fragment(s)\n", uncut.triangleCount(), double(iso), fragments);
+    if (!strokes.empty()) {
+        std::printf("cut:        %s, %zu cut cells, %zu cut-geometry triangles\n", pathFile.c_str(), cutCells,
+                    cutTriangles);
+    }
+    std::printf("view:       %s, eye (%.1f, %.1f, %.1f) mm, target (%.1f, %.1f, %.1f) mm\n", view.c_str(), camera.eye.x,
+                camera.eye.y, camera.eye.z, camera.target.x, camera.target.y, camera.target.z);
+    std::printf("gl:         %s\n", context->description().c_str());
+    std::printf("time:       read %.2f s, surface and cut %.2f s, render %.2f s\n", readSeconds, cutSeconds,
+                renderSeconds);
+    std::printf("wrote:      %s (%dx%d)\n", out.c_str(), width, height);
+    return 0;
+}
+
+std::vector<std::string> renderOptions()
+{
+    std::vector<std::string> o = kInputOptions;
+    for (const char* name : {"iso", "path", "kerf", "output", "width", "height", "view"}) o.push_back(name);
+    return o;
+}
+
+const CommandRegistrar renderCommand(
+    {"render",
+     "render INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUT.{png,exr} [--width W --height H] "
+     "[--view front|side|top|iso|EX,EY,EZ:TX,TY,TZ[:UX,UY,UZ[:FOV]]] [--highlight]",
+     "draw the isosurface (cut along PATH.csv when given) headless on the GPU into a PNG, or an EXR with RGBA, Z "
+     "(depth, mm), N.X/N.Y/N.Z (world normal) and fragment (uint id) channels; default 1024x1024, front view; "
+     "--highlight colours the cut geometry",
+     renderOptions(), {"highlight"}, 1, 1, runRender});
+
+} // namespace
+
+} // namespace mtcut::cli
