@@ -30,16 +30,38 @@ bool isQuadPlane(uint64_t planeId)
     return planeId >= (uint64_t(1) << 36) && (planeId & 15u) == 0 && (planeId >> 63) == 0;
 }
 
-bool sharesQuadPlane(const cutter::CutVertexId& a, const cutter::CutVertexId& b, const cutter::CutVertexId& c)
+/// The quad plane the three vertices share, or 0 when none.
+uint64_t sharedQuadPlane(const cutter::CutVertexId& a, const cutter::CutVertexId& b, const cutter::CutVertexId& c)
 {
     for (int i = 0; i < a.planeCount; ++i) {
         const uint64_t p = a.planes[size_t(i)];
         if (!isQuadPlane(p)) continue;
         const bool inB = std::find(b.planes.begin(), b.planes.begin() + b.planeCount, p) != b.planes.begin() + b.planeCount;
         const bool inC = std::find(c.planes.begin(), c.planes.begin() + c.planeCount, p) != c.planes.begin() + c.planeCount;
-        if (inB && inC) return true;
+        if (inB && inC) return p;
     }
-    return false;
+    return 0;
+}
+
+/// Trilinear interpolation, at index point p of `cell`, of the central
+/// difference gradients at the cell's corners (pointing to lower values,
+/// world space), normalised; zero when the field is flat there.
+glm::vec3 trilinearGradientNormal(const openvdb::FloatGrid::ConstAccessor& acc, const openvdb::Vec3d& spacing,
+                                  const Coord& cell, const glm::dvec3& p)
+{
+    glm::dvec3 g(0.0);
+    const glm::dvec3 f = glm::clamp(p - glm::dvec3(cell.x(), cell.y(), cell.z()), 0.0, 1.0);
+    for (int c = 0; c < 8; ++c) {
+        const Coord q = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        const double w = ((c & 1) ? f.x : 1.0 - f.x) * (((c >> 1) & 1) ? f.y : 1.0 - f.y) * (((c >> 2) & 1) ? f.z : 1.0 - f.z);
+        for (int a = 0; a < 3; ++a) {
+            Coord e(0);
+            e[a] = 1;
+            g[a] -= w * 0.5 * (double(acc.getValue(q + e)) - double(acc.getValue(q - e))) / spacing[a];
+        }
+    }
+    const double len = glm::length(g);
+    return len > 0.0 && std::isfinite(len) ? glm::vec3(g / len) : glm::vec3(0.0f);
 }
 
 /// The gradient normal of the marching-tetrahedra vertex on grid edge
@@ -73,49 +95,69 @@ glm::vec3 gradientNormal(const openvdb::FloatGrid::ConstAccessor& acc, const Coo
 
 } // namespace
 
-CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue)
+CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue,
+                          CutNormals normals)
 {
     CutGeometry out;
     cutter::Mesh& m = out.mesh;
     const openvdb::Vec3d origin = volume.origin(), spacing = volume.spacing();
     const openvdb::FloatGrid::ConstAccessor acc = volume.grid->getConstAccessor();
-    std::unordered_map<cutter::CutVertexId, uint32_t, cutter::CutVertexIdHash> welded;
-    std::vector<uint8_t> isIsoVertex;
-    std::vector<uint32_t> index;
+    const bool shading = normals == CutNormals::Shading;
+    // Vertex key: the cut vertex, and for shading which surface it is on
+    // (0: the isosurface; otherwise the cap's quad plane id).
+    struct Key
+    {
+        cutter::CutVertexId id;
+        uint64_t surface;
+        bool operator==(const Key& o) const { return surface == o.surface && id == o.id; }
+    };
+    struct KeyHash
+    {
+        size_t operator()(const Key& k) const { return cutter::CutVertexIdHash()(k.id) ^ (k.surface * 0x9e3779b97f4a7c15ull); }
+    };
+    std::unordered_map<Key, uint32_t, KeyHash> welded;
+    std::vector<uint8_t> smooth; // 1: the normal is final (gradient); 0: area-weighted below
     for (const auto& [cell, geom] : remesher.cells()) {
-        index.resize(geom.vertexIds.size());
-        for (size_t v = 0; v < geom.vertexIds.size(); ++v) {
-            const cutter::CutVertexId& id = geom.vertexIds[v];
-            auto [it, isNew] = welded.emplace(id, uint32_t(m.positions.size()));
-            index[v] = it->second;
-            if (!isNew) continue;
-            const glm::dvec3& p = geom.indexPositions[v];
-            m.positions.push_back(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
-                                            float(origin[2] + spacing[2] * p.z)));
-            const bool iso = id.isIsoEdgeVertex();
-            isIsoVertex.push_back(uint8_t(iso));
-            m.normals.push_back(iso ? gradientNormal(acc, volume.dims, isovalue, spacing, gridVertexOf(id.feature[0]),
-                                                     gridVertexOf(id.feature[1]))
-                                    : glm::vec3(0.0f));
-        }
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
-            for (int j = 0; j < 3; ++j) m.indices.push_back(index[geom.indices[i + size_t(j)]]);
+            const uint32_t* corner = &geom.indices[i];
+            const uint64_t plane =
+                sharedQuadPlane(geom.vertexIds[corner[0]], geom.vertexIds[corner[1]], geom.vertexIds[corner[2]]);
+            out.triangleIsCap.push_back(uint8_t(plane != 0));
             m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
-            out.triangleIsCap.push_back(uint8_t(sharesQuadPlane(geom.vertexIds[geom.indices[i]],
-                                                                geom.vertexIds[geom.indices[i + 1]],
-                                                                geom.vertexIds[geom.indices[i + 2]])));
+            for (int j = 0; j < 3; ++j) {
+                const uint32_t v = corner[j];
+                const cutter::CutVertexId& id = geom.vertexIds[v];
+                auto [it, isNew] = welded.emplace(Key{id, shading ? plane : 0}, uint32_t(m.positions.size()));
+                m.indices.push_back(it->second);
+                if (!isNew) continue;
+                const glm::dvec3& p = geom.indexPositions[v];
+                m.positions.push_back(glm::vec3(float(origin[0] + spacing[0] * p.x),
+                                                float(origin[1] + spacing[1] * p.y),
+                                                float(origin[2] + spacing[2] * p.z)));
+                glm::vec3 n(0.0f);
+                if (id.isIsoEdgeVertex() && !(shading && plane)) {
+                    n = gradientNormal(acc, volume.dims, isovalue, spacing, gridVertexOf(id.feature[0]),
+                                       gridVertexOf(id.feature[1]));
+                } else if (shading && !plane) {
+                    n = trilinearGradientNormal(acc, spacing, cell, p);
+                }
+                smooth.push_back(uint8_t(n != glm::vec3(0.0f)));
+                m.normals.push_back(n);
+            }
         }
     }
-    // Area-weighted normals of the new vertices, in triangle order (as fusedMesh).
+    // Area-weighted normals of the rest, in triangle order (as fusedMesh):
+    // with Shading these are cap vertices (one plane each: the blade's
+    // normal) and iso vertices in a flat field.
     for (size_t t = 0; t < m.triangleCount(); ++t) {
         const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
-        if (isIsoVertex[a] && isIsoVertex[b] && isIsoVertex[c]) continue;
+        if (smooth[a] && smooth[b] && smooth[c]) continue;
         const glm::vec3 n = glm::cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);
         for (uint32_t v : {a, b, c})
-            if (!isIsoVertex[v]) m.normals[v] += n;
+            if (!smooth[v]) m.normals[v] += n;
     }
     for (size_t v = 0; v < m.normals.size(); ++v) {
-        if (isIsoVertex[v]) continue;
+        if (smooth[v]) continue;
         const float l = glm::length(m.normals[v]);
         m.normals[v] = l > 0 ? m.normals[v] / l : glm::vec3(0, 0, 1);
     }

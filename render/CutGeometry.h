@@ -13,16 +13,29 @@
 
 namespace mtcut::render {
 
+/// How the cut geometry's vertices get their normals.
+enum class CutNormals
+{
+    /// For shading (DESIGN: gradient normals on the isosurface, the blade's
+    /// normal on caps): isosurface pieces get the volume's gradient normal at
+    /// every vertex (on grid edges exactly extractIsosurface's; elsewhere the
+    /// trilinear interpolation of the cell corners' central differences);
+    /// cap triangles get their blade plane's normal (vertices are not shared
+    /// between caps and isosurface pieces, nor between caps of two planes).
+    Shading,
+    /// As CutRemesher::fusedMesh(): vertices welded by CutVertexId,
+    /// marching-tetrahedra vertices with their gradient normal, every other
+    /// vertex the area-weighted normal of its triangles (caps and isosurface
+    /// pieces mixed). For comparing frames with the fused mesh's.
+    Fused,
+};
+
 /// The cut cells' triangles as one mesh.
 struct CutGeometry
 {
     /// World mm; cells ascending, each cell's triangles in order (so the
     /// triangles are, in order, those fusedMesh() appends after the uncut
-    /// ones). Vertices welded by CutVertexId, as fusedMesh does.
-    /// Normals: marching-tetrahedra vertices (iso edge vertices) get the
-    /// gradient normal extractIsosurface gives them, computed here from the
-    /// volume; every other vertex the area-weighted normal of its cut
-    /// triangles, as fusedMesh.
+    /// ones), the same positions; normals as CutNormals says.
     cutter::Mesh mesh;
     /// 1 for a cap triangle (its three vertices share a blade quad's plane),
     /// 0 for isosurface pieces. One per triangle.
@@ -31,7 +44,8 @@ struct CutGeometry
 
 /// Builds the cut geometry of `remesher` (updated to its mask) on `volume`
 /// at `isovalue` (the remesher's). Cost O(cut cells' triangles).
-CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue);
+CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue,
+                          CutNormals normals = CutNormals::Shading);
 
 /// Fragment id of every triangle of `mesh`: 1 + the index of its shell in
 /// cutter::fragmentsOf order (largest volume first, ties by first triangle),

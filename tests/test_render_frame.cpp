@@ -14,6 +14,12 @@
 // centre lies within ~1e-6 pixel of a triangle edge and changes owner.
 // Bound: fewer than 0.1 % of covered pixels differ by more than 2/255 in any
 // colour channel, or in fragment id; measured differences are printed.
+// This holds for the cut geometry with the fused mesh's normals
+// (CutNormals::Fused). With the shading normals mtcut render uses
+// (CutNormals::Shading: gradient normals on isosurface pieces, the blade's on
+// caps) only the shading of the cut geometry's own pixels may change: depth
+// and fragment ids stay bit for bit those of the fused frame, and every pixel
+// whose colour differs is one the cut geometry covers.
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
@@ -90,7 +96,10 @@ std::vector<Frame> checkOracle(const vdb::Volume& vol, float iso, const cutter::
     cutter::CutRemesher remesher(vol, iso, uncut);
     remesher.update(mask);
     const cutter::Mesh fused = remesher.fusedMesh();
-    const CutGeometry cut = cutGeometryOf(remesher, vol, iso);
+    const CutGeometry cut = cutGeometryOf(remesher, vol, iso, CutNormals::Fused);
+    const CutGeometry shadedCut = cutGeometryOf(remesher, vol, iso, CutNormals::Shading);
+    EXPECT_EQ(shadedCut.mesh.indices.size(), cut.mesh.indices.size());
+    EXPECT_EQ(shadedCut.triangleIsCap, cut.triangleIsCap);
     std::vector<uint32_t> uncutIds, cutIds;
     discardFragmentIds(remesher, fused, uncutIds, cutIds);
     const std::vector<uint32_t> fusedIds = fragmentIdsOf(fused);
@@ -99,10 +108,14 @@ std::vector<Frame> checkOracle(const vdb::Volume& vol, float iso, const cutter::
         EXPECT_EQ(fragments, expectFragments) << what;
     }
 
-    SurfaceRenderer discard(size, size), oracle(size, size);
+    SurfaceRenderer discard(size, size), shaded(size, size), oracle(size, size);
+    const MaskTiling cells = tileMask(remeshedCellGrid(remesher)->tree());
     discard.setSurface(uncut, uncutIds);
-    discard.setCutCells(tileMask(remeshedCellGrid(remesher)->tree()));
+    discard.setCutCells(cells);
     discard.setCutGeometry(cut.mesh, cutIds, cut.triangleIsCap);
+    shaded.setSurface(uncut, uncutIds);
+    shaded.setCutCells(cells);
+    shaded.setCutGeometry(shadedCut.mesh, cutIds, shadedCut.triangleIsCap);
     oracle.setSurface(fused, fusedIds);
     std::vector<Frame> frames;
     for (const std::string& view : views) {
@@ -121,6 +134,27 @@ std::vector<Frame> checkOracle(const vdb::Volume& vol, float iso, const cutter::
         EXPECT_LT(double(c.fragmentDiffer), 1e-3 * double(c.covered)) << what << " " << view;
         // Every fragment of the cut is seen in some view (ids are exactly 0..fragments).
         for (uint32_t id : a.fragments) EXPECT_LE(id, fragments);
+
+        // Shading normals: same coverage, depth and ids; colour changes only
+        // on the cut geometry's pixels (those the highlight recolours).
+        shaded.render(camera, style);
+        const Frame s = shaded.readFrame();
+        RenderStyle lit = style;
+        lit.highlight = true;
+        shaded.render(camera, lit);
+        const Frame h = shaded.readFrame();
+        EXPECT_EQ(s.fragments, b.fragments) << what << " " << view;
+        EXPECT_EQ(s.depth, b.depth) << what << " " << view;
+        size_t cutPixels = 0, recoloured = 0, outside = 0;
+        for (size_t p = 0; p < s.pixelCount(); ++p) {
+            const bool onCut = !std::equal(&s.rgba[4 * p], &s.rgba[4 * p + 4], &h.rgba[4 * p]);
+            const bool differs = !std::equal(&s.rgba[4 * p], &s.rgba[4 * p + 4], &b.rgba[4 * p]);
+            cutPixels += onCut;
+            recoloured += differs;
+            outside += differs && !onCut;
+        }
+        EXPECT_EQ(outside, 0u) << what << " " << view << ": shading changed pixels outside the cut geometry";
+        std::printf("  shading normals: %zu cut-geometry pixels, %zu of them shaded differently\n", cutPixels, recoloured);
         frames.push_back(a);
     }
     return frames;
