@@ -120,22 +120,79 @@ TEST(RenderGl, ObjectsAreMoveOnlyAndFreeTheirNames)
     EXPECT_NO_THROW(checkGlError("objects"));
 }
 
+
+namespace {
+
+/// Sets EGL_PLATFORM for the scope, restoring it after.
+class ScopedEglPlatform
+{
+public:
+    explicit ScopedEglPlatform(const char* value)
+    {
+        const char* old = std::getenv("EGL_PLATFORM");
+        mHad = old != nullptr;
+        if (old) mOld = old;
+        ::setenv("EGL_PLATFORM", value, 1);
+    }
+    ~ScopedEglPlatform()
+    {
+        if (mHad) ::setenv("EGL_PLATFORM", mOld.c_str(), 1); else ::unsetenv("EGL_PLATFORM");
+    }
+
+private:
+    bool mHad = false;
+    std::string mOld;
+};
+
+} // namespace
+
+TEST(RenderGl, EglPlatformIsHonoured)
+{
+    MTCUT_REQUIRE_GL();
+    const std::string shared = mtcut::test::glContext(nullptr)->description();
+    {
+        ScopedEglPlatform env("surfaceless");
+        try {
+            auto ctx = createHeadlessContext();
+            EXPECT_EQ(ctx->description().rfind("EGL surfaceless: ", 0), 0u) << ctx->description();
+            EXPECT_GE(epoxy_gl_version(), 45);
+        } catch (const std::runtime_error& e) { // an EGL without Mesa's surfaceless platform (NVIDIA only)
+            EXPECT_NE(std::string(e.what()).find("surfaceless"), std::string::npos) << e.what();
+        }
+    }
+    {
+        ScopedEglPlatform env("device"); // any EGL device, Mesa's software one included
+        try {
+            auto ctx = createHeadlessContext();
+            EXPECT_EQ(ctx->description().rfind("EGL device ", 0), 0u) << ctx->description();
+            EXPECT_GE(epoxy_gl_version(), 45);
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("device"), std::string::npos) << e.what();
+        }
+    }
+    // The shared context survives the others (its display is not terminated under it).
+    MTCUT_REQUIRE_GL();
+    EXPECT_EQ(mtcut::test::glContext(nullptr)->description(), shared);
+    Buffer b(64, nullptr);
+    EXPECT_TRUE(glIsBuffer(b.id()));
+    EXPECT_NO_THROW(checkGlError("after other contexts"));
+}
+
 TEST(RenderGl, UnknownEglPlatformFailsWithAMessage)
 {
     // A platform no EGL knows: either a clear error naming it, or (some
     // drivers ignore the variable) a working context.
     MTCUT_REQUIRE_GL();
-    const char* old = std::getenv("EGL_PLATFORM");
-    const std::string saved = old ? old : "";
-    ::setenv("EGL_PLATFORM", "no-such-platform", 1);
-    try {
-        auto ctx = createHeadlessContext();
-        EXPECT_GE(epoxy_gl_version(), 45);
-    } catch (const std::runtime_error& e) {
-        EXPECT_NE(std::string(e.what()).find("no headless OpenGL 4.5 core context"), std::string::npos) << e.what();
-        EXPECT_NE(std::string(e.what()).find("EGL_PLATFORM=no-such-platform"), std::string::npos) << e.what();
+    {
+        ScopedEglPlatform env("no-such-platform");
+        try {
+            auto ctx = createHeadlessContext();
+            EXPECT_GE(epoxy_gl_version(), 45);
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("no headless OpenGL 4.5 core context"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("EGL_PLATFORM=no-such-platform"), std::string::npos) << e.what();
+        }
     }
-    if (old) ::setenv("EGL_PLATFORM", saved.c_str(), 1); else ::unsetenv("EGL_PLATFORM");
     MTCUT_REQUIRE_GL(); // the shared context again
     EXPECT_GE(epoxy_gl_version(), 45);
 }
@@ -147,7 +204,9 @@ TEST(RenderGl, WindowContextWorksOrSaysWhy)
         auto ctx = createWindowContext(64, 64, "test", false);
         EXPECT_TRUE(ctx->hasWindow());
         EXPECT_GE(epoxy_gl_version(), 45);
+        std::printf("window context: %s\n", ctx->description().c_str());
     } catch (const std::runtime_error& e) {
         EXPECT_EQ(std::string(e.what()).rfind("GLFW", 0), 0u) << e.what();
+        std::printf("no window context: %s\n", e.what());
     }
 }
