@@ -18,7 +18,7 @@ PACKAGES=(
   libopenvdb-dev libboost-iostreams-dev libtbb-dev
   libopenmesh-dev libopenexr-dev libimath-dev libglm-dev
   libgdcm-dev libnifti2-dev libteem-dev
-  libglfw3-dev libepoxy-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
+  libglfw3-dev libepoxy-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev libpng-dev
   libgtest-dev libbenchmark-dev xvfb clang libclang-rt-14-dev
 )
 
