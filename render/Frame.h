@@ -27,8 +27,8 @@ struct Frame
 /// file renamed; nothing is left on error). Throws InputError naming the file.
 void writePng(const Frame& frame, const std::string& path);
 
-/// Writes a scanline OpenEXR (ZIP) with channels R, G, B, A (half, linear
-/// values of the 8-bit colour / 255), Z (float, depth in mm, +inf where no
+/// Writes a scanline OpenEXR (ZIP) with channels R, G, B, A (half: the 8-bit
+/// colour / 255, as displayed, not linearised), Z (float, depth in mm, +inf where no
 /// surface), N.X, N.Y, N.Z (float, world normal) and fragment (uint, fragment
 /// id, 0 where no surface), atomically. Throws InputError naming the file.
 void writeExr(const Frame& frame, const std::string& path);
