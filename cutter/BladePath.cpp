@@ -3,6 +3,7 @@
 #include "vdb/Error.h"
 
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -338,13 +339,79 @@ void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
     QuadRegion(quad, kerfMm, frame).appendCells(cells);
 }
 
+namespace {
+
+/// `quad` with its convex hull offset outward by `margin` mm in its plane.
+Quad grownQuad(const Quad& quad, double margin)
+{
+    const glm::dvec3 n = quad.normal;
+    glm::dvec3 e1 = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    e1 = glm::normalize(e1 - n * glm::dot(n, e1));
+    const glm::dvec3 e2 = glm::cross(n, e1);
+    const uint32_t m = quad.cornerCount;
+    // Convex hull (CCW around n) by gift wrapping over <= 4 points.
+    auto p2 = [&](uint32_t i) { return glm::dvec2(glm::dot(quad.corners[i], e1), glm::dot(quad.corners[i], e2)); };
+    auto cross2 = [](glm::dvec2 o, glm::dvec2 a, glm::dvec2 b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    uint32_t start = 0;
+    for (uint32_t i = 1; i < m; ++i) {
+        const glm::dvec2 a = p2(i), b = p2(start);
+        if (a.x < b.x || (a.x == b.x && a.y < b.y)) start = i;
+    }
+    std::vector<uint32_t> hull;
+    uint32_t cur = start;
+    do {
+        hull.push_back(cur);
+        uint32_t next = (cur + 1) % m;
+        for (uint32_t i = 0; i < m; ++i) {
+            if (i == cur) continue;
+            const double c = cross2(p2(cur), p2(next), p2(i));
+            const glm::dvec2 dn = p2(next) - p2(cur), di = p2(i) - p2(cur);
+            if (c < 0 || (c == 0 && glm::dot(di, di) > glm::dot(dn, dn))) next = i;
+        }
+        cur = next;
+    } while (cur != start && hull.size() <= m);
+    if (hull.size() < 3 || hull.size() > 4) return quad;
+    const size_t h = hull.size();
+    glm::dvec3 out[4];
+    for (size_t k = 0; k < h; ++k) {
+        const glm::dvec3& prev = quad.corners[hull[(k + h - 1) % h]];
+        const glm::dvec3& v = quad.corners[hull[k]];
+        const glm::dvec3& next = quad.corners[hull[(k + 1) % h]];
+        // Outward in-plane normals of the edges prev->v and v->next (CCW around n).
+        const glm::dvec3 u1 = glm::normalize(glm::cross(v - prev, n));
+        const glm::dvec3 u2 = glm::normalize(glm::cross(next - v, n));
+        const double d = std::max(1.0 + glm::dot(u1, u2), 1e-3);
+        out[k] = v + margin * (u1 + u2) / d;
+    }
+    return makeQuad(out, uint32_t(h), quad.stick);
+}
+
+} // namespace
+
+QuadRegion cutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
+{
+    if (!(kerfMm > 0.0) || quad.degenerate) return QuadRegion(quad, kerfMm, frame);
+    const double lo = std::min({frame.spacing.x, frame.spacing.y, frame.spacing.z});
+    const double hi = std::max({frame.spacing.x, frame.spacing.y, frame.spacing.z});
+    const double margin = 1.01 * 0.5 * kerfMm * std::tan(0.5 * kKerfMitreMaxBend) * hi / lo;
+    return QuadRegion(grownQuad(quad, margin), kerfMm, frame);
+}
+
+void voxelizeCut(const Quad& quad, double kerfMm, const IndexFrame& frame, std::vector<glm::ivec3>& cells)
+{
+    cutRegion(quad, kerfMm, frame).appendCells(cells);
+}
+
 // ---------------------------------------------------------------------------
 // Generators
 
 std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& o)
 {
-    const glm::dvec3 lo = frame.toWorld(glm::dvec3(0.0));
-    const glm::dvec3 hi = frame.toWorld(glm::dvec3(glm::max(frame.dims - 1, glm::ivec3(0))));
+    const bool box = o.boxLo.x < o.boxHi.x && o.boxLo.y < o.boxHi.y && o.boxLo.z < o.boxHi.z;
+    const glm::dvec3 lo = box ? o.boxLo : frame.toWorld(glm::dvec3(0.0));
+    const glm::dvec3 hi = box ? o.boxHi : frame.toWorld(glm::dvec3(glm::max(frame.dims - 1, glm::ivec3(0))));
     const glm::dvec3 size = hi - lo;
     const double cx = lo.x + 0.5 * size.x;
     const double cy = lo.y + o.faceFraction * size.y;
@@ -365,6 +432,7 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
         // The base stays a blade-length outside the bone, pointing inward.
         glm::dvec3 inward = glm::normalize(glm::dvec3(cx - p.x, cy + 0.6 * ay - p.y, 0.0));
         const glm::dvec3 outward = -inward;
+        inward = glm::dvec3(std::cos(o.tilt) * inward.x, std::cos(o.tilt) * inward.y, -std::sin(o.tilt));
         Pose pose;
         pose.time = double(i) / o.rate;
         pose.base = p + 0.3 * o.bladeLength * outward +

@@ -214,6 +214,22 @@ private:
 void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
                   std::vector<glm::ivec3>& cells);
 
+/// Kerf > 0: consecutive quads of a stroke that bend by less than this (radians,
+/// index space) meet on a shared mitre plane in the re-mesher (Remesh.h), so
+/// the removed region of a stroke is a smooth thick strip, not prisms with
+/// micro-notches at every joint. The mitre reaches past K_q by at most
+/// (w/2) tan(bend/2); cutRegion() covers that.
+constexpr double kKerfMitreMaxBend = 0.35;
+
+/// The region whose cells a quad cuts (what CutMask, the pose stream and the
+/// re-mesher voxelise): K_q itself for kerf 0; for kerf w > 0, K_q with its
+/// hull grown in its plane by (w/2) tan(kKerfMitreMaxBend/2) (times the
+/// spacing anisotropy), so the mitre joints are inside cut cells too.
+QuadRegion cutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame);
+
+/// Appends the cells cut by `quad` with kerf (cutRegion(...).appendCells).
+void voxelizeCut(const Quad& quad, double kerfMm, const IndexFrame& frame, std::vector<glm::ivec3>& cells);
+
 // ---------------------------------------------------------------------------
 // Path generators (tests and benchmarks)
 
@@ -234,6 +250,10 @@ struct LeFortOptions
     double rate = 1000.0;            ///< poses per second
     double jitter = 0.05;            ///< mm of hand tremor (seeded)
     uint32_t seed = 1;
+    double tilt = 0.0;               ///< radians the blade points down from horizontal (a LeFort I cut slopes back)
+    /// When set (lo < hi), the fractions above refer to this world box (e.g.
+    /// the bone's bounding box) instead of the scan box.
+    glm::dvec3 boxLo{0.0}, boxHi{0.0};
 };
 std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& options = {});
 

@@ -45,7 +45,7 @@ uint32_t CutMask::beginStroke()
 QuadRef CutMask::addQuad(const Quad& quad)
 {
     std::vector<glm::ivec3> cells;
-    voxelizeQuad(quad, mKerf, mFrame, cells);
+    voxelizeCut(quad, mKerf, mFrame, cells);
     return addQuad(quad, cells);
 }
 

@@ -36,7 +36,8 @@ struct QuadRef
 /// Cells are index-space marching-tetrahedra cells (see BladePath.h): cell
 /// (i,j,k) spans index [i,i+1]x[j,j+1]x[k,k+1]; only cells inside the volume
 /// (0 <= c < dims - 1) are ever cut. A cell is cut by quad q when its closed
-/// box touches q's removed region K_q (QuadRegion, kerf given here).
+/// box touches the region cutRegion(q, kerf) (K_q; for kerf > 0 grown to
+/// cover the re-mesher's mitre joints, see BladePath.h).
 ///
 /// Storage: grid() is an Int32Grid (background 0) whose ACTIVE voxels are
 /// exactly the cut cells, valued with the id of the first stroke that cut them
@@ -63,9 +64,9 @@ public:
     uint32_t beginStroke();
     /// Adds the next quad of the current stroke (a stroke is begun if none
     /// is open), voxelising it. Returns its QuadRef. Cost: voxelisation
-    /// (QuadRegion) + O(cells) hash updates.
+    /// (cutRegion) + O(cells) hash updates.
     QuadRef addQuad(const Quad& quad);
-    /// Same, with cells already computed by voxelizeQuad(quad, kerf(), frame())
+    /// Same, with cells already computed by voxelizeCut(quad, kerf(), frame())
     /// on another thread (the input thread). Cells outside the volume are ignored.
     QuadRef addQuad(const Quad& quad, const std::vector<glm::ivec3>& cells);
 

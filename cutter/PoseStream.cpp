@@ -192,7 +192,7 @@ void InputThread::run()
                 info.line = lineNumber;
                 info.time = pl.pose.time;
                 info.quad = q;
-                if (mOptions.voxelize) voxelizeQuad(q, mOptions.kerfMm, mFrame, info.cells);
+                if (mOptions.voxelize) voxelizeCut(q, mOptions.kerfMm, mFrame, info.cells);
                 mQueue.push(std::move(info));
                 mQuads.fetch_add(1, std::memory_order_relaxed);
             }

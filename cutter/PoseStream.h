@@ -3,7 +3,7 @@
 // the geometry thread consumes it).
 //
 //   LineSource (stdin, UDP on 127.0.0.1, memory)
-//     -> InputThread: parsePathLine -> PathFilter -> voxelizeQuad  (GLM + std)
+//     -> InputThread: parsePathLine -> PathFilter -> voxelizeCut   (GLM + std)
 //     -> SpscQueue<CutInfo>  (lock-free, unbounded: the producer never blocks)
 //     -> geometry thread: drainCutInfo(queue, CutMask) (CutMask.h)
 //
@@ -130,7 +130,7 @@ struct CutInfo
     uint64_t line = 0;      ///< input line that produced it (1-based)
     double time = 0.0;      ///< pose time, s
     Quad quad;
-    std::vector<glm::ivec3> cells; ///< index-space cut cells (voxelizeQuad), if computed
+    std::vector<glm::ivec3> cells; ///< index-space cut cells (voxelizeCut), if computed
     std::string message;
 };
 

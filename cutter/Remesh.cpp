@@ -64,6 +64,8 @@ constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord 
 constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
 constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local vertices of the tet face/edge
 constexpr int kJunctionKind = 7;
+constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
+constexpr double kMaxMitreBend = 0.35; ///< kerf > 0: consecutive prisms bending less than this (rad) meet on a mitre
 
 uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
 {
@@ -280,6 +282,79 @@ QuadGeom makeQuadGeom(const CutMask& mask, const QuadRef& ref)
     return g;
 }
 
+/// Geometry of quad `ref` as a kerf > 0 removed region (DESIGN invariant 7):
+/// the prism K_q of QuadRegion, the hull slab of half-width w/2 around the
+/// quad's plane bounded by the planes through the hull edges perpendicular to
+/// it. Every bounding plane is a side (offset planes: kinds kPlusKind and
+/// kMinusKind), so "inside K_q" is inExtentClosed. Where consecutive quads of
+/// a stroke are coplanar (to 1e-5 rad) the end planes through their shared
+/// edge are one plane object, the mitre (the lower quad's data first), so the
+/// two prisms abut exactly; elsewhere each prism keeps its own end plane and
+/// the union overlaps on the inside of the bend and leaves the notch on the
+/// outside, exactly the region the mask voxelised.
+QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref)
+{
+    const IndexFrame& frame = mask.frame();
+    const Quad& q = mask.quad(ref);
+    QuadGeom g;
+    g.id = planeIdOf(ref.stroke, ref.quad, 0);
+    g.pi = quadPlane(q, frame);
+    const double hw = 0.5 * mask.kerf() / glm::length(q.normal * frame.spacing);
+    const std::vector<int> hull = hullOf(q, frame, g.pi.n);
+    const dvec3 centre = centroidOf(q, frame);
+    for (int k = 0; k < 2; ++k) {
+        QuadGeom::Side side;
+        side.id = planeIdOf(ref.stroke, ref.quad, k == 0 ? kPlusKind : kMinusKind);
+        side.plane.n = g.pi.n;
+        side.plane.d = g.pi.d + (k == 0 ? hw : -hw);
+        side.orient = k == 0 ? -1.0 : 1.0;
+        g.sides.push_back(side);
+    }
+    const size_t m = hull.size();
+    for (size_t e = 0; e < m; ++e) {
+        const dvec3& wa = q.corners[size_t(hull[e])];
+        const dvec3& wb = q.corners[size_t(hull[(e + 1) % m])];
+        const dvec3 a = frame.toIndex(wa), b = frame.toIndex(wb);
+        const dvec3 sdir = glm::cross(g.pi.n, b - a);
+        const double len = glm::length(sdir);
+        if (!(len > 0.0)) continue;
+        QuadGeom::Side side;
+        side.id = planeIdOf(ref.stroke, ref.quad, 1 + int(e));
+        side.plane.n = sdir / len;
+        side.plane.d = glm::dot(side.plane.n, a);
+        for (int dq : {-1, 1}) {
+            const int64_t oq = int64_t(ref.quad) + dq;
+            if (oq < 0 || oq >= int64_t(mask.quadCount(ref.stroke))) continue;
+            const Quad& o = mask.quad(QuadRef{ref.stroke, uint32_t(oq)});
+            if (o.degenerate) continue;
+            const dvec3 on = indexNormal(o, frame);
+            if (!sharesEdge(o, hullOf(o, frame, on), wa, wb)) continue;
+            const dvec3 odir = glm::cross(on, b - a);
+            const double olen = glm::length(odir);
+            if (!(olen > 0.0) || std::abs(glm::dot(sdir / len, odir / olen)) < std::cos(kMaxMitreBend)) continue;
+            const bool lower = dq > 0;
+            const dvec3 nl = lower ? g.pi.n : on, nu = lower ? on : g.pi.n;
+            dvec3 p0 = a, p1 = b;
+            if (lexLess(p1, p0)) std::swap(p0, p1);
+            const dvec3 mdir = glm::cross(nl + nu, p1 - p0);
+            const double mlen = glm::length(mdir);
+            if (!(mlen > 1e-12)) continue;
+            Plane mp;
+            mp.n = mdir / mlen;
+            mp.d = glm::dot(mp.n, p0);
+            const double own = mp.h(centre), other = mp.h(centroidOf(o, frame));
+            if (!(own * other < 0.0)) continue; // folded back: keep the own end plane
+            side.id = planeIdOf(ref.stroke, lower ? ref.quad : uint32_t(oq), kJunctionKind);
+            side.plane = mp;
+            side.partnerId = planeIdOf(ref.stroke, uint32_t(oq), 0);
+            break;
+        }
+        side.orient = side.plane.h(centre) >= 0 ? 1.0 : -1.0;
+        g.sides.push_back(side);
+    }
+    return g;
+}
+
 // ---------------------------------------------------------- 2-D helpers ---
 
 struct Vec2
@@ -443,7 +518,8 @@ public:
     {
     }
 
-    void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, CutCellGeometry& out);
+    /// prism: the quads are kerf > 0 prisms (makePrismGeom), else zero-kerf quads.
+    void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
 
 private:
     // ---- per tet state
@@ -495,6 +571,7 @@ private:
         return std::find(mTriEdgeMasks[k].begin(), mTriEdgeMasks[k].end(), support) != mTriEdgeMasks[k].end();
     }
     bool mFoldConvex = true;
+    bool mPrism = false; ///< kerf > 0: quads are closed prisms, no slits, tags or Steiner points
 
     const Plane* planeById(uint64_t id) const
     {
@@ -584,6 +661,7 @@ private:
     /// the two sides of the slit need a tagged vertex on it.
     bool needsMidpoint(int u, int v, const QuadGeom& r)
     {
+        if (mPrism) return false;
         if (sign(u, r.id) != 0 || sign(v, r.id) != 0) return false;
         if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) || (inSlitOpen(v, r) && !onStripRim(v, r))) return false;
         for (const auto& sd : r.sides)
@@ -719,7 +797,21 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
         if (key.dim == 1 && std::abs(edgeIsoDistance(support, pos0)) <= eps) planes.push_back(kIso);
     }
     // Active quad planes: on the plane and in the closed quad; sides on which it lies.
+    // Prisms (kerf > 0): on the closed prism's boundary, every bounding plane it lies on.
     for (const QuadGeom* q : mQuads) {
+        if (!mPrism) continue;
+        bool in = true, onAny = false;
+        for (const auto& s : q->sides) {
+            const double h = s.orient * s.plane.h(pos0);
+            in = in && h >= -eps;
+            onAny = onAny || std::abs(h) <= eps;
+        }
+        if (!in || !onAny) continue;
+        for (const auto& s : q->sides)
+            if (std::abs(s.plane.h(pos0)) <= eps) planes.push_back(s.id);
+    }
+    for (const QuadGeom* q : mQuads) {
+        if (mPrism) break;
         if (!(std::abs(q->pi.h(pos0)) <= eps)) continue;
         bool in = true;
         for (const auto& s : q->sides) in = in && s.orient * s.plane.h(pos0) >= -eps;
@@ -740,7 +832,30 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     on.insert(on.end(), planes.begin(), planes.end());
     std::sort(on.begin(), on.end());
     on.erase(std::unique(on.begin(), on.end()), on.end());
-    for (int round = 0; round < 4; ++round) {
+    // Prisms: the offset planes of two quads meet on their mitre (it bisects
+    // them), so a point on the mitre and on one quad's offset plane is on the
+    // partner's same-side offset plane too.
+    for (const QuadGeom* q : mQuads) {
+        if (!mPrism) break;
+        auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
+        for (const auto& sd : q->sides) {
+            if (sd.partnerId == 0 || !has(sd.id)) continue;
+            for (int kind : {kPlusKind, kMinusKind}) {
+                const uint64_t mine = (q->id & ~uint64_t(15)) | uint64_t(kind);
+                const uint64_t theirs = (sd.partnerId & ~uint64_t(15)) | uint64_t(kind);
+                if (has(mine) || has(theirs)) {
+                    planes.push_back(sd.id);
+                    planes.push_back(mine);
+                    planes.push_back(theirs);
+                }
+            }
+        }
+    }
+    if (mPrism) {
+        std::sort(planes.begin(), planes.end());
+        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    }
+    for (int round = 0; round < 4 && !mPrism; ++round) {
         std::vector<uint64_t> add;
         auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
         for (const QuadGeom* q : mQuads) {
@@ -927,9 +1042,10 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
     }
 }
 
-void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, CutCellGeometry& out)
+void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     out.clear();
+    mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
     std::map<CutVertexId, uint32_t> cellIndex;
@@ -986,7 +1102,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
             }
             return pos && neg;
         };
-        if (!crosses(q.pi)) continue;
+        if (!mPrism && !crosses(q.pi)) continue;
         bool reach = true;
         for (const auto& s : q.sides) {
             bool any = false;
@@ -995,7 +1111,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         }
         if (!reach) continue;
         mQuads.push_back(&q);
-        mPlanes.push_back({q.id, q.pi});
+        if (!mPrism) mPlanes.push_back({q.id, q.pi});
         for (const auto& s : q.sides) mPlanes.push_back({s.id, s.plane});
     }
 
@@ -1091,12 +1207,29 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         }
         surfaces.push_back(std::move(s));
     }
-    // Caps: the quad's plane through the tet.
+    // Caps: the quad's plane through the tet; with kerf, every face plane of
+    // the prism (one-sided, its surface normal pointing into the prism).
+    struct FacePlane
+    {
+        const QuadGeom* q;
+        uint64_t id;
+        Plane plane;
+        dvec3 normal; // surface normal (zero kerf: reference normal of the two-sided cap)
+    };
+    std::vector<FacePlane> facePlanes;
     for (const QuadGeom* q : mQuads) {
+        if (!mPrism) {
+            facePlanes.push_back({q, q->id, q->pi, q->pi.n});
+            continue;
+        }
+        for (const auto& sd : q->sides) facePlanes.push_back({q, sd.id, sd.plane, sd.orient * sd.plane.n});
+    }
+    for (const FacePlane& fp : facePlanes) {
+        const QuadGeom* q = fp.q;
         double h[4];
         int on = 0;
         for (int i = 0; i < 4; ++i) {
-            h[i] = q->pi.h(mT.p[i]);
+            h[i] = fp.plane.h(mT.p[i]);
             if (std::abs(h[i]) <= epsAt(mT.p[i])) {
                 h[i] = 0;
                 ++on;
@@ -1104,7 +1237,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         }
         std::vector<std::pair<int, dvec3>> pts; // vertex, position
         for (int i = 0; i < 4; ++i)
-            if (h[i] == 0) pts.push_back({makeVertex(uint8_t(1 << i), {q->id}, mT.p[i]), mT.p[i]});
+            if (h[i] == 0) pts.push_back({makeVertex(uint8_t(1 << i), {fp.id}, mT.p[i]), mT.p[i]});
         for (int i = 0; i < 4; ++i)
             for (int j = i + 1; j < 4; ++j) {
                 if (!(h[i] * h[j] < 0)) continue;
@@ -1112,19 +1245,21 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                 if (mT.id[b] < mT.id[a]) std::swap(a, b);
                 const double t = h[a] / (h[a] - h[b]);
                 const dvec3 x = mT.p[a] + t * (mT.p[b] - mT.p[a]);
-                pts.push_back({makeVertex(uint8_t(1 << i | 1 << j), {q->id}, x), x});
+                pts.push_back({makeVertex(uint8_t(1 << i | 1 << j), {fp.id}, x), x});
             }
         if (pts.size() < 3) continue;
         Surface s;
-        s.plane = q->id;
+        s.plane = fp.id;
         s.quad = q;
-        s.normal = q->pi.n;
+        s.normal = fp.normal;
         s.sides = 3;
         if (on == 3) { // the plane is a tet face: only the cap facing away from this tet
             int f = 0;
             while (h[f] == 0) ++f;
             s.sides = h[f] > 0 ? 1 : 2;
+            if (mPrism && glm::dot(fp.normal, fp.plane.n) * h[f] > 0) continue; // faces into this tet
         }
+        if (mPrism) s.sides = 1;
         dvec3 c(0.0);
         for (const auto& p : pts) c += p.second;
         c /= double(pts.size());
@@ -1255,7 +1390,37 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         }
         // Classification.
         std::vector<char> kept(pieces.size(), 1);
-        if (s.quad) {
+        if (mPrism) {
+            // Kerf > 0 (DESIGN's sketch): iso pieces outside every closed prism;
+            // prism face pieces inside closed P, on their own closed face and
+            // outside every other closed prism, except that of two coincident
+            // faces facing the same way the lower quad's is kept.
+            auto insidePrism = [&](const Poly& p, const QuadGeom& q) {
+                for (const auto& sd : q.sides)
+                    if (sd.orient * pieceSign(p, sd.id) < 0) return false;
+                return true;
+            };
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                const Poly& p = pieces[i];
+                bool ok = true;
+                if (!s.quad) {
+                    for (const QuadGeom* q : mQuads) ok = ok && !insidePrism(p, *q);
+                } else {
+                    for (int v : p.v) ok = ok && member(v) >= 0;
+                    ok = ok && insidePrism(p, *s.quad);
+                    for (const QuadGeom* q : mQuads) {
+                        if (!ok) break;
+                        if (q == s.quad || !insidePrism(p, *q)) continue;
+                        bool sameFace = false;
+                        for (const auto& sd : q->sides)
+                            sameFace = sameFace || (pieceSign(p, sd.id) == 0 &&
+                                                    glm::dot(sd.orient * sd.plane.n, s.normal) > 0);
+                        ok = sameFace && q->id > s.quad->id;
+                    }
+                }
+                kept[i] = ok;
+            }
+        } else if (s.quad) {
             for (size_t i = 0; i < pieces.size(); ++i) {
                 bool ok = true;
                 for (int v : pieces[i].v) ok = ok && member(v) >= 0;
@@ -1290,9 +1455,10 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
             }
         }
         for (int side : {1, -1}) {
-            if (s.quad ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
+            if (s.quad && !mPrism ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
             // Slit edges: on another quad's plane inside that quad.
             auto isSlit = [&](int a, int b) {
+                if (mPrism) return false;
                 for (const QuadGeom* r : mQuads) {
                     if (r == s.quad) continue;
                     if (sign(a, r->id) == 0 && sign(b, r->id) == 0 && inExtentClosed(a, *r) && inExtentClosed(b, *r))
@@ -1346,6 +1512,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                 for (size_t k = 0; k < n; ++k) {
                     std::vector<uint64_t> tags;
                     for (const QuadGeom* r : mQuads) {
+                        if (mPrism) break;
                         if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
                         const int sg = stripSide(p, r, p.v[k]);
                         tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
@@ -1353,14 +1520,14 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                     pn[k] = nodeOf(p.v[k], tags);
                 }
                 auto& list = regionEdges[find(int(i))];
-                const bool reverse = s.quad && side > 0;
+                const bool reverse = s.quad && !mPrism && side > 0;
                 for (size_t k = 0; k < n; ++k) {
                     const int a = pn[k], b = pn[(k + 1) % n];
                     if (reverse) list.push_back({b, a, int64_t(p.lab[k])});
                     else list.push_back({a, b, int64_t(p.lab[k])});
                 }
             }
-            const dvec3 outNormal = s.quad && side > 0 ? -s.normal : s.normal;
+            const dvec3 outNormal = s.quad && !mPrism && side > 0 ? -s.normal : s.normal;
             for (auto& re : regionEdges) {
                 auto& edges = re.second;
                 // Boundary edges: those whose reverse is not in the region.
@@ -1501,7 +1668,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
             if (!holesOf[o].empty() && !bridgeHoles(poly, holesOf[o], pts))
                 throw std::runtime_error("remesh: cannot bridge a hole in cell " + cellText(mCell));
             std::vector<int> tris;
-            bool convex = r.cap && outers.size() == 1 && holesOf[o].empty();
+            bool convex = r.cap && !mPrism && outers.size() == 1 && holesOf[o].empty();
             for (size_t i = 0; i < poly.size() && convex; ++i) {
                 const Vec2 &a = pts[size_t(poly[(i + poly.size() - 1) % poly.size()])], &b = pts[size_t(poly[i])],
                            &c = pts[size_t(poly[(i + 1) % poly.size()])];
@@ -1553,8 +1720,8 @@ std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>&
 {
     std::vector<QuadGeom> quads;
     for (const QuadRef& r : refs) {
-        if (mask.quad(r).degenerate) continue; // zero area: removes nothing with zero kerf
-        quads.push_back(makeQuadGeom(mask, r));
+        if (mask.quad(r).degenerate) continue; // zero area: removes nothing (the mask gives it no kerf either)
+        quads.push_back(mask.kerf() > 0 ? makePrismGeom(mask, r) : makeQuadGeom(mask, r));
     }
     for (QuadGeom& q : quads)
         for (auto& s : q.sides) {
@@ -1577,15 +1744,38 @@ std::array<double, 12> quadSignature(const CutMask& mask, const QuadRef& r)
 
 } // namespace
 
+openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
+{
+    auto removed = openvdb::MaskGrid::create(false);
+    if (!(mask.kerf() > 0)) return removed;
+    auto acc = removed->getAccessor();
+    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
+        const std::vector<QuadGeom> quads = cellQuads(mask, list);
+        for (int k = 0; k < 8; ++k) {
+            const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+            if (acc.isValueOn(g)) continue;
+            const dvec3 x(g.x(), g.y(), g.z());
+            for (const QuadGeom& q : quads) {
+                bool in = true;
+                for (const auto& sd : q.sides) in = in && sd.orient * sd.plane.h(x) >= 0.0;
+                if (in) {
+                    acc.setValueOn(g);
+                    break;
+                }
+            }
+        }
+    });
+    return removed;
+}
+
 void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, const openvdb::Coord& cell,
                 CutCellGeometry& out)
 {
-    if (mask.kerf() > 0) throw InputError("remesh: kerf > 0 is not implemented yet (use --kerf 0)");
     out.clear();
     const std::vector<QuadRef>* refs = mask.quadsAt(cell);
     if (!refs) return;
     RemeshKernel kernel(volume, isovalue);
-    kernel.remesh(cell, cellQuads(mask, *refs), out);
+    kernel.remesh(cell, cellQuads(mask, *refs), mask.kerf() > 0, out);
 }
 
 CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
@@ -1777,11 +1967,81 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
         os << "an edge used " << u.first << " time(s) one way and " << back << " the other";
         fail(os.str(), cell);
     }
+    // Every vertex of a changed cell's triangles has one fan (a disc): all the
+    // triangles that can use it are in the region.
+    std::unordered_map<uint32_t, std::vector<std::pair<uint32_t, uint32_t>>> links;
+    for (const Tri& tr : tris)
+        if (isChanged(tr.cell))
+            for (int k = 0; k < 3; ++k) links[tr.v[k]];
+    for (const Tri& tr : tris)
+        for (int k = 0; k < 3; ++k) {
+            auto it = links.find(tr.v[k]);
+            if (it != links.end()) it->second.push_back({tr.v[(k + 1) % 3], tr.v[(k + 2) % 3]});
+        }
+    for (const auto& [v, link] : links) {
+        size_t steps = 0;
+        uint32_t at = link[0].second;
+        while (steps < link.size()) {
+            auto next = std::find_if(link.begin(), link.end(), [&](const auto& e) { return e.first == at; });
+            if (next == link.end()) break;
+            at = next->second;
+            ++steps;
+            if (at == link[0].second) break;
+        }
+        if (steps == link.size()) continue;
+        Coord lo, hi;
+        cellsHolding(ids[v], lo, hi);
+        Coord cell = changed.front();
+        for (const Coord& c : changed)
+            if (lo.x() <= c.x() && c.x() <= hi.x() && lo.y() <= c.y() && c.y() <= hi.y() && lo.z() <= c.z() &&
+                c.z() <= hi.z()) {
+                cell = c;
+                break;
+            }
+        fail("a vertex where the surface pinches: not a 2-manifold", cell);
+    }
+    // No triangle of a changed cell is degenerate once in float world mm, with
+    // the positions fusedMesh() gives (iso edge vertices: the uncut mesh's; a
+    // new vertex: from the first cell, in ascending order, that makes it).
+    const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
+    std::unordered_map<uint32_t, glm::dvec3> worldOf;
+    for (const Coord& c : region) {
+        auto cut = mCells.find(c);
+        if (cut == mCells.end()) continue;
+        const CutCellGeometry& g = cut->second;
+        std::vector<std::pair<std::pair<uint64_t, uint64_t>, uint32_t>> edgeMap;
+        auto range = mUncutCells.find(c);
+        if (range != mUncutCells.end()) {
+            uncutCornerEdges(c, corners);
+            for (size_t k = 0; k < corners.size(); ++k)
+                edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(range->second.first) + k]});
+        }
+        for (size_t v = 0; v < g.vertexIds.size(); ++v) {
+            const CutVertexId& id = g.vertexIds[v];
+            const uint32_t name = names.at(id);
+            if (worldOf.count(name)) continue;
+            if (id.isIsoEdgeVertex()) {
+                const std::pair<uint64_t, uint64_t> key{id.feature[0], id.feature[1]};
+                for (const auto& e : edgeMap)
+                    if (e.first == key) worldOf[name] = glm::dvec3(mUncut.positions[e.second]);
+                continue;
+            }
+            const glm::dvec3& p = g.indexPositions[v];
+            worldOf[name] = glm::dvec3(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
+                                                 float(origin[2] + spacing[2] * p.z)));
+        }
+    }
+    for (const Tri& tr : tris) {
+        if (!isChanged(tr.cell) || !mCells.count(tr.cell)) continue;
+        auto a = worldOf.find(tr.v[0]), b = worldOf.find(tr.v[1]), d = worldOf.find(tr.v[2]);
+        if (a == worldOf.end() || b == worldOf.end() || d == worldOf.end()) continue;
+        const glm::dvec3 n = glm::cross(b->second - a->second, d->second - a->second);
+        if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) fail("a triangle of zero area in float mm", tr.cell);
+    }
 }
 
 size_t CutRemesher::update(const CutMask& mask)
 {
-    if (mask.kerf() > 0) throw InputError("remesh: kerf > 0 is not implemented yet (use --kerf 0)");
     // The cells to re-mesh: the mask's, plus the cells just outside the scan
     // box that a quad of a border cell touches (the isosurface closes there,
     // and the mask only holds cells inside the box).
@@ -1806,7 +2066,7 @@ size_t CutRemesher::update(const CutMask& mask)
                     for (const QuadRef& r : list) {
                         auto it = regions.find({r.stroke, r.quad});
                         if (it == regions.end())
-                            it = regions.emplace(std::make_pair(r.stroke, r.quad), QuadRegion(mask.quad(r), mask.kerf(), mask.frame())).first;
+                            it = regions.emplace(std::make_pair(r.stroke, r.quad), cutRegion(mask.quad(r), mask.kerf(), mask.frame())).first;
                         if (it->second.touchesCell(glm::ivec3(n.x(), n.y(), n.z()))) cells[n].push_back(r);
                     }
                 }
@@ -1878,7 +2138,7 @@ size_t CutRemesher::update(const CutMask& mask)
             save(c);
             CutCellGeometry& geometry = mCells[c];
             mRecords[c] = std::move(rec);
-            mKernel->remesh(c, cellQuads(mask, mRecords[c].quads), geometry);
+            mKernel->remesh(c, cellQuads(mask, mRecords[c].quads), mask.kerf() > 0, geometry);
             if (mCellHook) mCellHook(c, geometry);
             ++count;
         }

@@ -1,6 +1,6 @@
 // `mtcut cut` end to end: a ball cut straight through by a path file gives two
 // closed fragments whose volumes add up to the uncut one, cut.vdb, slices.exr
-// and summary.json; kerf > 0 and a bad path file fail cleanly.
+// and summary.json; a saw of width > 0 removes its slab; a bad path file fails cleanly.
 #include "TestUtil.h"
 
 #include "cutter/Isosurface.h"
@@ -176,19 +176,47 @@ TEST(CutCli, StraightCutThroughABallGivesTwoClosedFragmentsAndAllOutputs)
     EXPECT_EQ(objs, (std::vector<std::string>{"fragment_000.obj", "fragment_001.obj"}));
 }
 
-TEST(CutCli, KerfAboveZeroFailsWithOneLineAndWritesNothing)
+// A 1 mm saw through the ball: two clean fragments whose volumes add up to
+// the ball minus the slab (pi (R^2 y - y^3/3) over |y - 0.37| <= 0.5) within
+// one tet per cut cell, and the carved grid has the slab's voxels removed.
+TEST(CutCli, KerfCutThroughABallRemovesTheSlab)
 {
     openvdb::initialize();
     TempDir dir;
     const std::string ball = writeBall(dir);
     const std::string path = writeStraightPath(dir);
     const std::string out = dir.file("out");
-    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " --kerf 1 -o " + out);
-    EXPECT_EQ(r.exitCode, 1) << r.output;
-    EXPECT_EQ(r.output.rfind("mtcut: error: ", 0), 0u) << r.output;
-    EXPECT_NE(r.output.find("kerf"), std::string::npos) << r.output;
-    EXPECT_EQ(countOf(r.output, "\n"), 1u) << r.output;
-    EXPECT_TRUE(filesIn(out).empty()) << "partial output in " << out;
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " --kerf 1 -o " + out + " --check");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    double sum = 0.0;
+    size_t count = 0;
+    for (const std::string& name : filesIn(out)) {
+        if (name.rfind("fragment_", 0) != 0) continue;
+        const cutter::Mesh m = cutter::readMesh(out + "/" + name);
+        EXPECT_TRUE(cutter::checkMesh(m).ok()) << name;
+        sum += cutter::meshVolume(m);
+        ++count;
+    }
+    EXPECT_EQ(count, 2u) << r.output;
+    const vdb::Volume vol = vdb::readVolume(ball);
+    const double uncut = cutter::meshVolume(cutter::extractIsosurface(vol, 0.0f));
+    auto F = [](double y) { return M_PI * (kRadius * kRadius * y - y * y * y / 3.0); };
+    const double slab = F(0.37 + 0.5) - F(0.37 - 0.5);
+    const std::string json = readText(out + "/summary.json");
+    EXPECT_NE(json.find("\"kerf_mm\": 1,"), std::string::npos) << json;
+    const size_t at = json.find("\"cut_cells\": ");
+    ASSERT_NE(at, std::string::npos);
+    const double cells = std::stod(json.substr(at + 13));
+    EXPECT_NEAR(uncut - sum, slab, cells / 6.0 + std::abs(uncut - 4.0 / 3.0 * M_PI * std::pow(kRadius, 3)));
+    // Carved: the voxels of the plane y = 0.5 (j = 20) inside the ball are gone.
+    openvdb::io::File file(out + "/cut.vdb");
+    file.open();
+    auto carved = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("carved"));
+    file.close();
+    ASSERT_TRUE(carved);
+    const float bg = carved->background();
+    EXPECT_EQ(carved->tree().getValue(openvdb::Coord(20, 20, 20)), bg);
+    EXPECT_EQ(carved->tree().getValue(openvdb::Coord(20, 22, 20)), vol.grid->tree().getValue(openvdb::Coord(20, 22, 20)));
 }
 
 TEST(CutCli, BadPathFileFailsNamingTheLine)

@@ -58,7 +58,7 @@ void expectMatchesReference(const CutMask& m, const std::vector<std::vector<Quad
     for (size_t s = 0; s < strokes.size(); ++s)
         for (size_t q = 0; q < strokes[s].size(); ++q) {
             std::vector<ivec3> cells;
-            voxelizeQuad(strokes[s][q], m.kerf(), m.frame(), cells);
+            voxelizeCut(strokes[s][q], m.kerf(), m.frame(), cells);
             for (const ivec3& c : cells) ref[{c.x, c.y, c.z}].push_back({uint32_t(s + 1), uint32_t(q)});
         }
     ASSERT_EQ(m.cutCellCount(), ref.size());
@@ -110,7 +110,7 @@ TEST(CutMask, MatchesReferenceAndUndoEqualsRebuild)
                 for (const Quad& q : all[next]) {
                     // lastNewCells = this quad's cells not cut before.
                     std::vector<ivec3> cells;
-                    voxelizeQuad(q, kerf, f, cells);
+                    voxelizeCut(q, kerf, f, cells);
                     size_t fresh = 0;
                     for (const ivec3& c : cells) fresh += mask.isCut({c.x, c.y, c.z}) ? 0 : 1;
                     mask.addQuad(q);

@@ -144,6 +144,38 @@ TEST(Remesh, SphereCutThroughByAPlaneGivesTwoShells)
     }
 }
 
+// Kerf > 0 (invariant 7): the same sphere cut by a slab of width w around
+// y = c: two shells, and the volume removed is the slab's part of the solid
+// within one tet per cut cell.
+TEST(Remesh, SphereCutByAKerfSlabGivesTwoShellsAndLosesTheSlab)
+{
+    const double R = 15.0;
+    for (double kerf : {0.5, 1.3, 0.05}) {
+        for (double yCut : {0.37, -4.0, 0.0, 0.25}) { // 0.25: a slab face on the grid plane y = 0.5 for w = 0.5
+            const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+            const Mesh uncut = extractIsosurface(vol, 0.0f);
+            CutMask mask(frameOf(vol), kerf);
+            addStroke(mask, straightStroke(dvec3(-25, yCut, 22), dvec3(25, yCut, 22), dvec3(0, 0, -1), 45.0, 200));
+            CutRemesher remesher(vol, 0.0f, uncut);
+            remesher.update(mask);
+            const CutResult c = cutAndCheck(remesher);
+            EXPECT_TRUE(c.check.ok()) << "kerf " << kerf << " y = " << yCut << "\n" << c.check.report();
+            ASSERT_EQ(c.fragments.size(), 2u) << "kerf " << kerf << " y = " << yCut;
+            const double v0 = meshVolume(uncut);
+            const double sum = c.fragments[0].volume + c.fragments[1].volume;
+            // The slab's share of the ball: integral of pi (R^2 - y^2) over |y - c| <= w/2.
+            auto F = [&](double y) { return M_PI * (R * R * y - y * y * y / 3.0); };
+            const double slab = F(yCut + kerf / 2) - F(yCut - kerf / 2);
+            const double sphere = 4.0 / 3.0 * M_PI * R * R * R;
+            const double bound = std::abs(v0 - sphere) + double(mask.cutCellCount()) / 6.0;
+            EXPECT_NEAR(v0 - sum, slab, bound) << "kerf " << kerf << " y = " << yCut;
+            std::printf("kerf %g y=%g: cut cells %zu, triangles %zu, removed %.3f mm^3 (slab %.3f, bound %.3f)\n", kerf,
+                        yCut, mask.cutCellCount(), c.fused.triangleCount(), v0 - sum, slab, bound);
+            expectUntouchedOutside(uncut, c.fused, mask, remesher);
+        }
+    }
+}
+
 // The blade stops inside the sphere: one shell, still closed and manifold;
 // a blade wholly inside leaves a closed zero-volume crack (a cavity shell).
 TEST(Remesh, BladeStoppingInsideKeepsOneClosedShell)
@@ -190,14 +222,15 @@ struct Stats
 /// after each: zero defects, untouched outside, volume kept (zero kerf), then
 /// undoes them one by one checking that each earlier mesh comes back exactly.
 void cutRandomly(const vdb::Volume& vol, float iso, const std::vector<std::vector<Pose>>& strokes, Stats& st,
-                 const std::string& what)
+                 const std::string& what, double kerf = 0.0)
 {
     const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
     ASSERT_TRUE(checkMesh(uncut).ok());
     const double v0 = meshVolume(uncut);
-    CutMask mask(frameOf(vol), 0.0);
+    CutMask mask(frameOf(vol), kerf);
     CutRemesher remesher(vol, iso, uncut);
     std::vector<Mesh> history{uncut};
+    double vPrev = v0;
     for (size_t s = 0; s < strokes.size(); ++s) {
         const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
         mask.beginStroke();
@@ -205,10 +238,18 @@ void cutRandomly(const vdb::Volume& vol, float iso, const std::vector<std::vecto
         const auto t0 = std::chrono::steady_clock::now();
         try {
             st.cells += remesher.update(mask);
-        } catch (const std::exception& e) {
-            ADD_FAILURE() << what << " stroke " << s << ": " << e.what();
+        } catch (const std::runtime_error& e) {
+            // A refusal names a cell and leaves the remesher as it was: undo the
+            // stroke as the tools do, check nothing changed, go on.
+            const std::string m = e.what();
+            EXPECT_EQ(m.rfind("remesh: ", 0), 0u) << m;
+            EXPECT_NE(m.find(" cell ("), std::string::npos) << m;
+            std::printf("%s stroke %zu refused: %s\n", what.c_str(), s, m.c_str());
             ++st.failures;
-            return;
+            ASSERT_TRUE(mask.undoStroke());
+            EXPECT_EQ(remesher.update(mask), 0u);
+            EXPECT_TRUE(sameMesh(remesher.fusedMesh(), history.back()));
+            continue;
         }
         Mesh fused = remesher.fusedMesh();
         st.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -216,15 +257,18 @@ void cutRandomly(const vdb::Volume& vol, float iso, const std::vector<std::vecto
         st.defects += check.defects();
         ++st.strokes;
         EXPECT_TRUE(check.ok()) << what << " stroke " << s << "\n" << check.report();
-        EXPECT_NEAR(meshVolume(fused), v0, 1e-6 * std::abs(v0) + 1e-3) << what << " stroke " << s;
+        const double v = meshVolume(fused);
+        if (kerf == 0.0) EXPECT_NEAR(v, v0, 1e-6 * std::abs(v0) + 1e-3) << what << " stroke " << s;
+        else EXPECT_LE(v, vPrev + 1e-6 * std::abs(v0) + 1e-3) << what << " stroke " << s << ": a kerf added volume";
+        vPrev = v;
         expectUntouchedOutside(uncut, fused, mask, remesher);
         history.push_back(std::move(fused));
     }
-    for (size_t s = strokes.size(); s-- > 0;) {
+    for (size_t s = history.size() - 1; s-- > 0;) {
         ASSERT_TRUE(mask.undoStroke());
         remesher.update(mask);
         const Mesh back = remesher.fusedMesh();
-        EXPECT_TRUE(sameMesh(back, history[s])) << what << ": undo to stroke " << s << " is not the earlier mesh";
+        EXPECT_TRUE(sameMesh(back, history[s])) << what << ": undo to accepted stroke " << s << " is not the earlier mesh";
     }
 }
 
@@ -252,6 +296,27 @@ TEST(Remesh, RandomStrokesOnTheHeadHaveZeroDefectsAndUndoExactly)
                 st.cells, st.defects, st.failures, 1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
     EXPECT_EQ(st.defects, 0u);
     EXPECT_EQ(st.failures, 0u);
+}
+
+// The same strokes with a 0.5 mm and a 1.5 mm saw (kerf > 0): zero defects,
+// volume never grows, untouched outside, exact undo.
+TEST(Remesh, RandomKerfStrokesOnTheHeadHaveZeroDefectsAndUndoExactly)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const IndexFrame frame = frameOf(vol);
+    Stats st;
+    for (uint32_t seed = 1; seed <= 25; ++seed) {
+        const auto strokes = makeRandomStrokes(frame, seed, 4, 300, 0.5 + 0.1 * (seed % 5), 40.0);
+        cutRandomly(vol, 400.0f, strokes, st, "seed " + std::to_string(seed), seed % 2 ? 0.5 : 1.5);
+    }
+    std::printf("4 mm head, kerf: %zu strokes clean, %zu refused, %zu cells re-meshed, %zu defects, %.1f us per cell\n",
+                st.strokes, st.failures, st.cells, st.defects, 1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
+    // Never silent: every stroke is clean or refused naming a cell. Refusals
+    // (where the tip rims of two joined prisms leave sub-micron slivers or the
+    // blade pivots on a point) are bounded, not yet zero: 10 of 100 measured.
+    EXPECT_EQ(st.defects, 0u);
+    EXPECT_LE(st.failures, 12u);
 }
 
 // The LeFort I stroke on the 4 mm and 2 mm heads: zero defects, exact undo.
@@ -298,12 +363,14 @@ TEST(Remesh, CrossingAndGridAlignedStrokesOnTheSphereUndoExactly)
         turn.push_back(p);
     }
     strokes.push_back(turn);
-    Stats st;
-    cutRandomly(vol, 0.0f, strokes, st, "sphere");
-    std::printf("sphere: %zu strokes, %zu cells re-meshed, %zu defects, %.1f us per cell\n", st.strokes, st.cells,
-                st.defects, 1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
-    EXPECT_EQ(st.strokes, strokes.size());
-    EXPECT_EQ(st.defects, 0u);
+    for (double kerf : {0.0, 0.5, 1.0}) { // 1.0: the slab faces of the grid-plane stroke lie on grid planes
+        Stats st;
+        cutRandomly(vol, 0.0f, strokes, st, "sphere, kerf " + std::to_string(kerf), kerf);
+        std::printf("sphere, kerf %g: %zu strokes, %zu cells re-meshed, %zu defects, %.1f us per cell\n", kerf,
+                    st.strokes, st.cells, st.defects, 1e6 * st.seconds / double(std::max<size_t>(st.cells, 1)));
+        EXPECT_EQ(st.strokes, strokes.size());
+        EXPECT_EQ(st.defects, 0u);
+    }
 }
 
 // Never silent: a cell whose new geometry does not close up with its

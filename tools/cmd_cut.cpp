@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -138,11 +139,28 @@ bool looksLikePhantom(const vdb::Volume& vol)
 }
 
 /// The built-in stroke: makeLeFortStroke on the volume's frame; on the
-/// phantom, at the height of its LeFort I plane.
-std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::IndexFrame& frame, bool* onPhantom)
+/// phantom, at the height of its LeFort I plane; on other inputs, fitted to
+/// the bounding box of the isosurface (a head scan from the vertex to the
+/// neck: the ellipse at 42 % of the bone's height runs through the maxilla).
+std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::IndexFrame& frame,
+                                        const cutter::Mesh& surface, bool* onPhantom)
 {
     cutter::LeFortOptions options;
     *onPhantom = looksLikePhantom(vol);
+    if (!*onPhantom && !surface.positions.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+        for (const glm::vec3& p : surface.positions) {
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(lo[a], double(p[a]));
+                hi[a] = std::max(hi[a], double(p[a]));
+            }
+        }
+        options.boxLo = lo;
+        options.boxHi = hi;
+        options.zFraction = 0.42;
+        options.jitter = 0.0;
+        options.tilt = 0.1;
+    }
     if (*onPhantom) {
         const double lo = frame.toWorld(glm::dvec3(0.0)).z;
         const double hi = frame.toWorld(glm::dvec3(0.0, 0.0, double(std::max(frame.dims.z - 1, 0)))).z;
@@ -222,7 +240,7 @@ int runCut(const Args& args)
     t0 = Clock::now();
     const cutter::IndexFrame frame = cutter::frameOf(vol);
     bool onPhantom = false;
-    if (strokes.empty()) strokes.push_back(builtinStroke(vol, frame, &onPhantom));
+    if (strokes.empty()) strokes.push_back(builtinStroke(vol, frame, uncut, &onPhantom));
     cutter::CutMask mask(frame, kerf);
     size_t quadCount = 0;
     for (const std::vector<cutter::Pose>& stroke : strokes) {
@@ -282,11 +300,11 @@ int runCut(const Args& args)
     }
     removeStaleFragments(outDir, written);
 
-    // Carved volume: voxels whose centre lies in the removed region. With
-    // kerf 0 the blade removes nothing, so the removed set is empty.
-    const openvdb::MaskGrid removed;
+    // Carved volume: voxels whose centre lies in the removed region (the
+    // kerf's prisms). With kerf 0 the blade removes nothing.
+    const openvdb::MaskGrid::Ptr removed = cutter::removedVoxels(mask);
     vdb::Volume carved = vol;
-    carved.grid = vdb::carveVolume(vol, removed);
+    carved.grid = vdb::carveVolume(vol, *removed);
     const openvdb::Int32Grid& cutMaskGrid = *mask.grid();
     vdb::CutInfo info;
     info.isovalue = iso;
@@ -353,7 +371,7 @@ std::vector<std::string> cutOptions()
 const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--check]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. Only "
-                            "kerf 0 so far (a zero-width blade: the carved volume equals the input); --check: exit 1 "
+                            "--kerf: saw width in mm (0: a zero-width blade, the carved volume equals the input); --check: exit 1 "
                             "on any mesh defect",
                             cutOptions(), {"check"}, 1, 1, runCut});
 
