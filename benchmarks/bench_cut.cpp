@@ -1,0 +1,769 @@
+// Cut-update latency: a new piece of stroke -> cut mask -> re-meshed and
+// fused geometry (CutRemesher), for straight zero-kerf strokes through bone
+// whose cut-cell counts are close to the paper's Table 1 (419, 3,638 and
+// 11,716 cells), on the phantom (512x512x256) and on the real VHM head
+// (512x512x245, 1 mm, iso 400 HU), against two baselines run in the same
+// process:
+//   (a) re-extract: carve the cut cells' voxels out of the volume
+//       (vdb::carveVolume; cell (i,j,k) -> voxel (i,j,k), a 1-voxel slot) and
+//       extractIsosurface of the whole volume (TBB, 2 threads), i.e. what a
+//       tool without local re-meshing does per step;
+//   (b) the OpenVDB route: the bone as a narrow-band level set (built once,
+//       outside the timing: volumeToMesh of the CT grid at the isovalue ->
+//       meshToLevelSet, uniform voxel = the scan's smallest spacing, half
+//       width 3), and per step: the step's quad as a closed slab mesh of
+//       thickness max(kerf, 1 level-set voxel) -> meshToLevelSet, a deep copy
+//       of the bone level set, csgDifference, volumeToMesh (2 threads).
+//
+// Ours (one core: tbb::global_control max_allowed_parallelism 1):
+//   step:  one new quad (QuadRegion voxelisation + CutMask::addQuad) to the
+//          updated cut geometry (CutRemesher::update); fusedMesh() (an
+//          O(whole mesh) copy the GPU path does not need) timed separately.
+//          The steps are the last `kSteps` quads of the cut, re-added after
+//          CutMask::undoToQuad, so the mask holds the whole cut minus a few
+//          quads when they run (the real haptic situation at that cut size).
+//   whole: a fresh remesher's update() over the whole mask, and + fusedMesh().
+//   noop:  update() when nothing changed (the per-update O(cut cells) scan).
+//   kernel: remeshCell() over every cut cell, from outside (kernel alone).
+// Times are medians of --runs repeats (steps: runs x kSteps samples).
+//
+// The stroke: in a horizontal plane at the LeFort I level (phantom: its
+// leFortZ landmark; head: 0.32 of the box height), half a voxel off the grid
+// planes, the base sweeping along +x in front of the face (3 mm in front of
+// the first bone at the centre), the blade pointing posterior (+y) with length
+// B and the sweep 1.5 B long; B is binary-searched for each target cell
+// count (cut cells = the mask's cells, air included; "surface cells" are
+// those with new geometry). Poses every 0.25 voxel at 1 kHz -> PathFilter ->
+// quads, as mtcut cut does. When the remesher refuses a stroke (it throws for
+// some configurations) other strokes are tried in order (see kindOf): shifted
+// and turned ones, then ones whose tip line holds no bone surface ("air"),
+// then through-cuts; the count of refused strokes is printed.
+//
+// Usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only]
+//                  [--targets N,N,...] [--no-baselines] [--dump DIR]
+//   --quick: 256x256x128 phantom and the 4 mm head, targets 100,419,1000, 1 run.
+//   --no-baselines: ours only (to profile the remesher, e.g. under perf).
+//   --dump DIR: write every refused stroke to DIR as a path file (mtcut cut --path).
+#include "cutter/CutMask.h"
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/PathFile.h"
+#include "cutter/Remesh.h"
+#include "vdb/CutOutputs.h"
+#include "vdb/Phantom.h"
+#include "vdb/VolumeIO.h"
+
+#include <glm/geometric.hpp>
+
+#include <openvdb/tools/Composite.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+using namespace mtcut;
+using namespace mtcut::cutter;
+using Clock = std::chrono::steady_clock;
+using openvdb::Coord;
+
+namespace {
+
+constexpr double kAspect = 1.5; // sweep length / blade length
+constexpr int kSteps = 8;       // haptic steps per run
+bool gBaselines = true;         // --no-baselines: ours only (for profiling)
+std::string gDumpDir;           // --dump DIR: write refused strokes there as path files
+
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+double median(std::vector<double> v)
+{
+    if (v.empty()) return std::nan("");
+    std::sort(v.begin(), v.end());
+    const size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+struct VolumeCase
+{
+    std::string name;
+    vdb::Volume vol;
+    float iso = 400.0f;
+    Mesh uncut;
+    IndexFrame frame;
+    double planeZ = 0.0;  // world z of the cut plane (half a voxel off the grid planes)
+    double xCentre = 0.0; // world x of the centre of the bone in that plane
+    double yFront = 0.0;  // world y of the first bone in front, near xCentre
+    // Baseline (b): the bone as a level set, built once.
+    openvdb::FloatGrid::Ptr boneLs;
+    double lsVoxel = 1.0;
+    double lsBuildS = 0.0;
+    size_t vdbBoneTris = 0;
+};
+
+/// Locates the cut plane and the face in the volume (see the file comment).
+void locateStroke(VolumeCase& vc, double planeIndexZ)
+{
+    const IndexFrame& f = vc.frame;
+    const int kz = int(std::floor(planeIndexZ));
+    vc.planeZ = f.toWorld(glm::dvec3(0, 0, double(kz) + 0.5)).z;
+    auto acc = vc.vol.grid->getConstAccessor();
+    int xMin = f.dims.x, xMax = -1;
+    for (int j = 0; j < f.dims.y; ++j)
+        for (int i = 0; i < f.dims.x; ++i)
+            if (acc.getValue(Coord(i, j, kz)) >= vc.iso) {
+                xMin = std::min(xMin, i);
+                xMax = std::max(xMax, i);
+            }
+    if (xMax < 0) throw std::runtime_error(vc.name + ": no bone in the cut plane");
+    const double xc = 0.5 * (xMin + xMax);
+    vc.xCentre = f.toWorld(glm::dvec3(xc, 0, 0)).x;
+    const int half = int(std::ceil(20.0 / f.spacing.x));
+    int yFirst = f.dims.y;
+    for (int i = std::max(0, int(xc) - half); i <= std::min(f.dims.x - 1, int(xc) + half); ++i)
+        for (int j = 0; j < yFirst; ++j)
+            if (acc.getValue(Coord(i, j, kz)) >= vc.iso) {
+                yFirst = j;
+                break;
+            }
+    vc.yFront = f.toWorld(glm::dvec3(0, double(yFirst), 0)).y;
+}
+
+/// Stroke variants, tried in order while the remesher refuses them:
+///   0..3   "tip": the blade's tip stops inside the head (a partial-depth
+///          cut); blade length s and sweep 1.5 s, s binary-searched;
+///   4..7   "air": the axis-aligned stroke with the blade length moved off the
+///          searched one until no cell along its tip line holds bone surface
+///          (the remesher refuses tips inside bone often, see RESULTS.md),
+///          sweep length chosen to keep the cut's area;
+///   8..11  "through": the tip beyond the scan box, sweep length searched.
+/// Within a kind, variant v' > 0 shifts the stroke (base, plane height) and,
+/// for tip and through, turns it: blade pitched down 2v' degrees, sweep
+/// yawed 1.5v' degrees.
+enum class Kind { Tip, Air, Through };
+constexpr int kPerKind = 4;
+constexpr int kVariants = 3 * kPerKind;
+Kind kindOf(int variant) { return variant < kPerKind ? Kind::Tip : variant < 2 * kPerKind ? Kind::Air : Kind::Through; }
+const char* kindName(int variant)
+{
+    const Kind k = kindOf(variant);
+    return k == Kind::Tip ? "tip" : k == Kind::Air ? "air" : "through";
+}
+
+double frontY(const VolumeCase& vc, int v) { return vc.yFront - 3.0 - 0.37 * v; }
+double throughBlade(const VolumeCase& vc)
+{
+    const double yBox = vc.frame.toWorld(glm::dvec3(vc.frame.dims) - 1.0).y;
+    return (yBox - frontY(vc, 0)) * 1.2 + 10.0;
+}
+
+/// The straight stroke of blade length B and sweep length L (world mm).
+std::vector<Pose> makeCutStroke(const VolumeCase& vc, double B, double L, int variant)
+{
+    const IndexFrame& f = vc.frame;
+    const Kind kind = kindOf(variant);
+    const int v = kind == Kind::Air ? 0 : variant % kPerKind;
+    const double y0 = frontY(vc, v);
+    const double deg = M_PI / 180.0;
+    const double pitch = 2.0 * v * deg, yaw = 1.5 * v * deg;
+    const glm::dvec3 dir(0.0, std::cos(pitch), -std::sin(pitch));
+    const glm::dvec3 sweep(std::cos(yaw), std::sin(yaw), 0.0);
+    const glm::dvec3 centre(vc.xCentre + 0.37 * v * f.spacing.x, y0,
+                            vc.planeZ + 0.07 * v * f.spacing.z + (kind == Kind::Tip ? 0.5 * B * std::sin(pitch) : 0.0));
+    const int steps = std::max(1, int(std::ceil(L / (0.25 * f.spacing.x))));
+    std::vector<Pose> poses;
+    for (int i = 0; i <= steps; ++i) {
+        Pose p;
+        p.time = 0.001 * i;
+        p.base = centre + (L * (double(i) / steps - 0.5) + 0.37 * f.spacing.x) * sweep;
+        p.direction = dir;
+        p.length = B;
+        poses.push_back(p);
+    }
+    return poses;
+}
+
+/// Blade and sweep length for size parameter s of a tip or through variant.
+std::pair<double, double> strokeSize(const VolumeCase& vc, double s, int variant)
+{
+    return kindOf(variant) == Kind::Through ? std::make_pair(throughBlade(vc), s) : std::make_pair(s, kAspect * s);
+}
+
+size_t cutCellsOf(const VolumeCase& vc, const std::vector<Quad>& quads, double kerf)
+{
+    CutMask mask(vc.frame, kerf);
+    mask.beginStroke();
+    for (const Quad& q : quads) mask.addQuad(q);
+    return mask.cutCellCount();
+}
+
+/// Size parameter (blade length, or sweep length for through-cuts) whose
+/// stroke cuts closest to `target` cells.
+double searchSize(const VolumeCase& vc, size_t target, int variant, double kerf, size_t* cells)
+{
+    double lo = 2.0 * vc.frame.spacing.y, hi = 400.0;
+    double best = lo;
+    size_t bestCells = 0;
+    auto consider = [&](double s) {
+        const auto [B, L] = strokeSize(vc, s, variant);
+        const size_t n = cutCellsOf(vc, filterStroke(makeCutStroke(vc, B, L, variant), vc.frame), kerf);
+        const auto dist = [&](size_t c) { return c > target ? c - target : target - c; };
+        if (bestCells == 0 || dist(n) < dist(bestCells)) {
+            best = s;
+            bestCells = n;
+        }
+        return n;
+    };
+    for (int it = 0; it < 40 && hi - lo > 1e-3; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (consider(mid) < target ? lo : hi) = mid;
+    }
+    *cells = bestCells;
+    return best;
+}
+
+/// Cells along the tip line of the axis-aligned stroke (B, L) (and the cell
+/// rows either side of it) whose corners straddle the isovalue.
+size_t tipSurfaceCells(const VolumeCase& vc, double B, double L)
+{
+    const IndexFrame& f = vc.frame;
+    const double y0 = frontY(vc, 0);
+    const double x0 = vc.xCentre - 0.5 * L + 0.37 * f.spacing.x;
+    const glm::dvec3 a = f.toIndex(glm::dvec3(x0, y0 + B, vc.planeZ));
+    const glm::dvec3 b = f.toIndex(glm::dvec3(x0 + L, y0 + B, vc.planeZ));
+    auto acc = vc.vol.grid->getConstAccessor();
+    const openvdb::CoordBBox box = vc.vol.indexBox();
+    size_t n = 0;
+    const int cz = int(std::floor(a.z)), cy0 = int(std::floor(a.y));
+    for (int cx = int(std::floor(a.x)) - 1; cx <= int(std::floor(b.x)) + 1; ++cx)
+        for (int cy = cy0 - 1; cy <= cy0 + 1; ++cy) {
+            int inside = 0;
+            for (int c = 0; c < 8; ++c) {
+                const Coord g(cx + (c & 1), cy + ((c >> 1) & 1), cz + ((c >> 2) & 1));
+                inside += box.isInside(g) && acc.getValue(g) >= vc.iso;
+            }
+            n += inside != 0 && inside != 8;
+        }
+    return n;
+}
+
+/// The k-th "air" stroke: blade length moved off `bestB` (the tip search's)
+/// in half-voxel steps, alternately longer and shorter, up to 35%, until the
+/// tip line holds no bone surface; the sweep keeps the area (1.5 bestB^2).
+bool airSize(const VolumeCase& vc, double bestB, int k, double* B, double* L)
+{
+    const double h = 0.5 * vc.frame.spacing.y;
+    int found = 0;
+    for (int i = 0; i * h <= 0.35 * bestB; ++i)
+        for (int sign : {1, -1}) {
+            if (i == 0 && sign < 0) continue;
+            const double b = bestB + sign * i * h;
+            const double l = kAspect * bestB * bestB / b;
+            if (tipSurfaceCells(vc, b, l) != 0) continue;
+            if (found++ == k) {
+                *B = b;
+                *L = l;
+                return true;
+            }
+        }
+    return false;
+}
+
+// -- baseline (b) -------------------------------------------------------------
+
+openvdb::math::Transform::Ptr lsTransform(const VolumeCase& vc)
+{
+    auto xform = openvdb::math::Transform::createLinearTransform(vc.lsVoxel);
+    xform->postTranslate(openvdb::Vec3d(vc.frame.origin.x, vc.frame.origin.y, vc.frame.origin.z));
+    return xform;
+}
+
+void buildBoneLevelSet(VolumeCase& vc)
+{
+    vc.lsVoxel = std::min({vc.frame.spacing.x, vc.frame.spacing.y, vc.frame.spacing.z});
+    const auto t0 = Clock::now();
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(*vc.vol.grid, points, tris, quads, double(vc.iso), 0.0);
+    vc.boneLs = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*lsTransform(vc), points, tris, quads, 3.0f);
+    vc.lsBuildS = msSince(t0) * 1e-3;
+}
+
+/// Closed slab meshes (world mm) of the quads, thickness t along each normal.
+void slabMesh(const std::vector<Quad>& quads, double t, std::vector<openvdb::Vec3s>& points,
+              std::vector<openvdb::Vec3I>& tris, std::vector<openvdb::Vec4I>& polys)
+{
+    for (const Quad& q : quads) {
+        glm::dvec3 n = q.normal;
+        if (q.degenerate) continue;
+        const uint32_t b = uint32_t(points.size());
+        const uint32_t k = q.cornerCount;
+        for (int side : {-1, 1})
+            for (uint32_t i = 0; i < k; ++i) {
+                const glm::dvec3 p = q.corners[i] + (0.5 * t * side) * n;
+                points.emplace_back(float(p.x), float(p.y), float(p.z));
+            }
+        if (k == 4) {
+            polys.emplace_back(b, b + 3, b + 2, b + 1);
+            polys.emplace_back(b + 4, b + 5, b + 6, b + 7);
+        } else {
+            tris.emplace_back(b, b + 2, b + 1);
+            tris.emplace_back(b + 3, b + 4, b + 5);
+        }
+        for (uint32_t i = 0; i < k; ++i) {
+            const uint32_t j = (i + 1) % k;
+            polys.emplace_back(b + i, b + j, b + k + j, b + k + i);
+        }
+    }
+}
+
+struct VdbStep
+{
+    double bladeMs = 0, copyMs = 0, csgMs = 0, meshMs = 0;
+    double total() const { return bladeMs + copyMs + csgMs + meshMs; }
+    size_t tris = 0;
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> triangles;
+    std::vector<openvdb::Vec4I> quads;
+};
+
+void vdbStep(const VolumeCase& vc, const std::vector<Quad>& blade, double kerf, VdbStep& s)
+{
+    std::vector<openvdb::Vec3s> bp;
+    std::vector<openvdb::Vec3I> bt;
+    std::vector<openvdb::Vec4I> bq;
+    slabMesh(blade, std::max(kerf, vc.lsVoxel), bp, bt, bq);
+    auto t0 = Clock::now();
+    openvdb::FloatGrid::Ptr bladeLs = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*lsTransform(vc), bp, bt, bq, 3.0f);
+    s.bladeMs = msSince(t0);
+    t0 = Clock::now();
+    openvdb::FloatGrid::Ptr bone = vc.boneLs->deepCopy();
+    s.copyMs = msSince(t0);
+    t0 = Clock::now();
+    openvdb::tools::csgDifference(*bone, *bladeLs);
+    s.csgMs = msSince(t0);
+    t0 = Clock::now();
+    s.points.clear();
+    s.triangles.clear();
+    s.quads.clear();
+    openvdb::tools::volumeToMesh(*bone, s.points, s.triangles, s.quads, 0.0, 0.0);
+    s.meshMs = msSince(t0);
+    s.tris = s.triangles.size() + 2 * s.quads.size();
+}
+
+Mesh fromVdb(const VdbStep& s)
+{
+    Mesh m;
+    for (const auto& p : s.points) m.positions.emplace_back(p.x(), p.y(), p.z());
+    for (const auto& t : s.triangles) m.indices.insert(m.indices.end(), {t[0], t[1], t[2]});
+    for (const auto& q : s.quads) m.indices.insert(m.indices.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
+    return m;
+}
+
+// -- one target ----------------------------------------------------------------
+
+struct Row
+{
+    std::string volume;
+    double kerf = 0.0;
+    size_t target = 0, cells = 0, surfaceCells = 0, remeshedWhole = 0, quads = 0;
+    double blade = 0, sweep = 0; // mm
+    int refused = 0, variant = 0;
+    glm::dvec3 from{0.0}, to{0.0}; // the stroke's first and last base, world mm
+    std::string note;
+    // ours, one core
+    double stepVoxUs = 0, stepUpdateUs = 0, stepFusedMs = 0, stepNew = 0, stepRemeshed = 0;
+    double setupMs = 0, wholeUpdateMs = 0, wholeFusedMs = 0, noopMs = 0, kernelMs = 0;
+    size_t oursDefects = 0, oursTris = 0;
+    // baselines
+    double aMs = 0, bStepMs = 0, bBladeMs = 0, bCopyMs = 0, bCsgMs = 0, bMeshMs = 0, bWholeMs = 0;
+    size_t bDefects = 0, bTris = 0;
+    std::string bDefectText;
+    bool ok = false;
+};
+
+Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
+{
+    Row row;
+    row.kerf = kerf;
+    row.volume = vc.name;
+    row.target = target;
+    std::vector<Quad> quads;
+    std::unique_ptr<CutMask> mask;
+    std::unique_ptr<CutRemesher> remesher;
+    // -- choose the stroke, and the whole cut from scratch (one core) ----------
+    std::vector<double> wholeUpdate, wholeFused, setup;
+    Mesh fused;
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        double tipBlade = 0.0; // variant 0's blade length
+        std::vector<Pose> chosen;
+        for (int variant = 0; variant < kVariants && !row.ok; ++variant) {
+            size_t cells = 0;
+            double B = 0.0, L = 0.0;
+            if (kindOf(variant) == Kind::Air) {
+                if (!airSize(vc, tipBlade, variant - kPerKind, &B, &L)) continue;
+                cells = cutCellsOf(vc, filterStroke(makeCutStroke(vc, B, L, variant), vc.frame), kerf);
+            } else {
+                std::tie(B, L) = strokeSize(vc, searchSize(vc, target, variant, kerf, &cells), variant);
+                if (variant == 0) tipBlade = B;
+            }
+            const std::vector<Pose> poses = makeCutStroke(vc, B, L, variant);
+            row.blade = poses.front().length;
+            row.sweep = glm::length(poses.back().base - poses.front().base);
+            row.variant = variant;
+            row.from = poses.front().base;
+            row.to = poses.back().base;
+            quads = filterStroke(poses, vc.frame);
+            mask = std::make_unique<CutMask>(vc.frame, kerf);
+            mask->beginStroke();
+            for (const Quad& q : quads) mask->addQuad(q);
+            try {
+                wholeUpdate.clear();
+                wholeFused.clear();
+                setup.clear();
+                for (int r = 0; r < runs; ++r) {
+                    remesher.reset();
+                    auto t0 = Clock::now();
+                    remesher = std::make_unique<CutRemesher>(vc.vol, vc.iso, vc.uncut);
+                    setup.push_back(msSince(t0));
+                    t0 = Clock::now();
+                    row.remeshedWhole = remesher->update(*mask);
+                    wholeUpdate.push_back(msSince(t0));
+                    fused = remesher->fusedMesh();
+                    wholeFused.push_back(msSince(t0));
+                }
+                row.ok = true;
+                chosen = poses;
+            } catch (const InputError& e) { // kerf > 0 not implemented: no other stroke will do
+                row.note = e.what();
+                return row;
+            } catch (const std::exception& e) {
+                ++row.refused;
+                std::printf("  %s kerf %g target %zu: stroke variant %d (%s, blade %.3f mm, %zu cells, base (%.3f, %.3f, %.3f) "
+                            "-> (%.3f, %.3f, %.3f)) refused: %s\n",
+                            vc.name.c_str(), kerf, target, variant, kindName(variant), row.blade, cells, row.from.x, row.from.y,
+                            row.from.z, row.to.x, row.to.y, row.to.z, e.what());
+                if (!gDumpDir.empty()) {
+                    const std::string file = gDumpDir + "/refused_" + vc.name + "_" + std::to_string(target) + "_v" +
+                                             std::to_string(variant) + ".csv";
+                    std::ofstream out(file);
+                    out << "# bench_cut: stroke refused by the remesher on " << vc.name << " at iso " << vc.iso
+                        << ": " << e.what() << "\nt,x,y,z,dx,dy,dz,length\n";
+                    for (const Pose& p : poses) out << formatPoseLine(p) << "\n";
+                    std::printf("    wrote %s\n", file.c_str());
+                }
+                std::fflush(stdout);
+            }
+        }
+        if (!row.ok) {
+            row.note = "every stroke refused";
+            return row;
+        }
+        row.cells = mask->cutCellCount();
+        row.quads = quads.size();
+        row.setupMs = median(setup);
+        row.wholeUpdateMs = median(wholeUpdate);
+        row.wholeFusedMs = median(wholeFused);
+        for (const auto& [c, g] : remesher->cells()) row.surfaceCells += !g.indices.empty();
+        // No-op update: the O(cut cells) scan every update pays.
+        std::vector<double> noop;
+        for (int r = 0; r < std::max(runs, 3); ++r) {
+            const auto t0 = Clock::now();
+            remesher->update(*mask);
+            noop.push_back(msSince(t0));
+        }
+        row.noopMs = median(noop);
+        // The kernel alone, from outside: remeshCell over every cut cell.
+        std::vector<Coord> cutCells;
+        mask->forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { cutCells.push_back(c); });
+        std::sort(cutCells.begin(), cutCells.end());
+        std::vector<double> kernel;
+        CutCellGeometry scratch;
+        for (int r = 0; r < runs; ++r) {
+            const auto t0 = Clock::now();
+            for (const Coord& c : cutCells) remeshCell(vc.vol, vc.iso, *mask, c, scratch);
+            kernel.push_back(msSince(t0));
+        }
+        row.kernelMs = median(kernel);
+
+        // -- haptic steps ---------------------------------------------------------
+        const int steps = int(std::min<size_t>(kSteps, quads.size() - 1));
+        std::vector<double> vox, upd, fus, added, remeshed;
+        std::vector<glm::ivec3> cellBuf;
+        try {
+            for (int r = 0; r < runs; ++r) {
+                const uint32_t first = uint32_t(quads.size()) - uint32_t(steps);
+                mask->undoToQuad(first);
+                remesher->update(*mask);
+                for (uint32_t i = first; i < quads.size(); ++i) {
+                    auto t0 = Clock::now();
+                    cellBuf.clear();
+                    QuadRegion(quads[i], mask->kerf(), mask->frame()).appendCells(cellBuf);
+                    mask->addQuad(quads[i], cellBuf);
+                    vox.push_back(1e3 * msSince(t0));
+                    added.push_back(double(mask->lastNewCells().size()));
+                    t0 = Clock::now();
+                    remeshed.push_back(double(remesher->update(*mask)));
+                    upd.push_back(1e3 * msSince(t0));
+                    t0 = Clock::now();
+                    fused = remesher->fusedMesh();
+                    fus.push_back(msSince(t0));
+                }
+            }
+        } catch (const std::exception& e) {
+            row.note = std::string("step refused: ") + e.what();
+            std::printf("  %s target %zu: %s\n", vc.name.c_str(), target, row.note.c_str());
+            if (!gDumpDir.empty()) {
+                const std::string file = gDumpDir + "/refused_step_" + vc.name + "_" + std::to_string(target) + ".csv";
+                std::ofstream out(file);
+                out << "# bench_cut: this stroke re-meshes cleanly from scratch on " << vc.name << " at iso " << vc.iso
+                    << ", but after CutMask::undoToQuad(quads - " << steps
+                    << ") + update, re-adding the quads one by one with update() after each throws: " << e.what()
+                    << "\nt,x,y,z,dx,dy,dz,length\n";
+                for (const Pose& p : chosen) out << formatPoseLine(p) << "\n";
+                std::printf("    wrote %s\n", file.c_str());
+            }
+        }
+        row.stepVoxUs = median(vox);
+        row.stepUpdateUs = median(upd);
+        row.stepFusedMs = median(fus);
+        row.stepNew = median(added);
+        row.stepRemeshed = median(remeshed);
+    }
+    const MeshCheck oursCheck = checkMesh(fused);
+    row.oursDefects = oursCheck.defects();
+    row.oursTris = fused.triangleCount();
+    fused = Mesh();
+
+    // -- baseline (a): carve + re-extract the whole volume, 2 threads ------------
+    if (gBaselines) {
+        tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+        openvdb::MaskGrid removed;
+        removed.topologyUnion(*mask->grid());
+        std::vector<double> a;
+        for (int r = 0; r < runs; ++r) {
+            const auto t0 = Clock::now();
+            vdb::Volume carved = vc.vol;
+            carved.grid = vdb::carveVolume(vc.vol, removed);
+            const Mesh m = extractIsosurface(carved, vc.iso);
+            a.push_back(msSince(t0));
+            if (m.empty()) std::printf("?\n");
+        }
+        row.aMs = median(a);
+
+        // -- baseline (b): OpenVDB level sets, per step and for the whole cut --------
+        std::vector<double> total, blade, copy, csg, mesh;
+        VdbStep s;
+        for (int r = 0; r < runs; ++r) {
+            vdbStep(vc, {quads.back()}, mask->kerf(), s);
+            total.push_back(s.total());
+            blade.push_back(s.bladeMs);
+            copy.push_back(s.copyMs);
+            csg.push_back(s.csgMs);
+            mesh.push_back(s.meshMs);
+        }
+        row.bStepMs = median(total);
+        row.bBladeMs = median(blade);
+        row.bCopyMs = median(copy);
+        row.bCsgMs = median(csg);
+        row.bMeshMs = median(mesh);
+        std::vector<double> whole;
+        for (int r = 0; r < runs; ++r) {
+            vdbStep(vc, quads, mask->kerf(), s);
+            whole.push_back(s.total());
+        }
+        row.bWholeMs = median(whole);
+        row.bTris = s.tris;
+        const MeshCheck c = checkMesh(fromVdb(s));
+        row.bDefects = c.defects();
+        std::ostringstream os;
+        os << "boundary " << c.boundaryEdges << ", non-manifold edges " << c.nonManifoldEdges << ", inconsistent "
+           << c.inconsistentEdges << ", non-manifold vertices " << c.nonManifoldVertices << ", degenerate "
+           << c.degenerateTriangles << ", wrong-way shells " << c.negativeVolumeShells;
+        row.bDefectText = os.str();
+    }
+    return row;
+}
+
+std::string label(const Row& r)
+{
+    char buf[32];
+    std::snprintf(buf, sizeof buf, ", kerf %g", r.kerf);
+    return r.volume + buf;
+}
+
+void printRow(const Row& r)
+{
+    if (!r.ok) {
+        std::printf("case=cut volume=%s kerf=%g target=%zu refused=%d note=\"%s\"\n", r.volume.c_str(), r.kerf,
+                    r.target, r.refused, r.note.c_str());
+        return;
+    }
+    const double stepUs = r.stepVoxUs + r.stepUpdateUs;
+    std::printf("case=cut volume=%s kerf=%g target=%zu cut_cells=%zu surface_cells=%zu remeshed_whole=%zu quads=%zu "
+                "blade_mm=%.2f sweep_mm=%.2f refused=%d step_new_cells=%.0f step_remeshed=%.0f step_vox_us=%.1f "
+                "step_update_us=%.1f step_us=%.1f step_fused_ms=%.2f setup_ms=%.1f whole_update_ms=%.2f "
+                "whole_fused_ms=%.2f noop_update_ms=%.3f kernel_ms=%.2f us_per_cell=%.1f a_ms=%.1f b_step_ms=%.1f "
+                "b_blade_ms=%.2f b_copy_ms=%.1f b_csg_ms=%.2f b_mesh_ms=%.1f b_whole_ms=%.1f step_vs_a=%.0f "
+                "step_vs_b=%.0f whole_vs_a=%.2f whole_fused_vs_a=%.2f whole_vs_b=%.2f ours_tris=%zu b_tris=%zu "
+                "ours_defects=%zu b_defects=%zu variant=%d kind=%s from=%.3f,%.3f,%.3f to=%.3f,%.3f,%.3f%s%s\n",
+                r.volume.c_str(), r.kerf, r.target, r.cells, r.surfaceCells, r.remeshedWhole, r.quads, r.blade, r.sweep, r.refused,
+                r.stepNew, r.stepRemeshed, r.stepVoxUs, r.stepUpdateUs, stepUs, r.stepFusedMs, r.setupMs,
+                r.wholeUpdateMs, r.wholeFusedMs, r.noopMs, r.kernelMs, 1e3 * r.wholeUpdateMs / double(r.remeshedWhole),
+                r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs, r.bMeshMs, r.bWholeMs, r.aMs / (stepUs * 1e-3),
+                r.bStepMs / (stepUs * 1e-3), r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs,
+                r.bWholeMs / r.wholeUpdateMs, r.oursTris, r.bTris, r.oursDefects, r.bDefects, r.variant, kindName(r.variant), r.from.x,
+                r.from.y, r.from.z, r.to.x, r.to.y, r.to.z, r.note.empty() ? "" : " note=", r.note.c_str());
+    if (r.bDefects) std::printf("  OpenVDB route defects: %s\n", r.bDefectText.c_str());
+    std::fflush(stdout);
+}
+
+void printTables(const std::vector<Row>& rows)
+{
+    std::printf("\nHaptic step (ours one core; median of runs x %d steps) vs baselines per step\n\n", kSteps);
+    std::printf("| volume | cut cells (target) | surface cells | new cells / re-meshed per step | vox+mask us | "
+                "update us | step us | fusedMesh ms | (a) re-extract ms | (b) OpenVDB ms (blade/copy/csg/mesh) | "
+                "step vs (a) | step vs (b) |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const Row& r : rows) {
+        if (!r.ok) {
+            std::printf("| %s | (%zu) | refused (%d strokes): %s | | | | | | | | | |\n", label(r).c_str(), r.target,
+                        r.refused, r.note.c_str());
+            continue;
+        }
+        const double stepUs = r.stepVoxUs + r.stepUpdateUs;
+        std::printf("| %s | %zu (%zu) | %zu | %.0f / %.0f | %.0f | %.0f | %.0f | %.1f | %.0f | %.0f (%.1f/%.0f/%.1f/%.0f) | "
+                    "%.0fx | %.0fx |\n",
+                    label(r).c_str(), r.cells, r.target, r.surfaceCells, r.stepNew, r.stepRemeshed, r.stepVoxUs,
+                    r.stepUpdateUs, stepUs, r.stepFusedMs, r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs,
+                    r.bMeshMs, r.aMs / (stepUs * 1e-3), r.bStepMs / (stepUs * 1e-3));
+    }
+    std::printf("\nWhole cut from scratch (ours one core; median of runs)\n\n");
+    std::printf("| volume | cut cells | re-meshed | stroke: blade x sweep mm, quads (variant) | update ms | + fusedMesh ms | us per cell | "
+                "no-op update ms | kernel alone ms | remesher setup ms | (a) ms | (b) whole ms | update vs (a) | "
+                "+fused vs (a) | update vs (b) | defects ours / (b) | refused strokes |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const Row& r : rows) {
+        if (!r.ok) continue;
+        std::printf("| %s | %zu | %zu | %.1f x %.1f, %zu (%s %d) | %.1f | %.1f | %.0f | %.2f | %.1f | %.0f | %.0f | %.0f | %.2fx | "
+                    "%.2fx | %.2fx | %zu / %zu | %d |\n",
+                    label(r).c_str(), r.cells, r.remeshedWhole, r.blade, r.sweep, r.quads, kindName(r.variant), r.variant, r.wholeUpdateMs, r.wholeFusedMs,
+                    1e3 * r.wholeUpdateMs / double(r.remeshedWhole), r.noopMs, r.kernelMs, r.setupMs, r.aMs, r.bWholeMs,
+                    r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs, r.bWholeMs / r.wholeUpdateMs, r.oursDefects,
+                    r.bDefects, r.refused);
+    }
+}
+
+void runVolume(VolumeCase& vc, double planeIndexZ, const std::vector<size_t>& targets, int runs,
+               std::vector<Row>& rows)
+{
+    vc.frame = frameOf(vc.vol);
+    {
+        tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+        const auto t0 = Clock::now();
+        vc.uncut = extractIsosurface(vc.vol, vc.iso);
+        const double extractMs = msSince(t0);
+        locateStroke(vc, planeIndexZ);
+        if (gBaselines) buildBoneLevelSet(vc);
+        else vc.boneLs = openvdb::FloatGrid::create();
+        std::printf("volume=%s dims=%dx%dx%d spacing=%.4g,%.4g,%.4g iso=%g uncut_tris=%zu extract_ms=%.0f "
+                    "plane_z_mm=%.2f x_centre_mm=%.1f y_front_mm=%.1f bone_ls_voxel_mm=%.4g bone_ls_build_s=%.2f "
+                    "bone_ls_active=%llu\n",
+                    vc.name.c_str(), vc.frame.dims.x, vc.frame.dims.y, vc.frame.dims.z, vc.frame.spacing.x,
+                    vc.frame.spacing.y, vc.frame.spacing.z, double(vc.iso), vc.uncut.triangleCount(), extractMs,
+                    vc.planeZ, vc.xCentre, vc.yFront, vc.lsVoxel, vc.lsBuildS,
+                    static_cast<unsigned long long>(vc.boneLs->activeVoxelCount()));
+        std::fflush(stdout);
+    }
+    for (size_t target : targets) {
+        rows.push_back(runTarget(vc, target, runs, 0.0));
+        printRow(rows.back());
+    }
+    // Kerf 0.5 mm: measured only once the remesher accepts kerf > 0.
+    for (size_t target : targets) {
+        Row row = runTarget(vc, target, runs, 0.5);
+        printRow(row);
+        const bool refused = !row.ok;
+        rows.push_back(std::move(row));
+        if (refused) break;
+    }
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    int runs = 5;
+    bool quick = false, phantom = true, head = true, runsGiven = false;
+    std::vector<size_t> targets;
+    for (int i = 1; i < argc; ++i) {
+        if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) {
+            runs = std::max(1, std::atoi(argv[++i]));
+            runsGiven = true;
+        } else if (!std::strcmp(argv[i], "--quick")) {
+            quick = true;
+        } else if (!std::strcmp(argv[i], "--phantom-only")) {
+            head = false;
+        } else if (!std::strcmp(argv[i], "--dump") && i + 1 < argc) {
+            gDumpDir = argv[++i];
+        } else if (!std::strcmp(argv[i], "--no-baselines")) {
+            gBaselines = false;
+        } else if (!std::strcmp(argv[i], "--head-only")) {
+            phantom = false;
+        } else if (!std::strcmp(argv[i], "--targets") && i + 1 < argc) {
+            std::stringstream ss(argv[++i]);
+            std::string item;
+            while (std::getline(ss, item, ',')) targets.push_back(size_t(std::atol(item.c_str())));
+        } else {
+            std::fprintf(stderr,
+                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR]\n");
+            return 2;
+        }
+    }
+    if (quick && !runsGiven) runs = 1;
+    if (targets.empty()) targets = quick ? std::vector<size_t>{100, 419, 1000} : std::vector<size_t>{419, 3638, 11716};
+    openvdb::initialize();
+    std::vector<Row> rows;
+    try {
+        if (phantom) {
+            VolumeCase vc;
+            vdb::PhantomOptions options;
+            options.dims = quick ? Coord(256, 256, 128) : Coord(512, 512, 256);
+            vc.vol = vdb::makePhantom(options);
+            vc.name = "phantom-" + std::to_string(options.dims.x()) + "x" + std::to_string(options.dims.y()) + "x" +
+                      std::to_string(options.dims.z());
+            const IndexFrame f = frameOf(vc.vol);
+            runVolume(vc, f.toIndex(glm::dvec3(0, 0, vdb::phantomLandmarks().leFortZ)).z, targets, runs, rows);
+        }
+        if (head) {
+            const std::string path = std::string(MTCUT_SHARED_DATA) + (quick ? "/vhm_head_4mm.nhdr" : "/vhm-head-dicom");
+            if (std::filesystem::exists(path)) {
+                VolumeCase vc;
+                vc.vol = vdb::readVolume(path);
+                vc.name = quick ? "vhm-head-4mm" : "vhm-head-dicom";
+                runVolume(vc, 0.32 * double(vc.vol.dims.z() - 1), targets, runs, rows);
+            } else {
+                std::printf("case=vhm-head skipped: %s not found\n", path.c_str());
+            }
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_cut: %s\n", e.what());
+        return 1;
+    }
+    printTables(rows);
+    return 0;
+}
