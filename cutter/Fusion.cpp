@@ -4,6 +4,8 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
 
+#include <functional>
+
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -75,6 +77,41 @@ Mesh CutRemesher::fusedMesh() const
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             for (int j = 0; j < 3; ++j) m.indices.push_back(index[geom.indices[i + size_t(j)]]);
             m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
+        }
+    }
+    // Snap rounding: two vertices joined by an edge that land on the same
+    // float position (a sub-micron sliver of the exact geometry, e.g. where a
+    // grid plane passes within 1e-5 voxel of a blade corner) are one vertex
+    // in the float mesh; the triangles that collapse are dropped. The lower
+    // index is kept (an uncut vertex before a new one), so uncut triangles
+    // never change. checkLocally() checks the mesh after this step.
+    {
+        std::vector<uint32_t> rep(m.positions.size());
+        for (size_t v = 0; v < rep.size(); ++v) rep[v] = uint32_t(v);
+        std::function<uint32_t(uint32_t)> find = [&](uint32_t x) { return rep[x] == x ? x : rep[x] = find(rep[x]); };
+        bool any = false;
+        for (size_t i = 0; i < m.indices.size(); i += 3)
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t a = m.indices[i + size_t(k)], b = m.indices[i + size_t((k + 1) % 3)];
+                if (a == b || !(m.positions[a] == m.positions[b])) continue;
+                const uint32_t ra = find(a), rb = find(b);
+                if (ra == rb) continue;
+                rep[std::max(ra, rb)] = std::min(ra, rb);
+                any = true;
+            }
+        if (any) {
+            std::vector<uint32_t> indices;
+            std::vector<glm::ivec3> voxels;
+            indices.reserve(m.indices.size());
+            voxels.reserve(m.triangleVoxels.size());
+            for (size_t t = 0; t < m.triangleCount(); ++t) {
+                const uint32_t a = find(m.indices[3 * t]), b = find(m.indices[3 * t + 1]), c = find(m.indices[3 * t + 2]);
+                if (a == b || b == c || a == c) continue;
+                indices.insert(indices.end(), {a, b, c});
+                voxels.push_back(m.triangleVoxels[t]);
+            }
+            m.indices.swap(indices);
+            m.triangleVoxels.swap(voxels);
         }
     }
     if (normals) {

@@ -282,24 +282,81 @@ QuadGeom makeQuadGeom(const CutMask& mask, const QuadRef& ref)
     return g;
 }
 
+} // namespace
+
+/// Rim planes of kerf > 0 prisms, per quad: (world corner, side id, plane)
+/// for each rim side through that corner. Quads of a stroke only append, so a
+/// quad's entry depends on its own corners and its predecessor's entry.
+struct RimEntry
+{
+    struct Rim
+    {
+        glm::dvec3 corner; ///< world
+        uint64_t id;
+        glm::dvec3 n; ///< the plane n.x = d, index space
+        double d;
+    };
+    std::array<double, 12> signature{};
+    std::vector<Rim> rims;
+};
+struct PrismCache
+{
+    std::unordered_map<uint64_t, RimEntry> entries;
+};
+
+namespace {
+
+std::array<double, 12> cornerSignature(const Quad& q)
+{
+    std::array<double, 12> s{};
+    for (int i = 0; i < 4; ++i)
+        for (int a = 0; a < 3; ++a) s[size_t(3 * i + a)] = q.corners[size_t(i)][a];
+    return s;
+}
+
 /// Geometry of quad `ref` as a kerf > 0 removed region (DESIGN invariant 7):
-/// the prism K_q of QuadRegion, the hull slab of half-width w/2 around the
-/// quad's plane bounded by the planes through the hull edges perpendicular to
-/// it. Every bounding plane is a side (offset planes: kinds kPlusKind and
-/// kMinusKind), so "inside K_q" is inExtentClosed. Where consecutive quads of
-/// a stroke are coplanar (to 1e-5 rad) the end planes through their shared
-/// edge are one plane object, the mitre (the lower quad's data first), so the
-/// two prisms abut exactly; elsewhere each prism keeps its own end plane and
-/// the union overlaps on the inside of the bend and leaves the notch on the
-/// outside, exactly the region the mask voxelised.
-QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref)
+/// a closed convex prism, every bounding plane a side (the offset planes have
+/// kinds kPlusKind and kMinusKind), so "inside" is inExtentClosed. Built from
+/// the quad's world geometry and mapped to index space.
+///
+/// - Offsets: the quad's plane shifted by +-w/2 (world).
+/// - A hull edge shared with the previous or next quad of the stroke, bending
+///   by less than kKerfMitreMaxBend: the mitre, one plane object for both
+///   quads (the lower quad's data first) through the stick and
+///   u = (w/2)(n_q + n_o)/(1 + n_q.n_o), the world bisector, on which the two
+///   quads' offset planes meet exactly (also with anisotropic spacing).
+/// - Any other edge (rims, unjoined stick ends): the plane through it
+///   perpendicular to the quad; but a rim that continues the previous quad's
+///   rim (both its corners within 1e-4 voxel of that plane, normals within
+///   1.4e-4 rad) uses that very plane object, so the two prisms meet the
+///   mitre in the same rim line and leave no sub-micron sliver there.
+/// The mask voxelises cutRegion(), which covers the mitre joints.
+QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache);
+
+const RimEntry& rimEntry(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
+{
+    const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
+    // Walk back to the first quad whose entry is missing or stale, then build forward.
+    std::vector<uint32_t> todo;
+    for (int64_t i = ref.quad; i >= 0; --i) {
+        const QuadRef r{ref.stroke, uint32_t(i)};
+        auto it = cache.entries.find(uint64_t(ref.stroke) << 32 | uint32_t(i));
+        if (it != cache.entries.end() && it->second.signature == cornerSignature(mask.quad(r))) break;
+        todo.push_back(uint32_t(i));
+    }
+    for (auto it = todo.rbegin(); it != todo.rend(); ++it) makePrismGeom(mask, QuadRef{ref.stroke, *it}, cache);
+    return cache.entries.at(key);
+}
+
+QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
 {
     const IndexFrame& frame = mask.frame();
     const Quad& q = mask.quad(ref);
     QuadGeom g;
     g.id = planeIdOf(ref.stroke, ref.quad, 0);
     g.pi = quadPlane(q, frame);
-    const double hw = 0.5 * mask.kerf() / glm::length(q.normal * frame.spacing);
+    const double halfW = 0.5 * mask.kerf();
+    const double hw = halfW / glm::length(q.normal * frame.spacing);
     const std::vector<int> hull = hullOf(q, frame, g.pi.n);
     const dvec3 centre = centroidOf(q, frame);
     for (int k = 0; k < 2; ++k) {
@@ -310,8 +367,67 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref)
         side.orient = k == 0 ? -1.0 : 1.0;
         g.sides.push_back(side);
     }
+    RimEntry entry;
+    entry.signature = cornerSignature(q);
+    const RimEntry* previous = nullptr;
+    if (ref.quad > 0 && !q.degenerate) {
+        const QuadRef pref{ref.stroke, ref.quad - 1};
+        auto it = cache.entries.find(uint64_t(pref.stroke) << 32 | pref.quad);
+        if (it == cache.entries.end() || it->second.signature != cornerSignature(mask.quad(pref)))
+            previous = &rimEntry(mask, pref, cache);
+        else
+            previous = &it->second;
+    }
     const size_t m = hull.size();
+    // Pass 1: mitre joints per hull edge.
+    std::vector<QuadGeom::Side> joint(m);
+    std::vector<char> isJoint(m, 0);
+    dvec3 prevA(0.0), prevB(0.0); // world corners of the joint with the previous quad
+    bool joinedPrevious = false;
     for (size_t e = 0; e < m; ++e) {
+        const dvec3& wa = q.corners[size_t(hull[e])];
+        const dvec3& wb = q.corners[size_t(hull[(e + 1) % m])];
+        for (int dq : {-1, 1}) {
+            const int64_t oq = int64_t(ref.quad) + dq;
+            if (oq < 0 || oq >= int64_t(mask.quadCount(ref.stroke))) continue;
+            const Quad& o = mask.quad(QuadRef{ref.stroke, uint32_t(oq)});
+            if (o.degenerate) continue;
+            if (!sharesEdge(o, hullOf(o, frame, indexNormal(o, frame)), wa, wb)) continue;
+            const bool lower = dq > 0;
+            const dvec3 nl = lower ? q.normal : o.normal, nu = lower ? o.normal : q.normal; // world
+            const double c = glm::dot(nl, nu);
+            if (!(c > std::cos(kKerfMitreMaxBend))) break;
+            dvec3 w0 = wa, w1 = wb;
+            if (lexLess(w1, w0)) std::swap(w0, w1);
+            const dvec3 p0 = frame.toIndex(w0), p1 = frame.toIndex(w1);
+            const dvec3 u = (halfW * (nl + nu) / (1.0 + c)) / frame.spacing;
+            const dvec3 mdir = glm::cross(u, p1 - p0);
+            const double mlen = glm::length(mdir);
+            if (!(mlen > 0.0)) break;
+            QuadGeom::Side side;
+            side.plane.n = mdir / mlen;
+            side.plane.d = glm::dot(side.plane.n, p0);
+            const double own = side.plane.h(centre), other = side.plane.h(centroidOf(o, frame));
+            if (!(own * other < 0.0)) break; // folded back: keep the own end plane
+            side.id = planeIdOf(ref.stroke, lower ? ref.quad : uint32_t(oq), kJunctionKind);
+            side.partnerId = planeIdOf(ref.stroke, uint32_t(oq), 0);
+            side.orient = own > 0 ? 1.0 : -1.0;
+            joint[e] = side;
+            isJoint[e] = 1;
+            if (dq < 0) {
+                joinedPrevious = true;
+                prevA = wa;
+                prevB = wb;
+            }
+            break;
+        }
+    }
+    // Pass 2: the sides.
+    for (size_t e = 0; e < m; ++e) {
+        if (isJoint[e]) {
+            g.sides.push_back(joint[e]);
+            continue;
+        }
         const dvec3& wa = q.corners[size_t(hull[e])];
         const dvec3& wb = q.corners[size_t(hull[(e + 1) % m])];
         const dvec3 a = frame.toIndex(wa), b = frame.toIndex(wb);
@@ -322,36 +438,28 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref)
         side.id = planeIdOf(ref.stroke, ref.quad, 1 + int(e));
         side.plane.n = sdir / len;
         side.plane.d = glm::dot(side.plane.n, a);
-        for (int dq : {-1, 1}) {
-            const int64_t oq = int64_t(ref.quad) + dq;
-            if (oq < 0 || oq >= int64_t(mask.quadCount(ref.stroke))) continue;
-            const Quad& o = mask.quad(QuadRef{ref.stroke, uint32_t(oq)});
-            if (o.degenerate) continue;
-            const dvec3 on = indexNormal(o, frame);
-            if (!sharesEdge(o, hullOf(o, frame, on), wa, wb)) continue;
-            const dvec3 odir = glm::cross(on, b - a);
-            const double olen = glm::length(odir);
-            if (!(olen > 0.0) || std::abs(glm::dot(sdir / len, odir / olen)) < std::cos(kMaxMitreBend)) continue;
-            const bool lower = dq > 0;
-            const dvec3 nl = lower ? g.pi.n : on, nu = lower ? on : g.pi.n;
-            dvec3 p0 = a, p1 = b;
-            if (lexLess(p1, p0)) std::swap(p0, p1);
-            const dvec3 mdir = glm::cross(nl + nu, p1 - p0);
-            const double mlen = glm::length(mdir);
-            if (!(mlen > 1e-12)) continue;
-            Plane mp;
-            mp.n = mdir / mlen;
-            mp.d = glm::dot(mp.n, p0);
-            const double own = mp.h(centre), other = mp.h(centroidOf(o, frame));
-            if (!(own * other < 0.0)) continue; // folded back: keep the own end plane
-            side.id = planeIdOf(ref.stroke, lower ? ref.quad : uint32_t(oq), kJunctionKind);
-            side.plane = mp;
-            side.partnerId = planeIdOf(ref.stroke, uint32_t(oq), 0);
-            break;
+        if (previous && joinedPrevious) {
+            // A rim continuing the previous quad's rim through a corner of their joint.
+            for (const auto& r : previous->rims) {
+                const bool atJoint = r.corner == prevA || r.corner == prevB;
+                if (!atJoint || !(r.corner == wa || r.corner == wb)) continue;
+                Plane pp;
+                pp.n = r.n;
+                pp.d = r.d;
+                if (std::abs(pp.h(a)) <= 1e-4 && std::abs(pp.h(b)) <= 1e-4 &&
+                    std::abs(glm::dot(pp.n, side.plane.n)) > 1.0 - 1e-8) {
+                    side.id = r.id;
+                    side.plane = pp;
+                }
+                break;
+            }
         }
+        entry.rims.push_back({wa, side.id, side.plane.n, side.plane.d});
+        entry.rims.push_back({wb, side.id, side.plane.n, side.plane.d});
         side.orient = side.plane.h(centre) >= 0 ? 1.0 : -1.0;
         g.sides.push_back(side);
     }
+    cache.entries[uint64_t(ref.stroke) << 32 | ref.quad] = std::move(entry);
     return g;
 }
 
@@ -894,6 +1002,28 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
     for (size_t i = 0; i < mVerts.size(); ++i)
         if (mVerts[i].key == key) return int(i);
+    // Inside the tet (no other tet or cell ever names it), one point made by
+    // different planes (two pieces of one region split by the planes of two
+    // joined quads whose rims are coplanar) is one vertex: its name is the
+    // union of the planes, so the pieces share it and merge.
+    if (key.dim == 3) {
+        for (size_t i = 0; i < mVerts.size(); ++i) {
+            Vert& o = mVerts[i];
+            if (o.key.dim != 3 || o.steiner || o.key.feature != key.feature) continue;
+            if (!(glm::length(o.pos - pos0) <= 1e-11 * (1.0 + std::max({std::abs(pos0.x), std::abs(pos0.y), std::abs(pos0.z)}))))
+                continue;
+            std::vector<uint64_t> all(o.key.planes.begin(), o.key.planes.begin() + o.key.planeCount);
+            all.insert(all.end(), planes.begin(), planes.end());
+            std::sort(all.begin(), all.end());
+            all.erase(std::unique(all.begin(), all.end()), all.end());
+            if (all.size() > o.key.planes.size()) break;
+            o.key.planeCount = uint8_t(all.size());
+            for (size_t k = 0; k < all.size(); ++k) o.key.planes[k] = all[k];
+            o.signs.clear();
+            o.member = 2;
+            return int(i);
+        }
+    }
     Vert v;
     v.key = key;
     v.support = support;
@@ -1294,6 +1424,14 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
         const QuadGeom* owner = nullptr;
         for (const QuadGeom* q : mQuads)
             if ((q->id >> 4) == (pl.first >> 4)) owner = q;
+        // Prisms: a rim plane shared along the stroke by several quads here
+        // splits everywhere (each of them needs it).
+        if (mPrism && owner) {
+            int users = 0;
+            for (const QuadGeom* q : mQuads)
+                for (const auto& sd : q->sides) users += sd.id == pl.first;
+            if (users > 1) owner = nullptr;
+        }
         splitOrder.push_back({pl.first, owner});
     }
 
@@ -1716,12 +1854,12 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
 
 namespace {
 
-std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs)
+std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache)
 {
     std::vector<QuadGeom> quads;
     for (const QuadRef& r : refs) {
         if (mask.quad(r).degenerate) continue; // zero area: removes nothing (the mask gives it no kerf either)
-        quads.push_back(mask.kerf() > 0 ? makePrismGeom(mask, r) : makeQuadGeom(mask, r));
+        quads.push_back(mask.kerf() > 0 ? makePrismGeom(mask, r, cache) : makeQuadGeom(mask, r));
     }
     for (QuadGeom& q : quads)
         for (auto& s : q.sides) {
@@ -1749,8 +1887,9 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
     auto removed = openvdb::MaskGrid::create(false);
     if (!(mask.kerf() > 0)) return removed;
     auto acc = removed->getAccessor();
+    PrismCache cache;
     mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
-        const std::vector<QuadGeom> quads = cellQuads(mask, list);
+        const std::vector<QuadGeom> quads = cellQuads(mask, list, cache);
         for (int k = 0; k < 8; ++k) {
             const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
             if (acc.isValueOn(g)) continue;
@@ -1775,11 +1914,13 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
     const std::vector<QuadRef>* refs = mask.quadsAt(cell);
     if (!refs) return;
     RemeshKernel kernel(volume, isovalue);
-    kernel.remesh(cell, cellQuads(mask, *refs), mask.kerf() > 0, out);
+    PrismCache cache;
+    kernel.remesh(cell, cellQuads(mask, *refs, cache), mask.kerf() > 0, out);
 }
 
 CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
-    : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mVolume(&volume), mIso(isovalue), mUncut(uncut)
+    : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mPrismCache(std::make_unique<PrismCache>()),
+      mVolume(&volume), mIso(isovalue), mUncut(uncut)
 {
     const size_t nt = mUncut.triangleCount();
     for (size_t t = 0; t < nt;) {
@@ -1901,9 +2042,66 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                                 c});
         }
     }
+    auto isChanged = [&](const Coord& c) { return std::binary_search(changed.begin(), changed.end(), c); };
+    auto fail = [&](const std::string& what, const Coord& c) {
+        throw std::runtime_error("remesh: open or inconsistent surface (" + what + ") in cell " + cellText(c));
+    };
+    for (const Tri& tr : tris)
+        if (isChanged(tr.cell) && (tr.v[0] == tr.v[1] || tr.v[1] == tr.v[2] || tr.v[0] == tr.v[2]))
+            fail("a triangle repeats a vertex", tr.cell);
+    // Float world positions as fusedMesh() gives them (iso edge vertices: the
+    // uncut mesh's; a new vertex: from the first cell, ascending, that makes
+    // it), and its snap rounding: names joined by an edge at one float
+    // position are one vertex, and the triangles that collapse are dropped.
+    const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
+    std::vector<glm::dvec3> world(ids.size(), glm::dvec3(std::numeric_limits<double>::quiet_NaN()));
+    std::vector<char> known(ids.size(), 0);
+    for (const Coord& c : region) {
+        auto cut = mCells.find(c);
+        auto range = mUncutCells.find(c);
+        if (range != mUncutCells.end()) {
+            uncutCornerEdges(c, corners);
+            for (size_t k = 0; k < corners.size(); ++k) {
+                const uint32_t vertex = mUncut.indices[3 * size_t(range->second.first) + k];
+                auto it = names.find(isoEdgeVertex(corners[k]));
+                if (it != names.end() && !known[it->second]) {
+                    world[it->second] = glm::dvec3(mUncut.positions[vertex]);
+                    known[it->second] = 1;
+                }
+            }
+        }
+        if (cut == mCells.end()) continue;
+        const CutCellGeometry& g = cut->second;
+        for (size_t v = 0; v < g.vertexIds.size(); ++v) {
+            const uint32_t name = names.at(g.vertexIds[v]);
+            if (known[name] || g.vertexIds[v].isIsoEdgeVertex()) continue;
+            const glm::dvec3& p = g.indexPositions[v];
+            world[name] = glm::dvec3(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
+                                               float(origin[2] + spacing[2] * p.z)));
+            known[name] = 1;
+        }
+    }
+    {
+        std::vector<uint32_t> rep(ids.size());
+        for (size_t v = 0; v < rep.size(); ++v) rep[v] = uint32_t(v);
+        std::function<uint32_t(uint32_t)> find = [&](uint32_t x) { return rep[x] == x ? x : rep[x] = find(rep[x]); };
+        for (const Tri& tr : tris)
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
+                if (a == b || !known[a] || !known[b] || !(world[a] == world[b])) continue;
+                const uint32_t ra = find(a), rb = find(b);
+                if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+            }
+        std::vector<Tri> kept;
+        for (Tri tr : tris) {
+            for (uint32_t& v : tr.v) v = find(v);
+            if (tr.v[0] == tr.v[1] || tr.v[1] == tr.v[2] || tr.v[0] == tr.v[2]) continue;
+            kept.push_back(tr);
+        }
+        tris.swap(kept);
+    }
     // Directed edge uses; an edge matters when a changed cell's closed box holds it
     // (then every triangle that can use it is in the region).
-    auto isChanged = [&](const Coord& c) { return std::binary_search(changed.begin(), changed.end(), c); };
     auto matters = [&](uint32_t a, uint32_t b, const Coord& cell) {
         if (isChanged(cell)) return true;
         Coord la, ha, lb, hb;
@@ -1923,17 +2121,10 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     };
     std::unordered_map<uint64_t, std::pair<uint32_t, uint32_t>> uses; // directed edge -> (count, triangle)
     std::vector<uint64_t> relevant;
-    auto fail = [&](const std::string& what, const Coord& c) {
-        throw std::runtime_error("remesh: open or inconsistent surface (" + what + ") in cell " + cellText(c));
-    };
     for (size_t t = 0; t < tris.size(); ++t) {
         const Tri& tr = tris[t];
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
-            if (a == b) {
-                if (isChanged(tr.cell)) fail("a triangle repeats a vertex", tr.cell);
-                continue;
-            }
             if (!matters(a, b, tr.cell)) continue;
             const uint64_t key = uint64_t(a) << 32 | b;
             auto& u = uses[key];
@@ -2000,42 +2191,11 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
             }
         fail("a vertex where the surface pinches: not a 2-manifold", cell);
     }
-    // No triangle of a changed cell is degenerate once in float world mm, with
-    // the positions fusedMesh() gives (iso edge vertices: the uncut mesh's; a
-    // new vertex: from the first cell, in ascending order, that makes it).
-    const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
-    std::unordered_map<uint32_t, glm::dvec3> worldOf;
-    for (const Coord& c : region) {
-        auto cut = mCells.find(c);
-        if (cut == mCells.end()) continue;
-        const CutCellGeometry& g = cut->second;
-        std::vector<std::pair<std::pair<uint64_t, uint64_t>, uint32_t>> edgeMap;
-        auto range = mUncutCells.find(c);
-        if (range != mUncutCells.end()) {
-            uncutCornerEdges(c, corners);
-            for (size_t k = 0; k < corners.size(); ++k)
-                edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(range->second.first) + k]});
-        }
-        for (size_t v = 0; v < g.vertexIds.size(); ++v) {
-            const CutVertexId& id = g.vertexIds[v];
-            const uint32_t name = names.at(id);
-            if (worldOf.count(name)) continue;
-            if (id.isIsoEdgeVertex()) {
-                const std::pair<uint64_t, uint64_t> key{id.feature[0], id.feature[1]};
-                for (const auto& e : edgeMap)
-                    if (e.first == key) worldOf[name] = glm::dvec3(mUncut.positions[e.second]);
-                continue;
-            }
-            const glm::dvec3& p = g.indexPositions[v];
-            worldOf[name] = glm::dvec3(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
-                                                 float(origin[2] + spacing[2] * p.z)));
-        }
-    }
+    // No triangle of a changed cell is degenerate in float world mm.
     for (const Tri& tr : tris) {
         if (!isChanged(tr.cell) || !mCells.count(tr.cell)) continue;
-        auto a = worldOf.find(tr.v[0]), b = worldOf.find(tr.v[1]), d = worldOf.find(tr.v[2]);
-        if (a == worldOf.end() || b == worldOf.end() || d == worldOf.end()) continue;
-        const glm::dvec3 n = glm::cross(b->second - a->second, d->second - a->second);
+        if (!known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
+        const glm::dvec3 n = glm::cross(world[tr.v[1]] - world[tr.v[0]], world[tr.v[2]] - world[tr.v[0]]);
         if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) fail("a triangle of zero area in float mm", tr.cell);
     }
 }
@@ -2138,7 +2298,7 @@ size_t CutRemesher::update(const CutMask& mask)
             save(c);
             CutCellGeometry& geometry = mCells[c];
             mRecords[c] = std::move(rec);
-            mKernel->remesh(c, cellQuads(mask, mRecords[c].quads), mask.kerf() > 0, geometry);
+            mKernel->remesh(c, cellQuads(mask, mRecords[c].quads, *mPrismCache), mask.kerf() > 0, geometry);
             if (mCellHook) mCellHook(c, geometry);
             ++count;
         }

@@ -46,11 +46,17 @@
 // inside the solid and outside every other closed prism; of two coincident
 // faces facing the same way, the lower quad's), through the same arrangement,
 // naming and triangulation as above, with no slits, tags or Steiner points.
-// Where the tip rims of two mitred prisms meet, their planes cross the mitre
-// in slightly different lines; the sub-micron slivers this makes and points
-// where the union of prisms pinches (a blade pivoting on a point) are
-// refused by the local check (10 of 100 random head strokes), never
-// written.
+// A rim continuing the previous quad's rim (within 1e-4 voxel) shares its
+// plane object, so straight strokes meet the mitre in one rim line. Where a
+// curved stroke's rims cross a mitre in slightly different lines, the
+// sub-micron slivers and points where the union of prisms pinches (a blade
+// pivoting on a point) are refused by the local check (6 of 100 random head
+// strokes), never written.
+//
+// Snap rounding (fusedMesh): new vertices joined by an edge that round to
+// the same float position are one vertex of the written mesh, and the
+// triangles that collapse are dropped; the local check judges the mesh after
+// that step.
 #pragma once
 
 #include "cutter/CutMask.h"
@@ -111,6 +117,7 @@ struct CutCellGeometry
 };
 
 class RemeshKernel; // per-cell kernel, scratch buffers (Remesh.cpp)
+struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
 
 /// Keeps the re-meshed geometry of every cut cell of a CutMask and fuses it
 /// with the uncut isosurface.
@@ -181,6 +188,7 @@ private:
         std::vector<std::array<double, 12>> quadCorners; ///< the quads' corners and neighbours when meshed
     };
     std::unique_ptr<RemeshKernel> mKernel;
+    std::unique_ptr<PrismCache> mPrismCache;
     const vdb::Volume* mVolume;
     float mIso;
     Mesh mUncut;

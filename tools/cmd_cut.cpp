@@ -141,7 +141,9 @@ bool looksLikePhantom(const vdb::Volume& vol)
 /// The built-in stroke: makeLeFortStroke on the volume's frame; on the
 /// phantom, at the height of its LeFort I plane; on other inputs, fitted to
 /// the bounding box of the isosurface (a head scan from the vertex to the
-/// neck: the ellipse at 42 % of the bone's height runs through the maxilla).
+/// neck: the ellipse at 42 % of the bone's height, its front a quarter of the
+/// bone's depth back, runs through the maxilla), without tremor, the blade
+/// sloping down 0.1 rad.
 std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::IndexFrame& frame,
                                         const cutter::Mesh& surface, bool* onPhantom)
 {
@@ -158,6 +160,9 @@ std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::In
         options.boxLo = lo;
         options.boxHi = hi;
         options.zFraction = 0.42;
+        options.faceFraction = 0.25;
+
+
         options.jitter = 0.0;
         options.tilt = 0.1;
     }
