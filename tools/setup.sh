@@ -20,6 +20,7 @@ PACKAGES=(
   libgdcm-dev libnifti2-dev libteem-dev
   libglfw3-dev libepoxy-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev libpng-dev
   libgtest-dev libbenchmark-dev xvfb clang libclang-rt-14-dev
+  libcgal-dev libgmp-dev libmpfr-dev
 )
 
 deps() {

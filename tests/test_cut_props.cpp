@@ -1,0 +1,1277 @@
+// Property tests of the cut, the cut issue's list (DESIGN invariants 5-10),
+// each for kerf w = 0 and w = 0.5 mm:
+//  - a sphere and a box cut through by a plane (axis-aligned off the grid, and
+//    oblique): exactly 2 fragments; their volumes add up to the original minus
+//    the kerf slab within invariant 10's bound (one tet per cut cell);
+//  - cuts that stop inside (a notch, a blade whose tip stays inside, both):
+//    1 closed, manifold fragment;
+//  - seeded random strokes and hand-made ones (straight, curved, self-crossing,
+//    two strokes crossing, blades in grid planes and through grid vertices)
+//    on the real heads: zero checkMesh defects on every fused mesh; the
+//    re-mesher's refusals (a thrown "remesh: ... cell (i, j, k)", mesh kept)
+//    counted and bounded;
+//  - outside the re-meshed cells the triangles are the uncut ones exactly (the
+//    same indices per cell, the same vertex positions); undo of each stroke
+//    (and back to a stick inside a stroke) gives the earlier mesh exactly;
+//  - cap vertices lie within one voxel diagonal of the blade's swept surface;
+//  - an independent self-intersection check with CGAL (tests/SelfIntersect.h):
+//    none for w > 0; for w = 0 the two sides touch (invariant 7) only on the
+//    swept surface.
+// kerf > 0 is not implemented yet: the re-mesher throws InputError("... kerf
+// > 0 is not implemented yet ..."); those cases skip with that message and run
+// by themselves once it lands. Any other exception fails.
+// test_remesh.cpp already checks the zero-kerf sphere's volumes against the
+// uncut one and its analytic small cap, its 100 random head strokes undone
+// together at the end, and the local check's refusals; that is not repeated.
+#include "cutter/CutMask.h"
+#include "cutter/Fusion.h"
+#include "cutter/Isosurface.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/Remesh.h"
+#include "tests/SelfIntersect.h"
+#include "tests/TestUtil.h"
+#include "tests/TestVolumes.h"
+#include "vdb/Error.h"
+#include "vdb/VolumeIO.h"
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/intersections.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+using namespace mtcut;
+using namespace mtcut::cutter;
+using glm::dvec3;
+using openvdb::Coord;
+using openvdb::Vec3d;
+using mtcut::test::fieldVolume;
+using mtcut::test::selfIntersections;
+
+namespace {
+
+constexpr const char* kKerfTodo = "kerf > 0 is not implemented yet";
+
+// ------------------------------------------------------------------ update --
+
+enum class Outcome { Ok, KerfTodo, Refused };
+
+struct UpdateResult
+{
+    Outcome outcome = Outcome::Ok;
+    std::string message;
+    size_t cells = 0;
+};
+
+/// remesher.update(mask), telling apart: done; kerf > 0 not implemented yet
+/// (InputError naming it, only for a mask with kerf > 0); a refused cell
+/// (std::runtime_error "remesh: ... cell (i, j, k)"). Anything else is
+/// rethrown, so it fails the test.
+UpdateResult tryUpdate(CutRemesher& remesher, const CutMask& mask)
+{
+    UpdateResult r;
+    try {
+        r.cells = remesher.update(mask);
+    } catch (const InputError& e) {
+        r.message = e.what();
+        if (mask.kerf() > 0 && r.message.find(kKerfTodo) != std::string::npos) {
+            r.outcome = Outcome::KerfTodo;
+            return r;
+        }
+        throw;
+    } catch (const std::runtime_error& e) {
+        r.message = e.what();
+        if (r.message.rfind("remesh: ", 0) == 0 && r.message.find(" cell (") != std::string::npos) {
+            r.outcome = Outcome::Refused;
+            return r;
+        }
+        throw;
+    }
+    return r;
+}
+
+/// In a TEST body: update, skip while kerf > 0 is not implemented, fail on a refusal.
+#define UPDATE_OR_SKIP(remesher, mask)                                                                     \
+    do {                                                                                                   \
+        const UpdateResult r_ = tryUpdate(remesher, mask);                                                 \
+        if (r_.outcome == Outcome::KerfTodo) {                                                             \
+            GTEST_SKIP() << r_.message;                                                                    \
+        }                                                                                                  \
+        ASSERT_EQ(r_.outcome, Outcome::Ok) << r_.message;                                                  \
+    } while (0)
+
+bool sameMesh(const Mesh& a, const Mesh& b)
+{
+    return a.positions == b.positions && a.normals == b.normals && a.indices == b.indices &&
+           a.triangleVoxels == b.triangleVoxels;
+}
+
+/// The same triangles per cell as position triples, each up to the corner it
+/// starts at (orientation kept) and up to the numbering of the vertices.
+bool sameTriangles(const Mesh& a, const Mesh& b)
+{
+    if (a.triangleCount() != b.triangleCount()) return false;
+    using Key = std::array<float, 12>;
+    auto canon = [](const Mesh& m) {
+        std::vector<Key> t(m.triangleCount());
+        for (size_t i = 0; i < t.size(); ++i) {
+            std::array<std::array<float, 3>, 3> p;
+            for (int j = 0; j < 3; ++j) {
+                const glm::vec3& v = m.positions[m.indices[3 * i + size_t(j)]];
+                p[size_t(j)] = {v.x, v.y, v.z};
+            }
+            std::rotate(p.begin(), std::min_element(p.begin(), p.end()), p.end());
+            const glm::ivec3 c = m.triangleVoxels[i];
+            t[i] = {float(c.x), float(c.y), float(c.z), p[0][0], p[0][1], p[0][2], p[1][0], p[1][1], p[1][2],
+                    p[2][0], p[2][1], p[2][2]};
+        }
+        std::sort(t.begin(), t.end());
+        return t;
+    };
+    return canon(a) == canon(b);
+}
+
+std::string kerfName(double w) { return w > 0 ? "w=" + std::to_string(w).substr(0, 3) + "mm" : "w=0"; }
+
+// ------------------------------------------------------------------ strokes --
+
+Pose pose(double t, dvec3 base, dvec3 dir, double len)
+{
+    Pose p;
+    p.time = t;
+    p.base = base;
+    p.direction = dir;
+    p.length = len;
+    return p;
+}
+
+/// The base moves from `from` to `to` in `steps` poses, the blade along `dir`.
+std::vector<Pose> straightStroke(dvec3 from, dvec3 to, dvec3 dir, double len, int steps)
+{
+    std::vector<Pose> poses;
+    for (int i = 0; i <= steps; ++i)
+        poses.push_back(pose(0.001 * i, from + (to - from) * (double(i) / steps), dir, len));
+    return poses;
+}
+
+/// Adds a stroke as one mask stroke; returns its quad count.
+size_t addStroke(CutMask& mask, const std::vector<Pose>& poses)
+{
+    const std::vector<Quad> quads = filterStroke(poses, mask.frame());
+    mask.beginStroke();
+    for (const Quad& q : quads) mask.addQuad(q);
+    return quads.size();
+}
+
+// ----------------------------------------------------------------- geometry --
+
+/// Largest tet of the 5-tet split, world mm^3 (the central tet: a third of the cell).
+double largestTetVolume(const IndexFrame& f)
+{
+    double best = 0.0;
+    for (int parity = 0; parity < 2; ++parity)
+        for (const auto& t : cellTets(parity)) {
+            dvec3 v[4];
+            for (int i = 0; i < 4; ++i)
+                v[i] = dvec3(t[size_t(i)] & 1, (t[size_t(i)] >> 1) & 1, (t[size_t(i)] >> 2) & 1) * f.spacing;
+            best = std::max(best, std::abs(glm::dot(v[1] - v[0], glm::cross(v[2] - v[0], v[3] - v[0]))) / 6.0);
+        }
+    return best;
+}
+
+double segmentDistance(const dvec3& p, const dvec3& a, const dvec3& b)
+{
+    const dvec3 ab = b - a;
+    const double l2 = glm::dot(ab, ab);
+    const double t = l2 > 0 ? std::clamp(glm::dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
+    return glm::length(p - (a + t * ab));
+}
+
+/// Distance from p to the convex hull of a quad's corners moved by `shift`
+/// (world mm). In-plane inside test: p's projection lies in one of the corner
+/// triangles (the hull of 4 coplanar points is the union of its 4 corner
+/// triangles); else the nearest corner-to-corner segment.
+double quadDistance(const dvec3& p, const Quad& q, const dvec3& shift)
+{
+    const uint32_t n = q.cornerCount;
+    dvec3 c[4];
+    for (uint32_t i = 0; i < n; ++i) c[i] = q.corners[i] + shift;
+    double seg = 1e300;
+    for (uint32_t i = 0; i < n; ++i)
+        for (uint32_t j = i + 1; j < n; ++j) seg = std::min(seg, segmentDistance(p, c[i], c[j]));
+    if (q.degenerate || glm::length(q.normal) < 0.5) return seg;
+    const dvec3 nrm = q.normal;
+    const double h = glm::dot(nrm, p - c[0]);
+    const dvec3 pp = p - h * nrm;
+    for (uint32_t a = 0; a < n; ++a)
+        for (uint32_t b = a + 1; b < n; ++b)
+            for (uint32_t d = b + 1; d < n; ++d) {
+                const double s0 = glm::dot(nrm, glm::cross(c[b] - c[a], c[d] - c[a]));
+                if (std::abs(s0) < 1e-12) continue;
+                const double s1 = glm::dot(nrm, glm::cross(c[b] - c[a], pp - c[a]));
+                const double s2 = glm::dot(nrm, glm::cross(c[d] - c[b], pp - c[b]));
+                const double s3 = glm::dot(nrm, glm::cross(c[a] - c[d], pp - c[d]));
+                if (s1 * s0 >= 0 && s2 * s0 >= 0 && s3 * s0 >= 0) return std::abs(h);
+            }
+    return seg;
+}
+
+/// Distance from p to the blade's swept surface made of `quads`: with kerf w
+/// the quads moved by -w/2 and +w/2 along their normal (the slab's faces).
+double bladeDistance(const dvec3& p, const std::vector<const Quad*>& quads, double kerf)
+{
+    double best = 1e300;
+    for (const Quad* q : quads) {
+        if (kerf > 0) {
+            best = std::min(best, quadDistance(p, *q, 0.5 * kerf * q->normal));
+            best = std::min(best, quadDistance(p, *q, -0.5 * kerf * q->normal));
+        } else {
+            best = std::min(best, quadDistance(p, *q, dvec3(0.0)));
+        }
+    }
+    return best;
+}
+
+/// The quads that touch `cell`; for a re-meshed cell outside the mask (just
+/// outside the scan box), those of its cut neighbours.
+std::vector<const Quad*> quadsNear(const CutMask& mask, const Coord& cell)
+{
+    std::vector<const Quad*> out;
+    std::set<std::pair<uint32_t, uint32_t>> seen;
+    auto take = [&](const Coord& c) {
+        if (const std::vector<QuadRef>* refs = mask.quadsAt(c))
+            for (const QuadRef& r : *refs)
+                if (seen.insert({r.stroke, r.quad}).second) out.push_back(&mask.quad(r));
+    };
+    take(cell);
+    if (out.empty())
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) take(cell + Coord(dx, dy, dz));
+    return out;
+}
+
+/// A vertex made by the iso surface alone (planes 1 = the iso surface, 2 and
+/// 3 its triangles in a tet; no blade plane, no slit side tag).
+bool isoOnly(const CutVertexId& id)
+{
+    if (id.tagCount > 0) return false;
+    for (uint8_t i = 0; i < id.planeCount; ++i)
+        if (id.planes[i] > 3) return false;
+    return true;
+}
+
+struct CapStats
+{
+    size_t vertices = 0;     ///< new vertices on a blade plane
+    size_t onSurface = 0;    ///< of them, within 1e-4 mm of the swept surface
+    double maxMm = 0.0;      ///< largest distance to the swept surface
+    double diagonalMm = 0.0; ///< the bound: one voxel diagonal
+    void merge(const CapStats& o)
+    {
+        vertices += o.vertices;
+        onSurface += o.onSurface;
+        maxMm = std::max(maxMm, o.maxMm);
+        diagonalMm = std::max(diagonalMm, o.diagonalMm);
+    }
+};
+
+/// Invariant 10's first half: every new vertex of the re-meshed cells that lies
+/// on a blade plane is within one tet (bounded by one voxel diagonal) of the
+/// swept surface (world mm; for w > 0 its slab's faces).
+CapStats capDistances(const CutRemesher& remesher, const CutMask& mask)
+{
+    CapStats st;
+    const IndexFrame& f = mask.frame();
+    st.diagonalMm = glm::length(f.spacing);
+    for (const auto& [cell, geom] : remesher.cells()) {
+        const std::vector<const Quad*> quads = quadsNear(mask, cell);
+        for (size_t v = 0; v < geom.vertexIds.size(); ++v) {
+            if (isoOnly(geom.vertexIds[v])) continue;
+            const dvec3 world = f.toWorld(geom.indexPositions[v]);
+            const double d = bladeDistance(world, quads, mask.kerf());
+            ++st.vertices;
+            if (d <= 1e-4) ++st.onSurface;
+            st.maxMm = std::max(st.maxMm, d);
+        }
+    }
+    return st;
+}
+
+// ------------------------------------------------------ untouched outside --
+
+using CellTri = std::array<int64_t, 6>; // cell x, y, z, then the indices rotated to start at the smallest
+
+/// Triangles of cells not re-meshed, by cell, with their vertex indices
+/// (rotated, orientation kept), sorted.
+std::vector<CellTri> outsideTriangles(const Mesh& m, const std::map<Coord, CutCellGeometry>& cells)
+{
+    std::vector<CellTri> out;
+    out.reserve(m.triangleCount());
+    for (size_t t = 0; t < m.triangleCount(); ++t) {
+        const glm::ivec3 c = m.triangleVoxels[t];
+        if (cells.count(Coord(c.x, c.y, c.z))) continue;
+        std::array<uint32_t, 3> i{m.indices[3 * t], m.indices[3 * t + 1], m.indices[3 * t + 2]};
+        const int r = int(std::min_element(i.begin(), i.end()) - i.begin());
+        std::rotate(i.begin(), i.begin() + r, i.end());
+        out.push_back({c.x, c.y, c.z, i[0], i[1], i[2]});
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+/// Invariant 9: outside the re-meshed cells the fused mesh has exactly the
+/// uncut triangles (the same vertex indices, as a set per cell) and every uncut
+/// vertex keeps its position.
+bool untouchedOutside(const Mesh& uncut, const Mesh& fused, const CutRemesher& remesher, std::string& why)
+{
+    if (fused.positions.size() < uncut.positions.size() ||
+        !std::equal(uncut.positions.begin(), uncut.positions.end(), fused.positions.begin())) {
+        why = "an uncut vertex moved or is missing";
+        return false;
+    }
+    const std::vector<CellTri> a = outsideTriangles(uncut, remesher.cells());
+    const std::vector<CellTri> b = outsideTriangles(fused, remesher.cells());
+    if (a != b) {
+        std::vector<CellTri> diff;
+        std::set_symmetric_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(diff));
+        why = std::to_string(diff.size()) + " triangles differ outside the cut cells, first in cell (" +
+              std::to_string(diff[0][0]) + ", " + std::to_string(diff[0][1]) + ", " + std::to_string(diff[0][2]) + ")";
+        return false;
+    }
+    return true;
+}
+
+// ------------------------------------------------------ self-intersections --
+
+struct TouchStats
+{
+    size_t pairs = 0;     ///< intersecting triangle pairs CGAL found
+    size_t offBlade = 0;  ///< of them, meeting somewhere off the swept surface
+    size_t cutPairs = 0;  ///< pairs with at least one triangle in a re-meshed cell
+    size_t coplanar = 0;  ///< of them, one triangle in a quad's plane (a cap piece)
+    double findSeconds = 0.0, classifySeconds = 0.0;
+    void merge(const TouchStats& o)
+    {
+        findSeconds += o.findSeconds;
+        classifySeconds += o.classifySeconds;
+        pairs += o.pairs;
+        offBlade += o.offBlade;
+        cutPairs += o.cutPairs;
+        coplanar += o.coplanar;
+    }
+};
+
+/// The exact intersection of triangles a and b (CGAL, exact constructions),
+/// as the corners of its point/segment/polygon; empty when they miss.
+std::vector<dvec3> intersectionCorners(const Mesh& m, uint32_t a, uint32_t b)
+{
+    using EK = CGAL::Exact_predicates_exact_constructions_kernel;
+    auto tri = [&](uint32_t t) {
+        EK::Point_3 p[3];
+        for (int j = 0; j < 3; ++j) {
+            const glm::vec3& v = m.positions[m.indices[3 * t + uint32_t(j)]];
+            p[j] = EK::Point_3(double(v.x), double(v.y), double(v.z));
+        }
+        return EK::Triangle_3(p[0], p[1], p[2]);
+    };
+    std::vector<dvec3> out;
+    const auto res = CGAL::intersection(tri(a), tri(b));
+    if (!res) return out;
+    auto put = [&](const EK::Point_3& p) {
+        out.emplace_back(CGAL::to_double(p.x()), CGAL::to_double(p.y()), CGAL::to_double(p.z()));
+    };
+    if (const EK::Point_3* p = boost::get<EK::Point_3>(&*res)) put(*p);
+    else if (const EK::Segment_3* s = boost::get<EK::Segment_3>(&*res)) {
+        put(s->source());
+        put(s->target());
+    } else if (const EK::Triangle_3* t = boost::get<EK::Triangle_3>(&*res)) {
+        for (int i = 0; i < 3; ++i) put(t->vertex(i));
+    } else if (const auto* poly = boost::get<std::vector<EK::Point_3>>(&*res)) {
+        for (const EK::Point_3& q : *poly) put(q);
+    }
+    return out;
+}
+
+/// Self-intersections of `fused` near the cut (the triangles of the re-meshed
+/// cells and of their 26 neighbours: two triangles can meet only when their
+/// closed cells do), counting the pairs that involve a re-meshed cell. A pair
+/// is off the blade when a corner of its exact intersection lies farther than
+/// `tolMm` from the swept surface (the slit itself, w = 0).
+TouchStats touchesNearCut(const Mesh& fused, const CutRemesher& remesher, const CutMask& mask, double tolMm)
+{
+    std::set<Coord> near;
+    for (const auto& c : remesher.cells())
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) near.insert(c.first + Coord(dx, dy, dz));
+    std::vector<uint32_t> only;
+    for (size_t t = 0; t < fused.triangleCount(); ++t) {
+        const glm::ivec3 c = fused.triangleVoxels[t];
+        if (near.count(Coord(c.x, c.y, c.z))) only.push_back(uint32_t(t));
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const mtcut::test::SelfIntersectResult si = selfIntersections(fused, &only);
+    const auto t1 = std::chrono::steady_clock::now();
+    TouchStats st;
+    st.findSeconds = std::chrono::duration<double>(t1 - t0).count();
+    st.pairs = si.count();
+    // A pair in which one triangle lies in a quad's plane (a cap piece of the
+    // slit, w = 0) meets inside that triangle, so on the swept surface (the cap
+    // vertices' distance to it is checked by capDistances): no exact
+    // construction needed. Other pairs: the exact intersection's corners.
+    std::unordered_map<uint32_t, const Quad*> capPlane;
+    auto inPlane = [&](uint32_t t, const Quad& q) {
+        if (q.degenerate) return false;
+        for (int j = 0; j < 3; ++j) {
+            const dvec3 p(fused.positions[fused.indices[3 * t + uint32_t(j)]]);
+            if (std::abs(glm::dot(q.normal, p) - q.offset) > tolMm) return false;
+        }
+        return true;
+    };
+    auto planeOf = [&](uint32_t t, const std::vector<const Quad*>& quads) {
+        const auto it = capPlane.find(t);
+        if (it != capPlane.end()) return it->second;
+        const Quad* found = nullptr;
+        for (const Quad* q : quads)
+            if (inPlane(t, *q)) {
+                found = q;
+                break;
+            }
+        capPlane.emplace(t, found);
+        return found;
+    };
+    for (const auto& [a, b] : si.pairs) {
+        const glm::ivec3 ca = fused.triangleVoxels[a], cb = fused.triangleVoxels[b];
+        const Coord ka(ca.x, ca.y, ca.z), kb(cb.x, cb.y, cb.z);
+        if (!remesher.cells().count(ka) && !remesher.cells().count(kb)) continue;
+        ++st.cutPairs;
+        std::vector<const Quad*> quads = quadsNear(mask, ka);
+        const std::vector<const Quad*> qb = quadsNear(mask, kb);
+        quads.insert(quads.end(), qb.begin(), qb.end());
+        if (planeOf(a, quads) || planeOf(b, quads)) {
+            ++st.coplanar;
+            continue;
+        }
+        for (const dvec3& p : intersectionCorners(fused, a, b))
+            if (bladeDistance(p, quads, 0.0) > tolMm) {
+                ++st.offBlade;
+                if (st.offBlade <= 3)
+                    std::printf("  off-blade intersection: triangles %u (cell %d,%d,%d) and %u (cell %d,%d,%d)\n", a,
+                                ca.x, ca.y, ca.z, b, cb.x, cb.y, cb.z);
+                break;
+            }
+    }
+    st.classifySeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    return st;
+}
+
+// ------------------------------------------------------------------ solids --
+
+/// An analytic solid on the 40^3, 1 mm grid of test_remesh (voxel centres at
+/// -19.5 .. 19.5 mm), isovalue 0.
+struct Solid
+{
+    std::string name;
+    std::function<double(const Vec3d&)> field; ///< >= 0 inside
+    double volume = 0.0;                        ///< exact, mm^3
+    /// Exact volume of the solid between the planes n.x = lo and n.x = hi
+    /// (n unit, horizontal for the box).
+    std::function<double(const dvec3&, double, double)> between;
+};
+
+Solid sphereSolid()
+{
+    const double R = 15.0;
+    Solid s;
+    s.name = "sphere";
+    s.field = [R](const Vec3d& p) { return R - p.length(); };
+    s.volume = 4.0 / 3.0 * M_PI * R * R * R;
+    s.between = [R](const dvec3&, double lo, double hi) {
+        lo = std::clamp(lo, -R, R);
+        hi = std::clamp(hi, -R, R);
+        auto F = [R](double z) { return R * R * z - z * z * z / 3.0; };
+        return hi > lo ? M_PI * (F(hi) - F(lo)) : 0.0;
+    };
+    return s;
+}
+
+Solid boxSolid()
+{
+    const dvec3 c(0.21, -0.33, 0.45), h(11.3, 8.65, 9.9);
+    Solid s;
+    s.name = "box";
+    s.field = [c, h](const Vec3d& p) {
+        return std::min({h.x - std::abs(p.x() - c.x), h.y - std::abs(p.y() - c.y), h.z - std::abs(p.z() - c.z)});
+    };
+    s.volume = 8.0 * h.x * h.y * h.z;
+    // Section of the box by the vertical plane n.x = s: 2 h.z times the length of
+    // the line's chord through the rectangle; integrated by the midpoint rule
+    // (the chord length is piecewise linear in s: error ~1e-6 of the volume).
+    s.between = [c, h](const dvec3& n, double lo, double hi) {
+        EXPECT_EQ(n.z, 0.0);
+        const double ext = std::abs(n.x) * h.x + std::abs(n.y) * h.y, mid = n.x * c.x + n.y * c.y;
+        lo = std::max(lo, mid - ext);
+        hi = std::min(hi, mid + ext);
+        if (hi <= lo) return 0.0;
+        auto chord = [&](double off) {
+            const dvec3 p0 = dvec3(n.x, n.y, 0) * off, d(-n.y, n.x, 0);
+            double u0 = -1e300, u1 = 1e300;
+            for (int a = 0; a < 2; ++a) {
+                const double lo_a = c[a] - h[a] - p0[a], hi_a = c[a] + h[a] - p0[a];
+                if (std::abs(d[a]) < 1e-15) {
+                    if (lo_a > 0 || hi_a < 0) return 0.0;
+                    continue;
+                }
+                const double t0 = lo_a / d[a], t1 = hi_a / d[a];
+                u0 = std::max(u0, std::min(t0, t1));
+                u1 = std::min(u1, std::max(t0, t1));
+            }
+            return std::max(0.0, u1 - u0);
+        };
+        const int steps = 20000;
+        double sum = 0.0;
+        for (int i = 0; i < steps; ++i) sum += chord(lo + (hi - lo) * (i + 0.5) / steps);
+        return sum * (hi - lo) / steps * 2.0 * h.z;
+    };
+    return s;
+}
+
+vdb::Volume volumeOf(const Solid& s) { return fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), s.field); }
+
+/// A vertical cutting plane n.x = c: its name, the stroke along it (the base
+/// at z = 22 mm moving along the plane from u0 to u1, the blade pointing down,
+/// length len: 45 mm cuts through the whole grid).
+struct CutPlane
+{
+    std::string name;
+    dvec3 n;
+    double c;
+    std::vector<Pose> stroke(double u0, double u1, double len) const
+    {
+        const dvec3 m(-n.y, n.x, 0.0);
+        const dvec3 o = c * n + dvec3(0, 0, 22);
+        return straightStroke(o + u0 * m, o + u1 * m, dvec3(0, 0, -1), len, int(std::ceil(4 * (u1 - u0))));
+    }
+};
+
+std::vector<std::pair<Solid, CutPlane>> throughCuts()
+{
+    const double a = 23.0 * M_PI / 180.0;
+    return {
+        {sphereSolid(), {"y = 0.37", dvec3(0, 1, 0), 0.37}},
+        {sphereSolid(), {"oblique 23 deg", dvec3(std::cos(a), std::sin(a), 0), -3.1}},
+        {boxSolid(), {"x = 1.37", dvec3(1, 0, 0), 1.37}},
+        {boxSolid(), {"oblique 23 deg", dvec3(std::cos(a), std::sin(a), 0), 0.8}},
+    };
+}
+
+class CutProps : public ::testing::TestWithParam<double>
+{
+};
+
+} // namespace
+
+// ----------------------------------------------------------- the checker ---
+
+// The CGAL checker itself: a clean closed surface has no self-intersection;
+// two interpenetrating boxes do; triangles that share only a vertex, or an
+// edge with a fold that does not lie back onto the other, do not; a fold
+// flat onto its neighbour across the shared edge does.
+TEST(SelfIntersect, CheckerSeesWhatItShould)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh sphere = extractIsosurface(vol, 0.0f);
+    ASSERT_TRUE(checkMesh(sphere).ok());
+    EXPECT_EQ(selfIntersections(sphere).count(), 0u);
+
+    auto box = [](Mesh& m, dvec3 lo, dvec3 hi) {
+        const uint32_t base = uint32_t(m.positions.size());
+        for (int c = 0; c < 8; ++c)
+            m.positions.emplace_back(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
+        const uint32_t quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+        for (const auto& q : quads) {
+            for (uint32_t i : {q[0], q[1], q[2], q[0], q[2], q[3]}) m.indices.push_back(base + i);
+            m.triangleVoxels.emplace_back(0);
+            m.triangleVoxels.emplace_back(0);
+        }
+    };
+    Mesh one;
+    box(one, dvec3(0), dvec3(1));
+    ASSERT_TRUE(checkMesh(one).ok()) << checkMesh(one).report();
+    EXPECT_EQ(selfIntersections(one).count(), 0u);
+    Mesh two = one;
+    box(two, dvec3(0.5, 0.25, 0.3), dvec3(1.5, 1.25, 1.3));
+    EXPECT_GT(selfIntersections(two).count(), 0u);
+    Mesh apart = one;
+    box(apart, dvec3(2, 0, 0), dvec3(3, 1, 1));
+    EXPECT_EQ(selfIntersections(apart).count(), 0u);
+
+    // A fan of 4 triangles around vertex 0 (a manifold patch): the first and
+    // the third share vertex 0 only and meet nowhere else.
+    auto fan = [](std::array<glm::vec3, 4> ring) {
+        Mesh m;
+        m.positions = {{0, 0, 0}, ring[0], ring[1], ring[2], ring[3]};
+        m.indices = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1};
+        m.triangleVoxels.assign(4, glm::ivec3(0));
+        return m;
+    };
+    EXPECT_EQ(selfIntersections(fan({glm::vec3(1, 0, 0), {0, 1, 0.5f}, {-1, 0, 0}, {0, -1, 0.5f}})).count(), 0u);
+    // The same fan with the third triangle crossing the first beyond vertex 0.
+    EXPECT_GT(selfIntersections(fan({glm::vec3(1, 0, 0), {0, 1, 0}, {0.5f, 0.2f, -1}, {0.2f, 0.5f, 1}})).count(), 0u);
+    // Sharing an edge (a hinge at 90 degrees): none.
+    Mesh e;
+    e.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    e.indices = {0, 1, 2, 1, 0, 3};
+    EXPECT_EQ(selfIntersections(e).count(), 0u);
+    // Sharing an edge, the second folded flat back onto the first: overlap beyond the edge.
+    Mesh f;
+    f.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3f, 0.5f, 0}};
+    f.indices = {0, 1, 2, 1, 0, 3};
+    EXPECT_GT(selfIntersections(f).count(), 0u);
+    // Touching at one point without sharing a vertex: an intersection.
+    Mesh t;
+    t.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}, {-1, 0, 0.5f}, {0, -1, 0.25f}};
+    t.indices = {0, 1, 2, 3, 4, 5};
+    EXPECT_GT(selfIntersections(t).count(), 0u);
+}
+
+// The uncut 4 mm head's isosurface has no self-intersection (exactly, with
+// the float positions as they are), so any the cut tests find come from the cut.
+TEST(SelfIntersect, UncutHeadHasNone)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto si = selfIntersections(uncut);
+    std::printf("uncut 4 mm head: %zu triangles, %zu self-intersecting pairs (%.2f s)\n", uncut.triangleCount(),
+                si.count(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    EXPECT_EQ(si.count(), 0u);
+}
+
+namespace {
+
+struct StateStats
+{
+    CapStats caps;
+    TouchStats touches;
+    size_t cgalChecks = 0;
+};
+
+/// The checks every cut state gets besides checkMesh: untouched outside the
+/// re-meshed cells (invariant 9), cap vertices near the swept surface
+/// (invariant 10), and when `cgal`, self-intersections near the cut: none for
+/// w > 0 (invariant 7), only on the swept surface for w = 0.
+void checkState(const Mesh& uncut, const Mesh& fused, const CutRemesher& remesher, const CutMask& mask, bool cgal,
+                StateStats& st, const std::string& what)
+{
+    std::string why;
+    EXPECT_TRUE(untouchedOutside(uncut, fused, remesher, why)) << what << ": " << why;
+    const CapStats caps = capDistances(remesher, mask);
+    EXPECT_LE(caps.maxMm, caps.diagonalMm) << what << ": a cap vertex " << caps.maxMm
+                                           << " mm from the swept surface (one voxel diagonal: " << caps.diagonalMm
+                                           << " mm)";
+    st.caps.merge(caps);
+    if (!cgal) return;
+    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    if (mask.kerf() > 0) {
+        EXPECT_EQ(t.pairs, 0u) << what << ": self-intersecting triangle pairs near the cut";
+    } else {
+        EXPECT_EQ(t.offBlade, 0u) << what << ": triangle pairs meeting off the swept surface";
+    }
+    st.touches.merge(t);
+    ++st.cgalChecks;
+}
+
+void printState(const char* what, const StateStats& st)
+{
+    std::printf("%s: cap vertices %zu (%zu on the swept surface within 1e-4 mm), largest distance %.4g mm = %.4f of "
+                "the bound %.4g mm (one voxel diagonal); CGAL checks %zu: %zu touching pairs at the cut (%zu "
+                "with a cap piece), %zu off the swept surface (%.1f s finding, %.1f s classifying)\n",
+                what, st.caps.vertices, st.caps.onSurface, st.caps.maxMm, st.caps.maxMm / st.caps.diagonalMm,
+                st.caps.diagonalMm, st.cgalChecks, st.touches.cutPairs, st.touches.coplanar, st.touches.offBlade,
+                st.touches.findSeconds, st.touches.classifySeconds);
+}
+
+} // namespace
+
+// ----------------------------------------------------- analytic solids ---
+
+// A sphere and a box cut through by a plane (axis-aligned but off the grid,
+// and oblique): exactly 2 fragments, zero defects; invariant 10: the
+// fragments' total volume is the uncut volume minus the kerf slab within one
+// tet per cut cell, and each fragment is its analytic side within that bound
+// plus the isosurface's own error; outside the cut cells nothing changes;
+// caps within one voxel diagonal of the blade; for w > 0 no self-intersection
+// anywhere (whole mesh), for w = 0 the two sides touch only on the blade.
+TEST_P(CutProps, SphereAndBoxCutThroughGiveTwoFragmentsWithinTheVolumeBound)
+{
+    const double w = GetParam();
+    StateStats st;
+    for (const auto& [solid, plane] : throughCuts()) {
+        const std::string what = solid.name + " cut by " + plane.name + ", " + kerfName(w);
+        SCOPED_TRACE(what);
+        const vdb::Volume vol = volumeOf(solid);
+        const Mesh uncut = extractIsosurface(vol, 0.0f);
+        ASSERT_TRUE(checkMesh(uncut).ok());
+        const double v0 = meshVolume(uncut);
+        CutMask mask(frameOf(vol), w);
+        addStroke(mask, plane.stroke(-28, 28, 45));
+        CutRemesher remesher(vol, 0.0f, uncut);
+        UPDATE_OR_SKIP(remesher, mask);
+        const Mesh fused = remesher.fusedMesh();
+        const MeshCheck check = checkMesh(fused);
+        EXPECT_TRUE(check.ok()) << check.report();
+        const std::vector<Fragment> frags = fragmentsOf(fused);
+        ASSERT_EQ(frags.size(), 2u);
+
+        const double bound = double(mask.cutCellCount()) * largestTetVolume(mask.frame());
+        const double slab = w > 0 ? solid.between(plane.n, plane.c - 0.5 * w, plane.c + 0.5 * w) : 0.0;
+        const double sum = frags[0].volume + frags[1].volume;
+        const double errUncut = sum - (v0 - slab);
+        const double isoErr = v0 - solid.volume;
+        const double errExact = sum - (solid.volume - slab);
+        EXPECT_LE(std::abs(errUncut), bound);
+        EXPECT_LE(std::abs(errExact), bound + std::abs(isoErr));
+        double sideErr = 0.0;
+        for (const Fragment& f : frags) {
+            dvec3 mean(0.0);
+            for (const glm::vec3& p : f.mesh.positions) mean += dvec3(p);
+            mean /= double(f.mesh.positions.size());
+            const bool plus = glm::dot(plane.n, mean) > plane.c;
+            const double side = plus ? solid.between(plane.n, plane.c + 0.5 * w, 1e9)
+                                     : solid.between(plane.n, -1e9, plane.c - 0.5 * w);
+            EXPECT_LE(std::abs(f.volume - side), bound + std::abs(isoErr)) << (plus ? "+" : "-") << " side";
+            sideErr = std::max(sideErr, std::abs(f.volume - side));
+        }
+        std::printf("%s: %zu cut cells, bound %.1f mm^3 (x %.4g mm^3 per tet); fragments %.2f + %.2f mm^3; vs uncut "
+                    "minus slab %.1f: error %.3g mm^3 = %.2g of the bound; vs exact solid: %.3g (isosurface error "
+                    "%.3g); worst side vs analytic %.3g\n",
+                    what.c_str(), mask.cutCellCount(), bound, largestTetVolume(mask.frame()), frags[0].volume,
+                    frags[1].volume, slab, errUncut, errUncut / bound, errExact, isoErr, sideErr);
+
+        checkState(uncut, fused, remesher, mask, true, st, what);
+        if (w > 0) {
+            EXPECT_EQ(selfIntersections(fused).count(), 0u);
+        }
+    }
+    printState(("through cuts, " + kerfName(w)).c_str(), st);
+}
+
+// Cuts that stop inside (a notch half way across, a blade whose tip stays
+// inside, both): 1 fragment, closed and manifold (zero defects); the volume
+// is kept (w = 0) or loses at most the full slab (w > 0), within invariant
+// 10's bound; same outside, cap and self-intersection checks as above.
+TEST_P(CutProps, CutsThatStopInsideLeaveOneClosedManifoldFragment)
+{
+    const double w = GetParam();
+    StateStats st;
+    struct Stop
+    {
+        const char* name;
+        double u1, len;
+    };
+    const Stop stops[] = {{"notch half way", 0.3, 45}, {"tip inside", 28, 30}, {"notch with the tip inside", 0.3, 30}};
+    for (const auto& [solid, plane] : throughCuts()) {
+        const vdb::Volume vol = volumeOf(solid);
+        const Mesh uncut = extractIsosurface(vol, 0.0f);
+        const double v0 = meshVolume(uncut);
+        for (const Stop& s : stops) {
+            const std::string what = solid.name + ", " + plane.name + ", " + s.name + ", " + kerfName(w);
+            SCOPED_TRACE(what);
+            CutMask mask(frameOf(vol), w);
+            addStroke(mask, plane.stroke(-28, s.u1, s.len));
+            CutRemesher remesher(vol, 0.0f, uncut);
+            UPDATE_OR_SKIP(remesher, mask);
+            const Mesh fused = remesher.fusedMesh();
+            const MeshCheck check = checkMesh(fused);
+            EXPECT_TRUE(check.ok()) << check.report();
+            EXPECT_EQ(check.boundaryEdges + check.nonManifoldEdges + check.nonManifoldVertices, 0u);
+            EXPECT_EQ(fragmentsOf(fused).size(), 1u);
+            EXPECT_EQ(check.shells, 1u);
+            const double bound = double(mask.cutCellCount()) * largestTetVolume(mask.frame());
+            const double lost = v0 - meshVolume(fused);
+            if (w > 0) {
+                const double slab = solid.between(plane.n, plane.c - 0.5 * w, plane.c + 0.5 * w);
+                EXPECT_GE(lost, -bound);
+                EXPECT_LE(lost, slab + bound);
+            } else {
+                EXPECT_LE(std::abs(lost), bound);
+            }
+            std::printf("%s: %zu cut cells, volume lost %.3g mm^3 (bound %.1f)\n", what.c_str(), mask.cutCellCount(),
+                        lost, bound);
+            // CGAL for w = 0 (slow: coincident caps) on the oblique planes only.
+            checkState(uncut, fused, remesher, mask, w > 0 || plane.name.rfind("oblique", 0) == 0, st, what);
+            if (w > 0) {
+            EXPECT_EQ(selfIntersections(fused).count(), 0u);
+        }
+        }
+    }
+    printState(("stopping cuts, " + kerfName(w)).c_str(), st);
+}
+
+// ------------------------------------------------------------ real heads ---
+
+namespace {
+
+struct HeadStats
+{
+    size_t strokes = 0, refused = 0, cells = 0, defects = 0, undoChecks = 0;
+    size_t historyDiffs = 0; ///< redo in one update gave rotated triangles (known defect)
+    StateStats state;
+    std::vector<std::string> refusals;
+};
+
+/// One head being cut stroke after stroke.
+struct HeadRun
+{
+    HeadRun(const vdb::Volume& vol, const Mesh& uncutMesh, float iso, double kerf)
+        : uncut(uncutMesh), mask(frameOf(vol), kerf), remesher(vol, iso, uncutMesh), current(uncutMesh)
+    {
+    }
+    const Mesh& uncut;
+    CutMask mask;
+    CutRemesher remesher;
+    Mesh current; ///< the last good fused mesh
+};
+
+/// Adds one stroke to `run` and checks: zero checkMesh defects, the state
+/// checks (checkState), undo of the stroke gives the earlier mesh exactly and
+/// redo the new one; with `partial`, the stroke is first updated at half its
+/// quads, and undo back to that stick gives that mesh exactly. A refusal
+/// ("remesh: ... cell") must leave the remesher's mesh as it was; it is
+/// counted and the stroke undone. Returns KerfTodo to skip.
+Outcome cutStroke(HeadRun& run, const std::vector<Pose>& poses, const std::string& what, bool cgal, bool partial,
+                  HeadStats& st)
+{
+    const std::vector<Quad> quads = filterStroke(poses, run.mask.frame());
+    if (quads.empty()) return Outcome::Ok;
+    const size_t half = partial && quads.size() >= 4 ? quads.size() / 2 : 0;
+    run.mask.beginStroke();
+    Mesh mid;
+    bool midDone = false;
+    auto refused = [&](const UpdateResult& u) {
+        ++st.refused;
+        st.refusals.push_back(what + ": " + u.message);
+        std::printf("refused: %s: %s\n", what.c_str(), u.message.c_str());
+        EXPECT_TRUE(sameMesh(run.remesher.fusedMesh(), midDone ? mid : run.current))
+            << what << ": a refusal changed the mesh";
+        EXPECT_TRUE(run.mask.undoStroke());
+        const UpdateResult back = tryUpdate(run.remesher, run.mask);
+        EXPECT_EQ(back.outcome, Outcome::Ok) << back.message;
+        if (!midDone) {
+            EXPECT_EQ(back.cells, 0u) << what << ": after a refusal and undo there should be nothing to do";
+        }
+        EXPECT_TRUE(sameMesh(run.remesher.fusedMesh(), run.current)) << what << ": undo after a refusal";
+    };
+    ++st.strokes;
+    for (size_t q = 0; q < quads.size(); ++q) {
+        run.mask.addQuad(quads[q]);
+        if (q + 1 != half) continue;
+        const UpdateResult u = tryUpdate(run.remesher, run.mask);
+        if (u.outcome == Outcome::KerfTodo) return u.outcome;
+        if (u.outcome == Outcome::Refused) {
+            refused(u);
+            return Outcome::Ok;
+        }
+        mid = run.remesher.fusedMesh();
+        midDone = true;
+    }
+    const UpdateResult u = tryUpdate(run.remesher, run.mask);
+    if (u.outcome == Outcome::KerfTodo) return u.outcome;
+    if (u.outcome == Outcome::Refused) {
+        refused(u);
+        return Outcome::Ok;
+    }
+    st.cells += u.cells;
+    Mesh fused = run.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    st.defects += check.defects();
+    EXPECT_TRUE(check.ok()) << what << "\n" << check.report();
+    checkState(run.uncut, fused, run.remesher, run.mask, cgal && check.ok(), st.state, what);
+
+    auto expectBack = [&](const Mesh& want, const char* step) {
+        const UpdateResult r = tryUpdate(run.remesher, run.mask);
+        EXPECT_EQ(r.outcome, Outcome::Ok) << what << ", " << step << ": " << r.message;
+        EXPECT_TRUE(sameMesh(run.remesher.fusedMesh(), want)) << what << ", " << step << ": not the earlier mesh";
+        ++st.undoChecks;
+    };
+    if (half) {
+        run.mask.undoToQuad(uint32_t(half));
+        expectBack(mid, "undo to the middle stick");
+        EXPECT_TRUE(run.mask.redoStroke());
+        expectBack(fused, "redo after undo to the middle stick");
+    }
+    EXPECT_TRUE(run.mask.undoStroke());
+    expectBack(run.current, "undo of the stroke");
+    EXPECT_TRUE(run.mask.redoStroke());
+    if (!half) {
+        expectBack(fused, "redo of the stroke");
+    } else {
+        // The stroke was meshed in two updates; redo meshes it in one. Known
+        // defect (DISABLED_LiveUpdatesGiveTheBatchMeshExactly): some triangles
+        // then start at another corner. Same triangles otherwise.
+        const UpdateResult r = tryUpdate(run.remesher, run.mask);
+        EXPECT_EQ(r.outcome, Outcome::Ok) << what << ", redo: " << r.message;
+        Mesh redone = run.remesher.fusedMesh();
+        if (!sameMesh(redone, fused)) {
+            ++st.historyDiffs;
+            EXPECT_TRUE(sameTriangles(redone, fused)) << what << ": redo in one update is not the same triangles";
+        }
+        fused = std::move(redone);
+    }
+    run.current = std::move(fused);
+    return Outcome::Ok;
+}
+
+/// Hand-made strokes on a head, relative to its box: name and strokes (cut
+/// one after another on one mask).
+std::vector<std::pair<std::string, std::vector<std::vector<Pose>>>> handStrokes(const IndexFrame& f)
+{
+    const dvec3 lo = f.toWorld(dvec3(0.0)), hi = f.toWorld(dvec3(f.dims - 1));
+    // The free-hand shapes are placed off the grid (C is no grid vertex and no
+    // base line lies in a grid plane); the grid-aligned ones below are exact.
+    const dvec3 C = 0.5 * (lo + hi) + dvec3(0.37, -0.21, 0.43), E = hi - lo;
+    const double step = 0.5; // mm per pose
+    std::vector<std::pair<std::string, std::vector<std::vector<Pose>>>> out;
+    auto curve = [&](const std::function<dvec3(double)>& base, const std::function<dvec3(double)>& dir, double len,
+                     double t0, double t1) {
+        // About `step` mm of base motion per pose.
+        double arc = 0.0;
+        const int probe = 1000;
+        for (int i = 0; i < probe; ++i)
+            arc += glm::length(base(t0 + (t1 - t0) * (i + 1) / probe) - base(t0 + (t1 - t0) * i / probe));
+        const int n = std::max(2, int(arc / step));
+        std::vector<Pose> poses;
+        for (int i = 0; i <= n; ++i) {
+            const double t = t0 + (t1 - t0) * i / n;
+            poses.push_back(pose(0.001 * i, base(t), glm::normalize(dir(t)), len));
+        }
+        return poses;
+    };
+    auto line = [&](dvec3 a, dvec3 b, dvec3 dir, double len) {
+        return curve([=](double t) { return a + t * (b - a); }, [=](double) { return dir; }, len, 0.0, 1.0);
+    };
+    out.push_back({"straight", {line(C + E * dvec3(-0.45, 0.05, 0.45), C + E * dvec3(0.45, 0.05, 0.45),
+                                     dvec3(0.15, 0.1, -1), 0.55 * E.z)}});
+    const double r = 0.3 * std::min(E.x, E.y);
+    out.push_back({"curved", {curve([=](double a) { return C + dvec3(r * std::cos(a), r * std::sin(a), 0.15 * E.z); },
+                                    [=](double a) { return dvec3(-0.3 * std::cos(a), -0.3 * std::sin(a), -1); },
+                                    0.3 * E.z, -0.2 * M_PI, 1.2 * M_PI)}});
+    out.push_back({"self-crossing figure eight",
+                   {curve([=](double t) {
+                              return C + dvec3(0.3 * E.x * std::sin(t), 0.25 * E.y * std::sin(t) * std::cos(t), 0.1 * E.z);
+                          },
+                          [](double) { return dvec3(0.1, 0.2, -1); }, 0.25 * E.z, 0.15, 2 * M_PI - 0.15)}});
+    // The same figure eight run on until it retraces its start (t 0.15 .. 2 pi + 0.3).
+    out.push_back({"figure eight retracing its start",
+                   {curve([=](double t) {
+                              return C + dvec3(0.3 * E.x * std::sin(t), 0.25 * E.y * std::sin(t) * std::cos(t), 0.1 * E.z);
+                          },
+                          [](double) { return dvec3(0.1, 0.2, -1); }, 0.25 * E.z, 0.15, 2 * M_PI + 0.3)}});
+    const double a = 0.06 * E.x, b = 0.16 * E.x;
+    out.push_back({"self-crossing loop",
+                   {curve([=](double t) {
+                              return C + dvec3(a * (t - M_PI) - b * std::sin(t), b * std::cos(t), 0.2 * E.z);
+                          },
+                          [](double) { return dvec3(0.3, -0.2, -1); }, 0.25 * E.z, 0.0, 2 * M_PI)}});
+    out.push_back({"two strokes crossing",
+                   {line(C + E * dvec3(-0.45, -0.1, 0.35), C + E * dvec3(0.45, -0.1, 0.35), dvec3(0, 0, -1), 0.4 * E.z),
+                    line(C + E * dvec3(0.05, -0.45, 0.35), C + E * dvec3(0.05, 0.45, 0.35), dvec3(0.1, 0, -1),
+                         0.4 * E.z)}});
+    // Blades lying exactly in grid planes (x = i, y = j, z = k in world mm).
+    const glm::ivec3 mid = f.dims / 2;
+    const dvec3 g = f.toWorld(dvec3(mid));
+    out.push_back({"blade in the grid plane z = k",
+                   {line(dvec3(lo.x + 0.05 * E.x, lo.y - 5, g.z), dvec3(hi.x - 0.05 * E.x, lo.y - 5, g.z),
+                         dvec3(0, 1, 0), 0.5 * E.y)}});
+    out.push_back({"blade in the grid plane x = i",
+                   {line(dvec3(g.x, lo.y - 5, hi.z + 5), dvec3(g.x, hi.y + 5, hi.z + 5), dvec3(0, 0, -1), 0.6 * E.z)}});
+    out.push_back({"blade in the grid plane y = j",
+                   {line(dvec3(lo.x - 5, g.y, hi.z + 5), dvec3(hi.x + 5, g.y, hi.z + 5), dvec3(0, 0, -1), 0.6 * E.z)}});
+    // Through grid vertices exactly: bases on grid vertices, one pose per vertex.
+    {
+        const int i0 = int(0.15 * f.dims.x), i1 = int(0.85 * f.dims.x);
+        const int j0 = int(0.3 * f.dims.y), k0 = int(0.3 * f.dims.z);
+        std::vector<Pose> diag, vert;
+        const dvec3 d111 = glm::normalize(f.spacing); // index direction (1,1,1)
+        for (int i = i0; i <= i1; ++i)
+            diag.push_back(pose(0.001 * (i - i0), f.toWorld(dvec3(i, j0, k0)), d111, 25.0 * glm::length(f.spacing)));
+        const int stairs = int(0.4 * std::min(f.dims.x, f.dims.y));
+        for (int n = 0; n <= 2 * stairs; ++n)
+            vert.push_back(pose(0.001 * n, f.toWorld(dvec3(i0 + (n + 1) / 2, j0 + n / 2, k0)), dvec3(0, 0, 1), 0.5 * E.z));
+        // vert: the base walks grid vertices along x and y in turn (a staircase of
+        // quads in grid planes x = i and y = j, turning 90 degrees at every stick).
+        out.push_back({"blade through grid vertices along (1,1,1)", {diag}});
+        out.push_back({"staircase of grid vertices, blade along z", {vert}});
+    }
+    return out;
+}
+
+/// Random strokes of makeRandomStrokes with parameters varied by seed.
+std::vector<std::vector<Pose>> randomStrokes(const IndexFrame& f, uint32_t seed, int count)
+{
+    return makeRandomStrokes(f, seed, count, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
+                             20.0 + 10.0 * (seed % 4));
+}
+
+void printHead(const std::string& what, const HeadStats& st, double seconds)
+{
+    std::printf("%s: %zu strokes, %zu refused, %zu cells re-meshed, %zu defects, %zu exact undo/redo checks (%zu redo "
+                "meshes with rotated triangles), %.1f s\n",
+                what.c_str(), st.strokes, st.refused, st.cells, st.defects, st.undoChecks, st.historyDiffs, seconds);
+    printState(what.c_str(), st.state);
+}
+
+/// Refusals allowed: at most 1 in 20 strokes (and at least 1 for short runs).
+size_t refusalBound(size_t strokes) { return std::max<size_t>(1, strokes / 20); }
+
+} // namespace
+
+// Seeded random strokes on the 4 mm head (curved, turning, sometimes self-
+// crossing; each seed's strokes accumulate on one mask, so they cross each
+// other): every fused mesh clean, untouched outside, exact undo/redo of each
+// stroke and back to its middle stick, caps near the blade; refusals rare.
+TEST_P(CutProps, RandomStrokesOnThe4mmHead)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const double w = GetParam();
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const IndexFrame frame = frameOf(vol);
+    HeadStats st;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (uint32_t seed = 1001; seed <= 1026; ++seed) {
+        if (seed == 1021) continue; // DISABLED_Seed1021Stroke0IsNeverSilentlyDegenerate
+        HeadRun run(vol, uncut, 400.0f, w);
+        const auto strokes = randomStrokes(frame, seed, 4);
+        for (size_t s = 0; s < strokes.size(); ++s) {
+            const std::string what = "seed " + std::to_string(seed) + " stroke " + std::to_string(s) + ", " + kerfName(w);
+            // CGAL after the last stroke of a seed (the strokes accumulate, so
+            // its mesh holds every earlier stroke's cut too): every seed for
+            // w > 0, every third for w = 0 (its coincident caps make it slow).
+            const bool cgal = s + 1 == strokes.size() && (w > 0 || seed % 3 == 0);
+            if (cutStroke(run, strokes[s], what, cgal, s % 2 == 0, st) == Outcome::KerfTodo) {
+                GTEST_SKIP() << kKerfTodo;
+            }
+        }
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    printHead("4 mm head, random strokes, " + kerfName(w), st, seconds);
+    EXPECT_EQ(st.defects, 0u);
+    EXPECT_LE(st.refused, refusalBound(st.strokes));
+}
+
+// Hand-made strokes on the 4 mm and 2 mm heads (straight, curved, a figure
+// eight and a loop that cross themselves, two strokes crossing, blades in the
+// grid planes x = i, y = j, z = k and through grid vertices), each on a fresh
+// mask, with CGAL after every stroke; then a few random strokes on the 2 mm head.
+TEST_P(CutProps, HandMadeStrokesOnTheHeads)
+{
+    const double w = GetParam();
+    size_t found = 0;
+    for (const char* name : {"vhm_head_4mm.nhdr", "vhm_head_2mm.nhdr"}) {
+        const std::string path = mtcut::test::dataPath(name);
+        if (path.empty()) continue;
+        ++found;
+        const vdb::Volume vol = vdb::readVolume(path);
+        const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+        const IndexFrame frame = frameOf(vol);
+        HeadStats st;
+        const auto t0 = std::chrono::steady_clock::now();
+        const bool fine = std::string(name) == "vhm_head_2mm.nhdr";
+        // On the 2 mm head (4x the cells per stroke) a subset, CGAL for w > 0 only.
+        const std::set<std::string> fineShapes = {"self-crossing figure eight", "blade in the grid plane z = k"};
+        // CGAL for w = 0 (slow: the coincident caps touch everywhere) on the crossing shapes only.
+        const std::set<std::string> crossing = {"self-crossing figure eight", "self-crossing loop",
+                                                "two strokes crossing"};
+        for (const auto& [shape, strokes] : handStrokes(frame)) {
+            if (fine && !fineShapes.count(shape)) continue;
+            if (shape == "figure eight retracing its start") continue; // DISABLED_RetracedStrokeStart...
+            HeadRun run(vol, uncut, 400.0f, w);
+            for (size_t s = 0; s < strokes.size(); ++s) {
+                const std::string what = std::string(name) + ", " + shape + " (stroke " + std::to_string(s) + "), " +
+                                         kerfName(w);
+                const bool cgal = w > 0 || (!fine && crossing.count(shape));
+                if (cutStroke(run, strokes[s], what, cgal, true, st) == Outcome::KerfTodo) {
+                    GTEST_SKIP() << kKerfTodo;
+                }
+            }
+        }
+        if (fine)
+            for (uint32_t seed = 2001; seed <= 2001; ++seed) {
+                HeadRun run(vol, uncut, 400.0f, w);
+                const auto strokes = randomStrokes(frame, seed, 2);
+                for (size_t s = 0; s < strokes.size(); ++s) {
+                    const std::string what = std::string(name) + ", seed " + std::to_string(seed) + " stroke " +
+                                             std::to_string(s) + ", " + kerfName(w);
+                    if (cutStroke(run, strokes[s], what, w > 0 && s + 1 == strokes.size(), false, st) ==
+                        Outcome::KerfTodo) {
+                        GTEST_SKIP() << kKerfTodo;
+                    }
+                }
+            }
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        printHead(std::string(name) + ", hand-made strokes, " + kerfName(w), st, seconds);
+        EXPECT_EQ(st.defects, 0u);
+        EXPECT_LE(st.refused, refusalBound(st.strokes));
+    }
+    if (!found) GTEST_SKIP() << "shared data 'vhm_head_4mm.nhdr' / 'vhm_head_2mm.nhdr' not found (set MTCUT_DATA)";
+}
+
+namespace {
+
+/// A stroke along the plane y = 0.37 through the sphere that bends as it
+/// goes (base += (0, 6 u^2, 0), blade normalize(0.3 u, 0.1, -1), u = 0..1
+/// along the stroke), so consecutive quads meet at mitre junctions.
+std::vector<Pose> bentStroke()
+{
+    std::vector<Pose> poses = CutPlane{"y = 0.37", dvec3(0, 1, 0), 0.37}.stroke(-28, 28, 45);
+    for (size_t i = 0; i < poses.size(); ++i) {
+        const double u = double(i) / double(poses.size());
+        poses[i].base += dvec3(0, 6 * u * u, 0);
+        poses[i].direction = glm::normalize(dvec3(0.3 * u, 0.1, -1));
+    }
+    return poses;
+}
+
+/// The fused meshes of cutting `poses` updating after every quad (live) and once (batch).
+std::pair<Mesh, Mesh> liveAndBatch(const vdb::Volume& vol, const Mesh& uncut, float iso, const std::vector<Pose>& poses,
+                                   double kerf, bool& skip)
+{
+    CutMask mask(frameOf(vol), kerf);
+    CutRemesher live(vol, iso, uncut);
+    mask.beginStroke();
+    skip = false;
+    for (const Quad& q : filterStroke(poses, mask.frame())) {
+        mask.addQuad(q);
+        const UpdateResult u = tryUpdate(live, mask);
+        skip = u.outcome == Outcome::KerfTodo;
+        if (skip) return {};
+        EXPECT_EQ(u.outcome, Outcome::Ok) << u.message;
+    }
+    CutRemesher batch(vol, iso, uncut);
+    const UpdateResult u = tryUpdate(batch, mask);
+    EXPECT_EQ(u.outcome, Outcome::Ok) << u.message;
+    return {live.fusedMesh(), batch.fusedMesh()};
+}
+
+} // namespace
+
+// Live cutting updates after every quad; a batch cut updates once. Both give
+// the same triangles (each up to the corner it starts at, see the DISABLED
+// test below), with zero defects.
+TEST_P(CutProps, LiveUpdatesGiveTheBatchTriangles)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    bool skip = false;
+    const auto [live, batch] = liveAndBatch(vol, uncut, 0.0f, bentStroke(), GetParam(), skip);
+    if (skip) {
+        GTEST_SKIP() << kKerfTodo;
+    }
+    EXPECT_TRUE(checkMesh(live).ok()) << checkMesh(live).report();
+    EXPECT_TRUE(checkMesh(batch).ok()) << checkMesh(batch).report();
+    EXPECT_TRUE(sameTriangles(live, batch));
+}
+
+// The same, exactly (same arrays): the fused mesh should be a function of the
+// mask alone, so that redo after a stroke was meshed in parts gives the first
+// mesh back. DISABLED: fails today (w = 0). Reproducer: the sphere (R 15 mm,
+// 40^3 grid of 1 mm) and bentStroke(): cell (12, 25, 7), which only quad 1.44
+// touches, holds triangle (6 2 5) live and (5 6 2) batch (cell-local indices;
+// 6 cells differ, by such rotations, and so the new vertices are numbered in
+// another order; the oblique plane at
+// -3.1 mm bent the same way: 23 cells from cell (15, 28, 30)). Likely cause:
+// CutRemesher's CellRecord compares only the corners of the cell's quads, so
+// a cell touching quad k but not k+1 is not re-meshed when k+1 arrives,
+// although quad k's side there turns from a rim side into the k/k+1 mitre
+// plane, which changes the cell's line arrangement and so where a loop's
+// triangulation starts. On the 4 mm head: seed 1026 stroke 2 updated at half
+// its quads and then whole, redone in one update: cell (52, 33, 26).
+TEST(CutPropsDefects, DISABLED_LiveUpdatesGiveTheBatchMeshExactly)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    bool skip = false;
+    const auto [live, batch] = liveAndBatch(vol, uncut, 0.0f, bentStroke(), 0.0, skip);
+    EXPECT_TRUE(sameMesh(live, batch));
+}
+
+// A stroke whose end retraces its start (the blade comes back over the same
+// cut, nearly in the same plane) must be refused or come out clean; never a
+// silently non-manifold mesh. DISABLED: fails today (w = 0): update() returns
+// normally and the fused mesh has 1 non-manifold edge (in 4 triangles, all in
+// cell (54, 48, 36)). Reproducer, 4 mm head at 400 HU: the "figure eight
+// retracing its start" stroke of handStrokes() (197 quads); minimal: its quads
+// 4..5 and 193..194 as two strokes of 2 quads each (also quads 2..7 and
+// 191..196). The local check of update() does not see this edge.
+TEST(CutPropsDefects, DISABLED_RetracedStrokeStartIsNeverSilentlyNonManifold)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const IndexFrame frame = frameOf(vol);
+    std::vector<Pose> poses;
+    for (const auto& [shape, strokes] : handStrokes(frame))
+        if (shape == "figure eight retracing its start") poses = strokes[0];
+    const std::vector<Quad> quads = filterStroke(poses, frame);
+    ASSERT_EQ(quads.size(), 197u);
+    CutMask mask(frame, 0.0);
+    for (const auto& [lo, hi] : {std::pair<size_t, size_t>{4, 5}, {193, 194}}) {
+        mask.beginStroke();
+        for (size_t q = lo; q <= hi; ++q) mask.addQuad(quads[q]);
+    }
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const UpdateResult u = tryUpdate(remesher, mask);
+    if (u.outcome == Outcome::Refused) return; // refused: not silent
+    const MeshCheck check = checkMesh(remesher.fusedMesh());
+    EXPECT_TRUE(check.ok()) << check.report();
+}
+
+// Random stroke seed 1021, stroke 0 (randomStrokes(frame, 1021, 4): 200 poses,
+// 0.6 mm per pose, 30 mm blade) on the 4 mm head at 400 HU, w = 0, on a
+// fresh mask: refused or clean, never silently defective. DISABLED: fails
+// since b3916e9 (snap rounding of float-coincident vertices in fusedMesh):
+// update() returns normally and the fused mesh has 2 degenerate (zero-area in
+// float) triangles. Before b3916e9 the same stroke was refused ("a triangle of
+// zero area in float mm ... in cell (39, 31, 16)").
+TEST(CutPropsDefects, DISABLED_Seed1021Stroke0IsNeverSilentlyDegenerate)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const IndexFrame frame = frameOf(vol);
+    CutMask mask(frame, 0.0);
+    addStroke(mask, randomStrokes(frame, 1021, 4)[0]);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const UpdateResult u = tryUpdate(remesher, mask);
+    if (u.outcome == Outcome::Refused) return; // refused: not silent
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    for (size_t t = 0; t < fused.triangleCount(); ++t) {
+        const glm::vec3 a = fused.positions[fused.indices[3 * t]], b = fused.positions[fused.indices[3 * t + 1]],
+                        c = fused.positions[fused.indices[3 * t + 2]];
+        if (glm::cross(b - a, c - a) == glm::vec3(0.0f))
+            ADD_FAILURE() << "degenerate triangle " << t << " in cell (" << fused.triangleVoxels[t].x << ", "
+                          << fused.triangleVoxels[t].y << ", " << fused.triangleVoxels[t].z << ")";
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Kerf, CutProps, ::testing::Values(0.0, 0.5),
+                         [](const ::testing::TestParamInfo<double>& p) {
+                             return p.param > 0 ? std::string("w0p5mm") : std::string("w0");
+                         });
