@@ -822,6 +822,41 @@ TEST_P(CutProps, CutsThatStopInsideLeaveOneClosedManifoldFragment)
     printState(("stopping cuts, " + kerfName(w)).c_str(), st);
 }
 
+// Two strokes crossing, cutting the sphere through along y = 0.37 and then
+// x = 3.21: 4 fragments, zero defects; the volume lost is the two slabs minus
+// their common column (w^2 times the sphere's chord there), within invariant
+// 10's bound; the usual outside, cap and self-intersection checks.
+TEST_P(CutProps, TwoCrossingCutsThroughTheSphereGiveFourFragments)
+{
+    const double w = GetParam();
+    const Solid solid = sphereSolid();
+    const vdb::Volume vol = volumeOf(solid);
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    const double v0 = meshVolume(uncut);
+    const CutPlane a{"y = 0.37", dvec3(0, 1, 0), 0.37}, b{"x = 3.21", dvec3(1, 0, 0), 3.21};
+    CutMask mask(frameOf(vol), w);
+    addStroke(mask, a.stroke(-28, 28, 45));
+    addStroke(mask, b.stroke(-28, 28, 45));
+    CutRemesher remesher(vol, 0.0f, uncut);
+    UPDATE_OR_SKIP(remesher, mask);
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    EXPECT_EQ(fragmentsOf(fused).size(), 4u);
+    const double bound = double(mask.cutCellCount()) * largestTetVolume(mask.frame());
+    const double column = w * w * 2.0 * std::sqrt(15.0 * 15.0 - a.c * a.c - b.c * b.c);
+    const double slabs = w > 0 ? solid.between(a.n, a.c - 0.5 * w, a.c + 0.5 * w) +
+                                     solid.between(b.n, b.c - 0.5 * w, b.c + 0.5 * w) - column
+                               : 0.0;
+    const double err = meshVolume(fused) - (v0 - slabs);
+    EXPECT_LE(std::abs(err), bound);
+    std::printf("two crossing cuts, %s: %zu cut cells, volume error %.3g mm^3 = %.2g of the bound %.1f\n",
+                kerfName(w).c_str(), mask.cutCellCount(), err, err / bound, bound);
+    StateStats st;
+    checkState(uncut, fused, remesher, mask, true, st, "two crossing cuts, " + kerfName(w));
+    printState(("two crossing cuts, " + kerfName(w)).c_str(), st);
+}
+
 // ------------------------------------------------------------ real heads ---
 
 namespace {
