@@ -512,7 +512,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                 for (uint32_t i = first; i < quads.size(); ++i) {
                     auto t0 = Clock::now();
                     cellBuf.clear();
-                    QuadRegion(quads[i], mask->kerf(), mask->frame()).appendCells(cellBuf);
+                    voxelizeCut(quads[i], mask->kerf(), mask->frame(), cellBuf);
                     mask->addQuad(quads[i], cellBuf);
                     vox.push_back(1e3 * msSince(t0));
                     added.push_back(double(mask->lastNewCells().size()));

@@ -1871,12 +1871,21 @@ std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>&
     return quads;
 }
 
-std::array<double, 12> quadSignature(const CutMask& mask, const QuadRef& r)
+/// What a cell's geometry depends on per quad: its corners and those of the
+/// previous and next quad of its stroke (junctions and mitres, rim sharing),
+/// 1e308 where there is none. A quad added or undone next to a quad thus
+/// re-meshes every cell of that quad, not only the cells the new quad cuts.
+std::array<double, 36> quadSignature(const CutMask& mask, const QuadRef& r)
 {
-    std::array<double, 12> s{};
-    const Quad& q = mask.quad(r);
-    for (int i = 0; i < 4; ++i)
-        for (int a = 0; a < 3; ++a) s[size_t(3 * i + a)] = q.corners[size_t(i)][a];
+    std::array<double, 36> s;
+    s.fill(1e308);
+    for (int k = 0; k < 3; ++k) {
+        const int64_t qi = int64_t(r.quad) + k - 1;
+        if (qi < 0 || qi >= int64_t(mask.quadCount(r.stroke))) continue;
+        const Quad& q = mask.quad(QuadRef{r.stroke, uint32_t(qi)});
+        for (int i = 0; i < 4; ++i)
+            for (int a = 0; a < 3; ++a) s[size_t(12 * k + 3 * i + a)] = q.corners[size_t(i)][a];
+    }
     return s;
 }
 

@@ -124,7 +124,8 @@ struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
 ///
 /// Incremental: update() re-meshes only the cells whose (stroke, quad) list
 /// or quads changed since the last update (new cells, cells of a new or undone
-/// quad) and forgets cells that are no longer cut, so after undo the fused
+/// quad, and cells of a quad whose stroke neighbour came or went: its junction
+/// side changes) and forgets cells that are no longer cut, so after undo the fused
 /// mesh equals the earlier one exactly (same vertices, same triangles, same
 /// order). Cost per update: O(cut cells) to find the changed ones, plus about
 /// 20..200 us per re-meshed cell. Not thread-safe.
@@ -185,7 +186,7 @@ private:
     struct CellRecord
     {
         std::vector<QuadRef> quads;
-        std::vector<std::array<double, 12>> quadCorners; ///< the quads' corners and neighbours when meshed
+        std::vector<std::array<double, 36>> quadCorners; ///< the quads' (and their stroke neighbours') corners when meshed
     };
     std::unique_ptr<RemeshKernel> mKernel;
     std::unique_ptr<PrismCache> mPrismCache;
