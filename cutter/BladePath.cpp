@@ -3,7 +3,6 @@
 #include "vdb/Error.h"
 
 #include <glm/geometric.hpp>
-#include <glm/vec2.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -207,6 +206,34 @@ std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame&
     return quads;
 }
 
+std::vector<int> convexHullOrder(const glm::dvec3* points, uint32_t count, const glm::dvec3& n)
+{
+    const int m = int(count);
+    glm::dvec3 e1 = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    e1 = glm::normalize(e1 - n * glm::dot(n, e1));
+    const glm::dvec3 e2 = glm::cross(n, e1);
+    std::vector<std::pair<double, double>> p(static_cast<size_t>(m));
+    for (int i = 0; i < m; ++i) p[size_t(i)] = {glm::dot(points[i], e1), glm::dot(points[i], e2)};
+    int start = 0;
+    for (int i = 1; i < m; ++i)
+        if (p[size_t(i)] < p[size_t(start)]) start = i;
+    std::vector<int> hull;
+    int cur = start;
+    do {
+        hull.push_back(cur);
+        int next = (cur + 1) % m;
+        for (int i = 0; i < m; ++i) {
+            if (i == cur) continue;
+            const double ax = p[size_t(next)].first - p[size_t(cur)].first, ay = p[size_t(next)].second - p[size_t(cur)].second;
+            const double bx = p[size_t(i)].first - p[size_t(cur)].first, by = p[size_t(i)].second - p[size_t(cur)].second;
+            const double cr = ax * by - ay * bx;
+            if (cr < 0 || (cr == 0 && bx * bx + by * by > ax * ax + ay * ay)) next = i;
+        }
+        cur = next;
+    } while (cur != start && hull.size() <= size_t(m));
+    return hull;
+}
+
 // ---------------------------------------------------------------------------
 // Voxelisation
 
@@ -345,40 +372,14 @@ namespace {
 Quad grownQuad(const Quad& quad, double margin)
 {
     const glm::dvec3 n = quad.normal;
-    glm::dvec3 e1 = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-    e1 = glm::normalize(e1 - n * glm::dot(n, e1));
-    const glm::dvec3 e2 = glm::cross(n, e1);
-    const uint32_t m = quad.cornerCount;
-    // Convex hull (CCW around n) by gift wrapping over <= 4 points.
-    auto p2 = [&](uint32_t i) { return glm::dvec2(glm::dot(quad.corners[i], e1), glm::dot(quad.corners[i], e2)); };
-    auto cross2 = [](glm::dvec2 o, glm::dvec2 a, glm::dvec2 b) {
-        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
-    };
-    uint32_t start = 0;
-    for (uint32_t i = 1; i < m; ++i) {
-        const glm::dvec2 a = p2(i), b = p2(start);
-        if (a.x < b.x || (a.x == b.x && a.y < b.y)) start = i;
-    }
-    std::vector<uint32_t> hull;
-    uint32_t cur = start;
-    do {
-        hull.push_back(cur);
-        uint32_t next = (cur + 1) % m;
-        for (uint32_t i = 0; i < m; ++i) {
-            if (i == cur) continue;
-            const double c = cross2(p2(cur), p2(next), p2(i));
-            const glm::dvec2 dn = p2(next) - p2(cur), di = p2(i) - p2(cur);
-            if (c < 0 || (c == 0 && glm::dot(di, di) > glm::dot(dn, dn))) next = i;
-        }
-        cur = next;
-    } while (cur != start && hull.size() <= m);
+    const std::vector<int> hull = convexHullOrder(quad.corners.data(), quad.cornerCount, n);
     if (hull.size() < 3 || hull.size() > 4) return quad;
     const size_t h = hull.size();
     glm::dvec3 out[4];
     for (size_t k = 0; k < h; ++k) {
-        const glm::dvec3& prev = quad.corners[hull[(k + h - 1) % h]];
-        const glm::dvec3& v = quad.corners[hull[k]];
-        const glm::dvec3& next = quad.corners[hull[(k + 1) % h]];
+        const glm::dvec3& prev = quad.corners[size_t(hull[(k + h - 1) % h])];
+        const glm::dvec3& v = quad.corners[size_t(hull[k])];
+        const glm::dvec3& next = quad.corners[size_t(hull[(k + 1) % h])];
         // Outward in-plane normals of the edges prev->v and v->next (CCW around n).
         const glm::dvec3 u1 = glm::normalize(glm::cross(v - prev, n));
         const glm::dvec3 u2 = glm::normalize(glm::cross(next - v, n));

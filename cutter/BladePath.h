@@ -90,6 +90,12 @@ struct Quad
 /// below 1e-12 * (extent^2 + 1) mm^2).
 Quad makeQuad(const glm::dvec3* corners, uint32_t count, uint32_t stick);
 
+/// Indices of the convex hull of points[0..count) (count <= 4), counter-
+/// clockwise seen along `normal` (unit), by gift wrapping in the plane; the
+/// start is the lexicographically smallest projected point. A deterministic
+/// function of its inputs: the re-mesher names quad sides by this order.
+std::vector<int> convexHullOrder(const glm::dvec3* points, uint32_t count, const glm::dvec3& normal);
+
 // ---------------------------------------------------------------------------
 // Path filter
 

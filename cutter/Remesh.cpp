@@ -117,33 +117,9 @@ struct QuadGeom
 /// Convex hull (CCW around n) of the quad's corners, as corner indices.
 std::vector<int> hullOf(const Quad& q, const IndexFrame& frame, const dvec3& n)
 {
-    const int m = int(q.cornerCount);
-    std::vector<dvec3> c(static_cast<size_t>(m));
-    for (int i = 0; i < m; ++i) c[size_t(i)] = frame.toIndex(q.corners[size_t(i)]);
-    dvec3 e1 = std::abs(n.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
-    e1 = glm::normalize(e1 - n * glm::dot(n, e1));
-    const dvec3 e2 = glm::cross(n, e1);
-    std::vector<std::pair<double, double>> p(static_cast<size_t>(m));
-    for (int i = 0; i < m; ++i) p[size_t(i)] = {glm::dot(c[size_t(i)], e1), glm::dot(c[size_t(i)], e2)};
-    // Gift wrapping (m <= 4).
-    int start = 0;
-    for (int i = 1; i < m; ++i)
-        if (p[size_t(i)] < p[size_t(start)]) start = i;
-    std::vector<int> hull;
-    int cur = start;
-    do {
-        hull.push_back(cur);
-        int next = (cur + 1) % m;
-        for (int i = 0; i < m; ++i) {
-            if (i == cur) continue;
-            const double ax = p[size_t(next)].first - p[size_t(cur)].first, ay = p[size_t(next)].second - p[size_t(cur)].second;
-            const double bx = p[size_t(i)].first - p[size_t(cur)].first, by = p[size_t(i)].second - p[size_t(cur)].second;
-            const double cr = ax * by - ay * bx;
-            if (cr < 0 || (cr == 0 && bx * bx + by * by > ax * ax + ay * ay)) next = i;
-        }
-        cur = next;
-    } while (cur != start && hull.size() <= size_t(m));
-    return hull;
+    std::array<dvec3, 4> c;
+    for (uint32_t i = 0; i < q.cornerCount; ++i) c[i] = frame.toIndex(q.corners[i]);
+    return convexHullOrder(c.data(), q.cornerCount, n);
 }
 
 dvec3 indexNormal(const Quad& q, const IndexFrame& frame)
@@ -1882,9 +1858,8 @@ std::array<double, 36> quadSignature(const CutMask& mask, const QuadRef& r)
     for (int k = 0; k < 3; ++k) {
         const int64_t qi = int64_t(r.quad) + k - 1;
         if (qi < 0 || qi >= int64_t(mask.quadCount(r.stroke))) continue;
-        const Quad& q = mask.quad(QuadRef{r.stroke, uint32_t(qi)});
-        for (int i = 0; i < 4; ++i)
-            for (int a = 0; a < 3; ++a) s[size_t(12 * k + 3 * i + a)] = q.corners[size_t(i)][a];
+        const std::array<double, 12> own = cornerSignature(mask.quad(QuadRef{r.stroke, uint32_t(qi)}));
+        std::copy(own.begin(), own.end(), s.begin() + 12 * k);
     }
     return s;
 }

@@ -29,6 +29,7 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
 #include "tests/SelfIntersect.h"
+#include "tests/TestStrokes.h"
 #include "tests/TestUtil.h"
 #include "tests/TestVolumes.h"
 #include "vdb/Error.h"
@@ -57,6 +58,7 @@ using glm::dvec3;
 using openvdb::Coord;
 using openvdb::Vec3d;
 using mtcut::test::fieldVolume;
+using mtcut::test::straightStroke;
 using mtcut::test::selfIntersections;
 
 namespace {
@@ -156,14 +158,6 @@ Pose pose(double t, dvec3 base, dvec3 dir, double len)
     return p;
 }
 
-/// The base moves from `from` to `to` in `steps` poses, the blade along `dir`.
-std::vector<Pose> straightStroke(dvec3 from, dvec3 to, dvec3 dir, double len, int steps)
-{
-    std::vector<Pose> poses;
-    for (int i = 0; i <= steps; ++i)
-        poses.push_back(pose(0.001 * i, from + (to - from) * (double(i) / steps), dir, len));
-    return poses;
-}
 
 /// Adds a stroke as one mask stroke; returns its quad count.
 size_t addStroke(CutMask& mask, const std::vector<Pose>& poses)

@@ -6,6 +6,7 @@
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
+#include "tests/TestStrokes.h"
 #include "tests/TestUtil.h"
 #include "tests/TestVolumes.h"
 #include "vdb/VolumeIO.h"
@@ -30,22 +31,8 @@ using openvdb::Vec3d;
 namespace {
 
 using mtcut::test::fieldVolume;
+using mtcut::test::straightStroke;
 
-/// A straight stroke: the base moves from `from` to `to` in `steps` poses,
-/// the blade pointing along `dir` with length `len` (world mm).
-std::vector<Pose> straightStroke(dvec3 from, dvec3 to, dvec3 dir, double len, int steps)
-{
-    std::vector<Pose> poses;
-    for (int i = 0; i <= steps; ++i) {
-        Pose p;
-        p.time = 0.001 * i;
-        p.base = from + (to - from) * (double(i) / steps);
-        p.direction = dir;
-        p.length = len;
-        poses.push_back(p);
-    }
-    return poses;
-}
 
 void addStroke(CutMask& mask, const std::vector<Pose>& poses)
 {

@@ -27,6 +27,7 @@
 #include "render/CutGeometry.h"
 #include "render/MaskTiling.h"
 #include "render/SurfaceRenderer.h"
+#include "tests/TestStrokes.h"
 #include "tests/TestUtil.h"
 #include "tests/TestVolumes.h"
 #include "tests/test_render_util.h"
@@ -40,24 +41,12 @@
 
 using namespace mtcut;
 using namespace mtcut::render;
+using mtcut::test::straightStroke;
 using openvdb::Coord;
 using openvdb::Vec3d;
 
 namespace {
 
-std::vector<cutter::Pose> straightStroke(glm::dvec3 from, glm::dvec3 to, glm::dvec3 dir, double len, int steps)
-{
-    std::vector<cutter::Pose> poses;
-    for (int i = 0; i <= steps; ++i) {
-        cutter::Pose p;
-        p.time = 0.001 * i;
-        p.base = from + (to - from) * (double(i) / steps);
-        p.direction = dir;
-        p.length = len;
-        poses.push_back(p);
-    }
-    return poses;
-}
 
 struct Comparison
 {

@@ -1,5 +1,8 @@
 #include "tools/Cli.h"
 
+#include "cutter/Isosurface.h"
+#include "cutter/PathFile.h"
+
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -74,6 +77,36 @@ vdb::Volume readInput(const std::string& path, const Args& args)
 {
     ProgressBar progress;
     return vdb::readVolume(path, readOptions(args), &progress);
+}
+
+cutter::Mesh extractSurface(const vdb::Volume& vol, float iso)
+{
+    const std::string warning = cutter::isosurfaceWarning(vol, iso);
+    if (!warning.empty()) std::fprintf(stderr, "mtcut: warning: %s\n", warning.c_str());
+    ProgressBar progress;
+    cutter::IsosurfaceOptions options;
+    options.interrupter = &progress;
+    return cutter::extractIsosurface(vol, iso, options);
+}
+
+std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile)
+{
+    std::vector<std::vector<cutter::Pose>> strokes = cutter::readPathFile(pathFile);
+    if (strokes.empty()) throw InputError(pathFile + ": no poses (an empty path cuts nothing)");
+    return strokes;
+}
+
+size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes)
+{
+    size_t count = 0;
+    for (const std::vector<cutter::Pose>& stroke : strokes) {
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(stroke, mask.frame());
+        if (quads.empty()) continue;
+        mask.beginStroke();
+        for (const cutter::Quad& q : quads) mask.addQuad(q);
+        count += quads.size();
+    }
+    return count;
 }
 
 ProgressBar::ProgressBar() : mTty(::isatty(2) != 0)

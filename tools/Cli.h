@@ -2,6 +2,9 @@
 // progress bar. Each command lives in its own cmd_*.cpp and registers itself.
 #pragma once
 
+#include "cutter/BladePath.h"
+#include "cutter/CutMask.h"
+#include "cutter/Mesh.h"
 #include "vdb/Progress.h"
 #include "vdb/VolumeIO.h"
 
@@ -76,5 +79,17 @@ private:
 
 /// "1.23 GiB", "45.6 MiB", ...
 std::string humanBytes(double bytes);
+
+/// The isosurface of `vol` at `iso`, with a progress bar (Ctrl+C cancels);
+/// first prints isosurfaceWarning() to stderr when there is one.
+cutter::Mesh extractSurface(const vdb::Volume& vol, float iso);
+
+/// The strokes of a path file (InputError "FILE:LINE: field ..." when bad, or
+/// naming the file when it holds no poses).
+std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile);
+
+/// Adds each stroke's filtered quads to `mask` as a stroke of its own (a stroke
+/// that never leaves its first cell adds nothing). Returns the quads added.
+size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes);
 
 } // namespace mtcut::cli

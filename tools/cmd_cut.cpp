@@ -217,27 +217,16 @@ int runCut(const Args& args)
     }
     const std::string pathFile = args.get("path");
     std::vector<std::vector<cutter::Pose>> strokes;
-    if (!pathFile.empty()) {
-        strokes = cutter::readPathFile(pathFile); // InputError "FILE:LINE: field ..."
-        if (strokes.empty()) throw InputError(pathFile + ": no poses (an empty path cuts nothing)");
-    }
+    if (!pathFile.empty()) strokes = readStrokes(pathFile);
 
     Timings t;
     auto t0 = Clock::now();
     const vdb::Volume vol = readInput(args.positional[0], args);
     t.read = secondsSince(t0);
-    const std::string warning = cutter::isosurfaceWarning(vol, iso);
-    if (!warning.empty()) std::fprintf(stderr, "mtcut: warning: %s\n", warning.c_str());
 
     // -- isosurface -------------------------------------------------------------
     t0 = Clock::now();
-    cutter::Mesh uncut;
-    {
-        ProgressBar progress;
-        cutter::IsosurfaceOptions options;
-        options.interrupter = &progress;
-        uncut = cutter::extractIsosurface(vol, iso, options);
-    }
+    cutter::Mesh uncut = extractSurface(vol, iso);
     t.extract = secondsSince(t0);
     if (uncut.empty()) throw InputError("no surface at iso " + args.get("iso") + ": nothing to cut");
 
@@ -247,14 +236,7 @@ int runCut(const Args& args)
     bool onPhantom = false;
     if (strokes.empty()) strokes.push_back(builtinStroke(vol, frame, uncut, &onPhantom));
     cutter::CutMask mask(frame, kerf);
-    size_t quadCount = 0;
-    for (const std::vector<cutter::Pose>& stroke : strokes) {
-        const std::vector<cutter::Quad> quads = cutter::filterStroke(stroke, frame);
-        if (quads.empty()) continue; // a stroke that never left its first cell cuts nothing
-        mask.beginStroke();
-        for (const cutter::Quad& q : quads) mask.addQuad(q);
-        quadCount += quads.size();
-    }
+    const size_t quadCount = addStrokes(mask, strokes);
     t.mask = secondsSince(t0);
 
     // -- re-mesh and fuse ---------------------------------------------------------

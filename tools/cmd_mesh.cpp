@@ -26,17 +26,8 @@ int runMesh(const Args& args)
     (void)cutter::meshFormatFromPath(out); // fail before the long work
 
     const vdb::Volume vol = readInput(args.positional[0], args);
-    const std::string warning = cutter::isosurfaceWarning(vol, iso);
-    if (!warning.empty()) std::fprintf(stderr, "mtcut: warning: %s\n", warning.c_str());
-
     const auto t0 = Clock::now();
-    cutter::Mesh mesh;
-    {
-        ProgressBar progress;
-        cutter::IsosurfaceOptions options;
-        options.interrupter = &progress;
-        mesh = cutter::extractIsosurface(vol, iso, options);
-    }
+    const cutter::Mesh mesh = extractSurface(vol, iso);
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
     const std::vector<cutter::Shell> shells = cutter::findShells(mesh);

@@ -82,10 +82,7 @@ int runRender(const Args& args)
         if (fs::is_directory(out, ec)) throw InputError("-o " + out + ": is a folder");
     }
     std::vector<std::vector<cutter::Pose>> strokes;
-    if (!pathFile.empty()) {
-        strokes = cutter::readPathFile(pathFile); // InputError "FILE:LINE: field ..."
-        if (strokes.empty()) throw InputError(pathFile + ": no poses (an empty path cuts nothing)");
-    }
+    if (!pathFile.empty()) strokes = readStrokes(pathFile);
 
     // -- the GL context first: no point reading a scan we cannot draw -----------
     auto t0 = Clock::now();
@@ -93,17 +90,9 @@ int runRender(const Args& args)
 
     const vdb::Volume vol = readInput(args.positional[0], args);
     const double readSeconds = secondsSince(t0);
-    const std::string warning = cutter::isosurfaceWarning(vol, iso);
-    if (!warning.empty()) std::fprintf(stderr, "mtcut: warning: %s\n", warning.c_str());
 
     t0 = Clock::now();
-    cutter::Mesh uncut;
-    {
-        ProgressBar progress;
-        cutter::IsosurfaceOptions options;
-        options.interrupter = &progress;
-        uncut = cutter::extractIsosurface(vol, iso, options);
-    }
+    const cutter::Mesh uncut = extractSurface(vol, iso);
     if (uncut.empty()) throw InputError("no surface at iso " + args.get("iso") + ": nothing to render");
 
     // -- the cut (CPU re-mesher) ---------------------------------------------------
@@ -116,12 +105,7 @@ int runRender(const Args& args)
     } else {
         const cutter::IndexFrame frame = cutter::frameOf(vol);
         cutter::CutMask mask(frame, kerf);
-        for (const std::vector<cutter::Pose>& stroke : strokes) {
-            const std::vector<cutter::Quad> quads = cutter::filterStroke(stroke, frame);
-            if (quads.empty()) continue;
-            mask.beginStroke();
-            for (const cutter::Quad& q : quads) mask.addQuad(q);
-        }
+        addStrokes(mask, strokes);
         try {
             cutter::CutRemesher remesher(vol, iso, uncut);
             remesher.update(mask);
