@@ -37,8 +37,10 @@ struct CutGeometry
     /// triangles are, in order, those fusedMesh() appends after the uncut
     /// ones), the same positions; normals as CutNormals says.
     cutter::Mesh mesh;
-    /// 1 for a cap triangle (its three vertices share a blade quad's plane),
-    /// 0 for isosurface pieces. One per triangle.
+    /// 1 for a cap triangle (its three vertices share a plane of the blade's
+    /// removed region: the quad's plane with zero kerf; with kerf > 0 a
+    /// prism face, i.e. an offset plane at +-w/2, a side or a mitre), 0 for
+    /// isosurface pieces. One per triangle.
     std::vector<uint8_t> triangleIsCap;
 };
 
