@@ -6,25 +6,18 @@
 #include "cutter/Fusion.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
-#include "cutter/MeshIO.h"
 #include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
 #include "tools/Cli.h"
-#include "vdb/AtomicFile.h"
-#include "vdb/CutOutputs.h"
+#include "tools/CutOutputs.h"
 #include "vdb/Phantom.h"
-#include "vdb/SliceExr.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <regex>
 #include <limits>
-#include <set>
-#include <sstream>
 
 namespace mtcut::cli {
 
@@ -36,89 +29,6 @@ namespace fs = std::filesystem;
 double secondsSince(Clock::time_point t0)
 {
     return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-// -- summary.json, by hand ----------------------------------------------------
-
-std::string jsonString(const std::string& s)
-{
-    std::string out = "\"";
-    for (const char ch : s) {
-        const unsigned char c = static_cast<unsigned char>(ch);
-        switch (c) {
-        case '"': out += "\\\""; break;
-        case '\\': out += "\\\\"; break;
-        case '\b': out += "\\b"; break;
-        case '\f': out += "\\f"; break;
-        case '\n': out += "\\n"; break;
-        case '\r': out += "\\r"; break;
-        case '\t': out += "\\t"; break;
-        default:
-            if (c < 0x20 || c == 0x7f) {
-                char buf[8];
-                std::snprintf(buf, sizeof buf, "\\u%04x", unsigned(c));
-                out += buf;
-            } else {
-                out += ch; // UTF-8 bytes pass through
-            }
-        }
-    }
-    return out + "\"";
-}
-
-/// Round-trip precision; JSON has no NaN/Inf, so those become null.
-std::string jsonNumber(double v)
-{
-    if (!std::isfinite(v)) return "null";
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
-
-struct FragmentRecord
-{
-    std::string file;
-    size_t triangles = 0;
-    double volume = 0.0, area = 0.0;
-};
-
-struct Timings
-{
-    double read = 0, extract = 0, mask = 0, remesh = 0, check = 0, write = 0;
-};
-
-std::string summaryJson(const std::string& input, float iso, double kerf, const std::string& path, size_t cutCells,
-                        const std::vector<FragmentRecord>& fragments, const cutter::MeshCheck& c, const Timings& t)
-{
-    std::ostringstream os;
-    os << "{\n";
-    os << "  \"input\": " << jsonString(input) << ",\n";
-    os << "  \"isovalue\": " << jsonNumber(double(iso)) << ",\n";
-    os << "  \"kerf_mm\": " << jsonNumber(kerf) << ",\n";
-    os << "  \"path\": " << (path.empty() ? std::string("null") : jsonString(path)) << ",\n";
-    os << "  \"stroke\": " << jsonString(path.empty() ? "built-in LeFort I" : "path file") << ",\n";
-    os << "  \"cut_cells\": " << cutCells << ",\n";
-    os << "  \"fragments\": [";
-    for (size_t i = 0; i < fragments.size(); ++i) {
-        const FragmentRecord& f = fragments[i];
-        os << (i ? ",\n" : "\n") << "    {\"file\": " << jsonString(f.file) << ", \"triangles\": " << f.triangles
-           << ", \"volume_mm3\": " << jsonNumber(f.volume) << ", \"area_mm2\": " << jsonNumber(f.area) << "}";
-    }
-    os << (fragments.empty() ? "],\n" : "\n  ],\n");
-    os << "  \"check\": {\"triangles\": " << c.triangles << ", \"vertices\": " << c.vertices
-       << ", \"shells\": " << c.shells << ", \"unused_vertices\": " << c.unusedVertices
-       << ", \"bad_index_triangles\": " << c.badIndexTriangles << ", \"boundary_edges\": " << c.boundaryEdges
-       << ", \"non_manifold_edges\": " << c.nonManifoldEdges << ", \"inconsistent_edges\": " << c.inconsistentEdges
-       << ", \"non_manifold_vertices\": " << c.nonManifoldVertices
-       << ", \"degenerate_triangles\": " << c.degenerateTriangles
-       << ", \"non_finite_triangles\": " << c.nonFiniteTriangles
-       << ", \"negative_volume_shells\": " << c.negativeVolumeShells << ", \"cavities\": " << c.cavities
-       << ", \"malformed_arrays\": " << c.malformedArrays << ", \"defects\": " << c.defects() << "},\n";
-    os << "  \"timings_s\": {\"read\": " << jsonNumber(t.read) << ", \"extract\": " << jsonNumber(t.extract)
-       << ", \"mask\": " << jsonNumber(t.mask) << ", \"remesh\": " << jsonNumber(t.remesh)
-       << ", \"check\": " << jsonNumber(t.check) << ", \"write\": " << jsonNumber(t.write) << "}\n";
-    os << "}\n";
-    return os.str();
 }
 
 // -- the stroke ---------------------------------------------------------------
@@ -174,27 +84,6 @@ std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::In
     return cutter::makeLeFortStroke(frame, options);
 }
 
-cutter::MeshFormat parseFormat(const std::string& name, std::string* ext)
-{
-    if (name == "stl" || name == "obj" || name == "ply" || name == "off") {
-        *ext = name;
-        return cutter::meshFormatFromPath("x." + name);
-    }
-    throw InputError("--format " + name + ": expected stl, obj, ply or off");
-}
-
-/// Removes fragment_NNN.{stl,obj,ply,off} files of an earlier run that this
-/// run did not write, so the folder holds exactly this cut's fragments.
-void removeStaleFragments(const std::string& dir, const std::set<std::string>& written)
-{
-    static const std::regex pattern("fragment_[0-9]{3,}\\.(stl|obj|ply|off)");
-    std::error_code ec;
-    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-        const std::string name = e.path().filename().string();
-        if (std::regex_match(name, pattern) && !written.count(name)) fs::remove(e.path(), ec);
-    }
-}
-
 int runCut(const Args& args)
 {
     // -- arguments: everything checked before the long work --------------------
@@ -205,8 +94,8 @@ int runCut(const Args& args)
     const float iso = float(isoArg);
     const double kerf = args.getDouble("kerf", 0.0);
     if (!std::isfinite(kerf) || kerf < 0.0) throw InputError("--kerf " + args.get("kerf") + ": expected a number >= 0 (mm)");
-    std::string ext;
-    (void)parseFormat(args.get("format", "stl"), &ext);
+    const std::string ext = args.get("format", "stl");
+    checkMeshFormat(ext);
     const std::string outDir = args.get("output");
     if (outDir.empty()) throw InputError("-o: empty output folder name");
     {
@@ -219,7 +108,7 @@ int runCut(const Args& args)
     std::vector<std::vector<cutter::Pose>> strokes;
     if (!pathFile.empty()) strokes = readStrokes(pathFile);
 
-    Timings t;
+    CutTimings t;
     auto t0 = Clock::now();
     const vdb::Volume vol = readInput(args.positional[0], args);
     t.read = secondsSince(t0);
@@ -265,58 +154,18 @@ int runCut(const Args& args)
     if (fragments.empty()) throw InputError("the cut left no surface");
 
     // -- outputs (each file atomic; summary.json last) ------------------------
-    t0 = Clock::now();
-    fs::create_directories(outDir);
+    CutOutputRequest request;
+    request.outDir = outDir;
+    request.format = ext;
+    request.input = args.positional[0];
+    request.pathFile = pathFile;
+    request.isovalue = iso;
+    request.kerfMm = kerf;
     std::vector<FragmentRecord> records;
-    std::set<std::string> written;
-    std::vector<vdb::FragmentMesh> fragmentMeshes;
-    static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "glm::vec3 must be three packed floats");
-    for (size_t i = 0; i < fragments.size(); ++i) {
-        const cutter::Fragment& f = fragments[i];
-        char name[64];
-        std::snprintf(name, sizeof name, "fragment_%03zu.%s", i, ext.c_str());
-        cutter::writeMesh(f.mesh, (fs::path(outDir) / name).string());
-        written.insert(name);
-        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area});
-        vdb::FragmentMesh fm;
-        fm.worldPositions = f.mesh.positions.empty() ? nullptr : &f.mesh.positions[0].x;
-        fm.vertexCount = f.mesh.positions.size();
-        fm.triangleIndices = f.mesh.indices.data();
-        fm.triangleCount = f.mesh.triangleCount();
-        fragmentMeshes.push_back(fm);
-    }
-    removeStaleFragments(outDir, written);
-
-    // Carved volume: voxels whose centre lies in the removed region (the
-    // kerf's prisms). With kerf 0 the blade removes nothing.
-    const openvdb::MaskGrid::Ptr removed = cutter::removedVoxels(mask);
-    vdb::Volume carved = vol;
-    carved.grid = vdb::carveVolume(vol, *removed);
-    const openvdb::Int32Grid& cutMaskGrid = *mask.grid();
-    vdb::CutInfo info;
-    info.isovalue = iso;
-    info.kerfMm = float(kerf);
-    info.pathFile = pathFile;
-    const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
-    const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
-    const std::string jsonPath = (fs::path(outDir) / "summary.json").string();
     {
         ProgressBar progress;
-        vdb::writeCutVdb(vdbPath, vol, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, &progress);
+        records = writeCutOutputs(request, vol, mask, fragments, check, t, &progress);
     }
-    {
-        ProgressBar progress;
-        vdb::writeSliceStack(exrPath, carved, cutMaskGrid, iso, &progress);
-    }
-    t.write = secondsSince(t0);
-    const std::string json =
-        summaryJson(args.positional[0], iso, kerf, pathFile, mask.cutCellCount(), records, check, t);
-    writeFileAtomically(jsonPath, [&](const std::string& tmp) {
-        std::ofstream out(tmp, std::ios::binary);
-        out << json;
-        out.close();
-        if (!out) throw InputError(jsonPath + ": cannot write");
-    });
 
     // -- report -------------------------------------------------------------------
     std::printf("stroke:     %s, %zu stroke(s), %zu quads, kerf %g mm%s\n",

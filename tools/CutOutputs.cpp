@@ -1,0 +1,193 @@
+#include "tools/CutOutputs.h"
+
+#include "cutter/MeshIO.h"
+#include "cutter/Remesh.h"
+#include "vdb/AtomicFile.h"
+#include "vdb/CutOutputs.h"
+#include "vdb/SliceExr.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+
+namespace mtcut::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// -- summary.json, by hand ----------------------------------------------------
+
+std::string jsonString(const std::string& s)
+{
+    std::string out = "\"";
+    for (const char ch : s) {
+        const unsigned char c = static_cast<unsigned char>(ch);
+        switch (c) {
+        case '"': out += "\\\""; break;
+        case '\\': out += "\\\\"; break;
+        case '\b': out += "\\b"; break;
+        case '\f': out += "\\f"; break;
+        case '\n': out += "\\n"; break;
+        case '\r': out += "\\r"; break;
+        case '\t': out += "\\t"; break;
+        default:
+            if (c < 0x20 || c == 0x7f) {
+                char buf[8];
+                std::snprintf(buf, sizeof buf, "\\u%04x", unsigned(c));
+                out += buf;
+            } else {
+                out += ch; // UTF-8 bytes pass through
+            }
+        }
+    }
+    return out + "\"";
+}
+
+/// Round-trip precision; JSON has no NaN/Inf, so those become null.
+std::string jsonNumber(double v)
+{
+    if (!std::isfinite(v)) return "null";
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return buf;
+}
+
+std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::vector<FragmentRecord>& fragments,
+                        const cutter::MeshCheck& c, const CutTimings& t)
+{
+    const std::string stroke =
+        !r.strokeLabel.empty() ? r.strokeLabel : r.pathFile.empty() ? "built-in LeFort I" : "path file";
+    std::ostringstream os;
+    os << "{\n";
+    os << "  \"input\": " << jsonString(r.input) << ",\n";
+    os << "  \"isovalue\": " << jsonNumber(double(r.isovalue)) << ",\n";
+    os << "  \"kerf_mm\": " << jsonNumber(r.kerfMm) << ",\n";
+    os << "  \"path\": " << (r.pathFile.empty() ? std::string("null") : jsonString(r.pathFile)) << ",\n";
+    os << "  \"stroke\": " << jsonString(stroke) << ",\n";
+    os << "  \"cut_cells\": " << cutCells << ",\n";
+    os << "  \"fragments\": [";
+    for (size_t i = 0; i < fragments.size(); ++i) {
+        const FragmentRecord& f = fragments[i];
+        os << (i ? ",\n" : "\n") << "    {\"file\": " << jsonString(f.file) << ", \"triangles\": " << f.triangles
+           << ", \"volume_mm3\": " << jsonNumber(f.volume) << ", \"area_mm2\": " << jsonNumber(f.area) << "}";
+    }
+    os << (fragments.empty() ? "],\n" : "\n  ],\n");
+    os << "  \"check\": {\"triangles\": " << c.triangles << ", \"vertices\": " << c.vertices
+       << ", \"shells\": " << c.shells << ", \"unused_vertices\": " << c.unusedVertices
+       << ", \"bad_index_triangles\": " << c.badIndexTriangles << ", \"boundary_edges\": " << c.boundaryEdges
+       << ", \"non_manifold_edges\": " << c.nonManifoldEdges << ", \"inconsistent_edges\": " << c.inconsistentEdges
+       << ", \"non_manifold_vertices\": " << c.nonManifoldVertices
+       << ", \"degenerate_triangles\": " << c.degenerateTriangles
+       << ", \"non_finite_triangles\": " << c.nonFiniteTriangles
+       << ", \"negative_volume_shells\": " << c.negativeVolumeShells << ", \"cavities\": " << c.cavities
+       << ", \"malformed_arrays\": " << c.malformedArrays << ", \"defects\": " << c.defects() << "},\n";
+    os << "  \"timings_s\": {\"read\": " << jsonNumber(t.read) << ", \"extract\": " << jsonNumber(t.extract)
+       << ", \"mask\": " << jsonNumber(t.mask) << ", \"remesh\": " << jsonNumber(t.remesh)
+       << ", \"check\": " << jsonNumber(t.check) << ", \"write\": " << jsonNumber(t.write) << "}\n";
+    os << "}\n";
+    return os.str();
+}
+
+/// Removes fragment_NNN.{stl,obj,ply,off} files of an earlier run that this
+/// run did not write, so the folder holds exactly this cut's fragments.
+void removeStaleFragments(const std::string& dir, const std::set<std::string>& written)
+{
+    static const std::regex pattern("fragment_[0-9]{3,}\\.(stl|obj|ply|off)");
+    std::error_code ec;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+        const std::string name = e.path().filename().string();
+        if (std::regex_match(name, pattern) && !written.count(name)) fs::remove(e.path(), ec);
+    }
+}
+
+} // namespace
+
+void checkMeshFormat(const std::string& format)
+{
+    if (format != "stl" && format != "obj" && format != "ply" && format != "off") {
+        throw InputError("--format " + format + ": expected stl, obj, ply or off");
+    }
+}
+
+std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, const vdb::Volume& volume,
+                                            const cutter::CutMask& mask,
+                                            const std::vector<cutter::Fragment>& fragments,
+                                            const cutter::MeshCheck& check, CutTimings& timings,
+                                            Interrupter* interrupter)
+{
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    checkMeshFormat(request.format);
+    const std::string& outDir = request.outDir;
+    if (outDir.empty()) throw InputError("-o: empty output folder name");
+    {
+        std::error_code ec;
+        if (fs::exists(outDir, ec) && !fs::is_directory(outDir, ec)) {
+            throw InputError(outDir + ": exists and is not a folder");
+        }
+    }
+    if (!request.selected.empty() && request.selected.size() != fragments.size()) {
+        throw std::invalid_argument("writeCutOutputs: one selection flag per fragment");
+    }
+    auto isSelected = [&](size_t i) { return request.selected.empty() || request.selected[i]; };
+    size_t selectedCount = 0;
+    for (size_t i = 0; i < fragments.size(); ++i) selectedCount += isSelected(i);
+    if (selectedCount == 0) throw InputError("no fragment selected: nothing to save");
+
+    std::error_code ec;
+    fs::create_directories(outDir, ec);
+    if (ec) throw InputError(outDir + ": cannot create the folder (" + ec.message() + ")");
+    std::vector<FragmentRecord> records;
+    std::set<std::string> written;
+    std::vector<vdb::FragmentMesh> fragmentMeshes;
+    static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "glm::vec3 must be three packed floats");
+    for (size_t i = 0; i < fragments.size(); ++i) {
+        if (!isSelected(i)) continue;
+        const cutter::Fragment& f = fragments[i];
+        char name[64];
+        std::snprintf(name, sizeof name, "fragment_%03zu.%s", i, request.format.c_str());
+        cutter::writeMesh(f.mesh, (fs::path(outDir) / name).string());
+        written.insert(name);
+        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area});
+        vdb::FragmentMesh fm;
+        fm.worldPositions = f.mesh.positions.empty() ? nullptr : &f.mesh.positions[0].x;
+        fm.vertexCount = f.mesh.positions.size();
+        fm.triangleIndices = f.mesh.indices.data();
+        fm.triangleCount = f.mesh.triangleCount();
+        fragmentMeshes.push_back(fm);
+    }
+    removeStaleFragments(outDir, written);
+
+    // Carved volume: voxels whose centre lies in the removed region (the
+    // kerf's prisms). With kerf 0 the blade removes nothing.
+    const openvdb::MaskGrid::Ptr removed = cutter::removedVoxels(mask);
+    vdb::Volume carved = volume;
+    carved.grid = vdb::carveVolume(volume, *removed);
+    const openvdb::Int32Grid& cutMaskGrid = *mask.grid();
+    vdb::CutInfo info;
+    info.isovalue = request.isovalue;
+    info.kerfMm = float(request.kerfMm);
+    info.pathFile = request.pathFile;
+    const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
+    const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
+    const std::string jsonPath = (fs::path(outDir) / "summary.json").string();
+    vdb::writeCutVdb(vdbPath, volume, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, interrupter);
+    vdb::writeSliceStack(exrPath, carved, cutMaskGrid, request.isovalue, interrupter);
+    timings.write = std::chrono::duration<double>(Clock::now() - t0).count();
+    const std::string json = summaryJson(request, mask.cutCellCount(), records, check, timings);
+    writeFileAtomically(jsonPath, [&](const std::string& tmp) {
+        std::ofstream out(tmp, std::ios::binary);
+        out << json;
+        out.close();
+        if (!out) throw InputError(jsonPath + ": cannot write");
+    });
+    return records;
+}
+
+} // namespace mtcut::cli
