@@ -61,7 +61,8 @@ glm::dvec3 vec3Of(const std::string& text, const std::string& view)
     return glm::dvec3(number(parts[0], view), number(parts[1], view), number(parts[2], view));
 }
 
-/// Near/far planes that hold the bounds' sphere, seen from the eye.
+} // namespace
+
 void fitDepth(Camera& c, const Bounds& b)
 {
     const double r = b.radius();
@@ -71,7 +72,17 @@ void fitDepth(Camera& c, const Bounds& b)
     c.nearMm = std::max(d - 1.01 * r, c.farMm * 1e-4);
 }
 
-} // namespace
+glm::dvec3 Camera::worldPointAt(double x, double y, int width, int height, double viewDepth) const
+{
+    const glm::dvec3 forward = glm::normalize(target - eye);
+    const glm::dvec3 right = glm::normalize(glm::cross(forward, up));
+    const glm::dvec3 trueUp = glm::cross(right, forward);
+    const double tanHalf = std::tan(glm::radians(fovYDegrees) / 2.0);
+    const double aspect = double(width) / double(std::max(height, 1));
+    const double ndcX = 2.0 * x / double(std::max(width, 1)) - 1.0;
+    const double ndcY = 1.0 - 2.0 * y / double(std::max(height, 1));
+    return eye + viewDepth * (forward + ndcX * tanHalf * aspect * right + ndcY * tanHalf * trueUp);
+}
 
 Camera cameraFor(const std::string& view, const Bounds& bounds, double aspect)
 {

@@ -28,7 +28,17 @@ struct Camera
 
     glm::mat4 view() const;
     glm::mat4 projection(double aspect) const; ///< aspect = width / height
+
+    /// The world point (mm) seen at pixel (x, y) of a width x height image
+    /// (top-left origin, pixel centres at +0.5) at `viewDepth` mm along the
+    /// view direction (the depth SurfaceRenderer writes): unprojection for
+    /// picking. Cost O(1).
+    glm::dvec3 worldPointAt(double x, double y, int width, int height, double viewDepth) const;
 };
+
+/// Sets the near and far planes of `camera` to hold the bounds' sphere seen
+/// from its eye (as cameraFor does; near stays > 0 when the eye is inside).
+void fitDepth(Camera& camera, const Bounds& bounds);
 
 /// The camera of a --view argument for a scene with the given bounds:
 ///   front  looks along +y at the face (the face points to -y), z up;

@@ -250,6 +250,7 @@ public:
     bool hasWindow() const override { return true; }
     void swapBuffers() override { glfwSwapBuffers(mWindow); }
     bool shouldClose() const override { return glfwWindowShouldClose(mWindow) != 0; }
+    void* nativeWindow() const override { return mWindow; }
     GLFWwindow* window() const { return mWindow; }
 
     static int sWindows;

@@ -28,6 +28,9 @@ public:
     virtual void swapBuffers() {}
     /// Window contexts: true once the user asked to close it.
     virtual bool shouldClose() const { return false; }
+    /// Window contexts: the GLFWwindow* (for input callbacks and UI
+    /// toolkits); null headless.
+    virtual void* nativeWindow() const { return nullptr; }
 
 protected:
     GlContext() = default;

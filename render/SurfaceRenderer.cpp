@@ -218,6 +218,12 @@ void SurfaceRenderer::render(const Camera& camera, const RenderStyle& style)
         glProgramUniform3fv(id, p->uniform("uColour"), 1, glm::value_ptr(style.colour));
         glProgramUniform3fv(id, p->uniform("uHighlightColour"), 1, glm::value_ptr(style.highlightColour));
         glProgramUniform1i(id, p->uniform("uHighlight"), style.highlight ? 1 : 0);
+        glProgramUniform1ui(id, p->uniform("uFragmentColourCount"), GLuint(style.fragmentColours.size()));
+    }
+    if (!style.fragmentColours.empty()) {
+        mFragmentColours.setData(style.fragmentColours.size() * sizeof(glm::vec4), style.fragmentColours.data(),
+                                 GL_STREAM_DRAW);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, mFragmentColours.id());
     }
     if (mSurface) {
         if (mAtlas) {
@@ -266,6 +272,15 @@ Frame SurfaceRenderer::readFrame() const
         }
     }
     return f;
+}
+
+float SurfaceRenderer::viewDepthAt(int x, int y) const
+{
+    if (x < 0 || y < 0 || x >= mWidth || y >= mHeight) return std::numeric_limits<float>::infinity();
+    float depth = std::numeric_limits<float>::infinity();
+    glGetTextureSubImage(mDepthOut.id(), 0, x, mHeight - 1 - y, 0, 1, 1, 1, GL_RED, GL_FLOAT, sizeof depth, &depth);
+    checkGlError("SurfaceRenderer::viewDepthAt");
+    return depth;
 }
 
 } // namespace mtcut::render

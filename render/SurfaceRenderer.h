@@ -33,6 +33,10 @@ struct RenderStyle
     glm::vec3 highlightColour{0.85f, 0.20f, 0.16f};
     glm::vec4 background{0.0f, 0.0f, 0.0f, 0.0f};   ///< transparent
     bool highlight = false;
+    /// Optional colour per fragment id (index = id; the viewer's fragment
+    /// list): rgb replaces `colour`, a = 0 hides the fragment. Ids past the
+    /// end keep `colour`. Empty: every fragment in `colour`.
+    std::vector<glm::vec4> fragmentColours;
 };
 
 class SurfaceRenderer
@@ -71,6 +75,13 @@ public:
     void render(const Camera& camera, const RenderStyle& style);
     /// The last frame's targets.
     Frame readFrame() const;
+    /// The last frame's view depth (mm) at pixel (x, y), top-left origin;
+    /// +infinity where there is no surface or outside the image. Reads one
+    /// texel (waits for the frame): for picking, not per pixel.
+    float viewDepthAt(int x, int y) const;
+    /// The off-screen framebuffer (colour in attachment 0), e.g. to blit
+    /// the last frame to a window.
+    GLuint framebuffer() const { return mFbo.id(); }
 
     /// The cut mask on the GPU (null before setCutCells).
     const MaskAtlas* maskAtlas() const { return mAtlas.get(); }
@@ -88,6 +99,7 @@ private:
     Program mDiscardProgram, mPlainProgram;
     std::unique_ptr<DrawMesh> mSurface, mCut;
     std::unique_ptr<MaskAtlas> mAtlas;
+    Buffer mFragmentColours; ///< RenderStyle::fragmentColours, uploaded per render
 };
 
 } // namespace mtcut::render

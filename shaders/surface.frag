@@ -22,6 +22,10 @@ uniform vec3 uColour;          // surface colour
 uniform vec3 uHighlightColour; // cut geometry when uHighlight: caps in it, the
                                // cut cells' isosurface pieces half-way to it
 uniform bool uHighlight;
+// Optional colours per fragment id (rgb; a = 0 hides the fragment's
+// triangles); ids >= uFragmentColourCount keep uColour. 0: none.
+layout(std430, binding = 3) readonly buffer FragmentColours { vec4 uFragmentColours[]; };
+uniform uint uFragmentColourCount;
 
 layout(location = 0) out vec4 oColour;
 layout(location = 1) out vec4 oNormal;
@@ -40,11 +44,17 @@ void main()
     float diffuse = max(dot(n, toEye), 0.0);
     float specular = pow(max(dot(reflect(-toEye, n), toEye), 0.0), 40.0);
     vec3 base = uColour;
+    uint fragment = t.info & 0x3fffffffu;
+    if (fragment < uFragmentColourCount) {
+        vec4 styled = uFragmentColours[fragment];
+        if (styled.a == 0.0) discard;
+        base = styled.rgb;
+    }
     if (uHighlight && (t.info & 0x80000000u) != 0u) {
         base = (t.info & 0x40000000u) != 0u ? uHighlightColour : mix(uColour, uHighlightColour, 0.55);
     }
     oColour = vec4(base * (0.18 + 0.74 * diffuse) + vec3(0.22 * specular), 1.0);
     oNormal = vec4(n, 0.0);
     oDepth = vViewDepth;
-    oFragment = t.info & 0x3fffffffu;
+    oFragment = fragment;
 }
