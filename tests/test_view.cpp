@@ -1,0 +1,305 @@
+// mtcut-view, driven by scripts in a real window under Xvfb (xvfb-run): the
+// 4 mm head is opened, cut along a path file (two strokes, kerf 0.5 mm),
+// undone stroke by stroke, redone, screenshotted and exported. The oracle is
+// `mtcut render` / `mtcut cut` of the same state: screenshots must match
+// renders pixel for pixel within the tolerance below, exports must equal
+// `mtcut cut`'s files and pass checkMesh. Bad scripts: an unknown action
+// stops with its line number and a non-zero exit before the window opens; a
+// missing file is a message and the session goes on. A scripted mouse drag
+// cuts through the mouse's code path and undoes exactly.
+#include "cutter/BladePath.h"
+#include "cutter/CutMask.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/MeshIO.h"
+#include "cutter/PathFile.h"
+#include "render/Frame.h"
+#include "tests/TestStrokes.h"
+#include "tests/TestUtil.h"
+#include "vdb/VolumeIO.h"
+
+#include <gtest/gtest.h>
+
+#include <glm/geometric.hpp>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+using namespace mtcut;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The first 4 mm head and xvfb-run, or a reason to skip.
+std::string whyNotRunnable()
+{
+    if (test::dataPath("vhm_head_4mm.nhdr").empty()) return "shared data 'vhm_head_4mm.nhdr' not found (set MTCUT_DATA)";
+    if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) return "xvfb-run not found (apt-get install xvfb)";
+    return {};
+}
+
+/// Runs mtcut-view under a fresh Xvfb with a 640x480 window; output = stdout + stderr.
+test::RunResult runView(const std::string& args)
+{
+    test::RunResult r;
+    const std::string cmd = "timeout 300 xvfb-run -a -s '-screen 0 1024x768x24' " + std::string(MTCUT_VIEW_BIN) +
+                            " " + args + " 2>&1";
+    FILE* p = ::popen(cmd.c_str(), "r");
+    if (!p) return r;
+    char buf[4096];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
+    const int status = ::pclose(p);
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return r;
+}
+
+void writeText(const std::string& path, const std::string& text)
+{
+    std::ofstream out(path, std::ios::binary);
+    out << text;
+}
+
+std::string readBytes(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+struct FrameDiff
+{
+    size_t covered = 0;   ///< pixels with a surface in either image
+    size_t different = 0; ///< pixels where some channel differs by more than 2/255
+};
+
+FrameDiff compare(const render::Frame& a, const render::Frame& b)
+{
+    FrameDiff d;
+    for (size_t p = 0; p < a.pixelCount(); ++p) {
+        const uint8_t* x = &a.rgba[4 * p];
+        const uint8_t* y = &b.rgba[4 * p];
+        d.covered += x[3] != 0 || y[3] != 0;
+        bool differs = false;
+        for (int c = 0; c < 4; ++c) differs |= std::abs(int(x[c]) - int(y[c])) > 2;
+        d.different += differs;
+    }
+    return d;
+}
+
+/// The screenshot and the render show the same state: the same size, and at
+/// most 0.1 % of the covered pixels differ by more than 2/255. Both come from
+/// render::SurfaceRenderer with the same camera (the preset framed on the same
+/// bounds), the same uncut surface and the same cut geometry (the viewer's
+/// incremental re-mesh equals the batch one exactly), so only float rounding
+/// of a camera computed in another process could move a pixel centre lying
+/// on a triangle edge; the measured difference is 0 pixels.
+void expectSameImage(const std::string& shot, const std::string& render, const std::string& what)
+{
+    ASSERT_TRUE(fs::exists(shot)) << what << ": no " << shot;
+    ASSERT_TRUE(fs::exists(render)) << what << ": no " << render;
+    const render::Frame a = render::readPng(shot), b = render::readPng(render);
+    ASSERT_EQ(a.width, 640) << what;
+    ASSERT_EQ(a.height, 480) << what;
+    ASSERT_EQ(b.width, a.width);
+    ASSERT_EQ(b.height, a.height);
+    const FrameDiff d = compare(a, b);
+    EXPECT_GT(d.covered, a.pixelCount() / 20) << what << ": the head should fill part of the frame";
+    EXPECT_LE(d.different, d.covered / 1000) << what << ": " << d.different << " of " << d.covered
+                                             << " covered pixels differ";
+    std::printf("%-28s %zu of %zu covered pixels differ\n", what.c_str(), d.different, d.covered);
+}
+
+class ViewScript : public ::testing::Test
+{
+protected:
+    void SetUp() override
+    {
+        const std::string why = whyNotRunnable();
+        if (!why.empty()) GTEST_SKIP() << why;
+        mHead = test::dataPath("vhm_head_4mm.nhdr");
+    }
+
+    /// Two strokes on the head: a horizontal cut 40 % up (right to left, the
+    /// blade pointing posterior, as test_render_frame's) and a vertical one
+    /// down the middle of the face. Writes stroke 1 alone and both.
+    void writePaths(const std::string& first, const std::string& both) const
+    {
+        const vdb::Volume vol = vdb::readVolume(mHead);
+        const cutter::IndexFrame frame = cutter::frameOf(vol);
+        const glm::dvec3 lo = frame.toWorld(glm::dvec3(0.0));
+        const glm::dvec3 hi = frame.toWorld(glm::dvec3(frame.dims - glm::ivec3(1)));
+        const double z = lo.z + 0.4 * (hi.z - lo.z) + 0.37;
+        const double x = 0.5 * (lo.x + hi.x) + 0.41;
+        const auto horizontal = test::straightStroke({lo.x - 10, lo.y - 10, z}, {hi.x + 10, lo.y - 10, z},
+                                                     glm::normalize(glm::dvec3(0, 1, 0.05)), hi.y - lo.y + 20, 300);
+        const auto vertical = test::straightStroke({x, lo.y - 10, z + 30.3}, {x, lo.y - 10, z - 60.7},
+                                                   glm::normalize(glm::dvec3(0.04, 1, 0)), 0.45 * (hi.y - lo.y), 200);
+        std::ofstream a(first), b(both);
+        cutter::writePath(a, {horizontal});
+        cutter::writePath(b, {horizontal, vertical});
+    }
+
+    std::string mHead;
+};
+
+} // namespace
+
+TEST_F(ViewScript, CutUndoRedoScreenshotsAndExportMatchTheCommandLine)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    test::TempDir dir;
+    const std::string one = dir.file("one.csv"), two = dir.file("two.csv");
+    writePaths(one, two);
+    auto shot = [&](const std::string& name) { return dir.file(name + ".png"); };
+    writeText(dir.file("session.txt"), "# a cutting session\n"
+                                       "iso 400\n"
+                                       "view front\n"
+                                       "screenshot " + shot("uncut_front") + "\n"
+                                       "kerf 0.5\n"
+                                       "path " + two + "\n"
+                                       "screenshot " + shot("cut_front") + "\n"
+                                       "view iso\n"
+                                       "screenshot " + shot("cut_iso") + "\n"
+                                       "undo\n"
+                                       "screenshot " + shot("undo1_iso") + "\n"
+                                       "undo\n"
+                                       "screenshot " + shot("undo2_iso") + "\n"
+                                       "redo\n"
+                                       "redo\n"
+                                       "screenshot " + shot("redo_iso") + "\n"
+                                       "export " + dir.file("out") + "\n"
+                                       "quit\n");
+    const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file("session.txt"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(r.output.find("error"), std::string::npos) << "the session must leave no error:\n" << r.output;
+    EXPECT_NE(r.output.find("saved 1"), std::string::npos) << r.output;
+    std::printf("%s", r.output.c_str());
+    const double viewSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    // The same states from the command line.
+    const std::string common = "render " + mHead + " --iso 400 --width 640 --height 480 ";
+    struct Expect
+    {
+        const char* name;
+        std::string args;
+    };
+    const std::vector<Expect> expected = {
+        {"uncut_front", "--view front"},
+        {"cut_front", "--view front --kerf 0.5 --path " + two},
+        {"cut_iso", "--view iso --kerf 0.5 --path " + two},
+        {"undo1_iso", "--view iso --kerf 0.5 --path " + one},
+        {"undo2_iso", "--view iso"},
+        {"redo_iso", "--view iso --kerf 0.5 --path " + two},
+    };
+    for (const Expect& e : expected) {
+        const test::RunResult rr = test::runMtcut(common + e.args + " -o " + dir.file(std::string("render_") + e.name + ".png"));
+        ASSERT_EQ(rr.exitCode, 0) << rr.output;
+        expectSameImage(shot(e.name), dir.file(std::string("render_") + e.name + ".png"), e.name);
+    }
+    // The cut shows: each stroke changes the picture a lot.
+    const render::Frame uncut = render::readPng(shot("undo2_iso")), one_ = render::readPng(shot("undo1_iso")),
+                        cut = render::readPng(shot("cut_iso"));
+    EXPECT_GT(compare(uncut, one_).different, 100u) << "the first stroke should be visible";
+    EXPECT_GT(compare(one_, cut).different, 100u) << "the second stroke should be visible";
+
+    // The export equals `mtcut cut`'s output and is clean: all fragments
+    // together pass checkMesh, and each alone too, except that a fragment
+    // which is a cavity (an air pocket inside bone: its own shell, inside
+    // out) counts as a wrong-way shell when checked without its outer shell.
+    const test::RunResult cutRun =
+        test::runMtcut("cut " + mHead + " --iso 400 --kerf 0.5 --path " + two + " -o " + dir.file("cut"));
+    ASSERT_EQ(cutRun.exitCode, 0) << cutRun.output;
+    size_t fragments = 0;
+    cutter::Mesh all;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir.file("cut"))) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind("fragment_", 0) != 0) continue;
+        ++fragments;
+        const std::string mine = dir.file("out/" + name);
+        ASSERT_TRUE(fs::exists(mine)) << name << " not exported";
+        EXPECT_EQ(readBytes(mine), readBytes(e.path().string())) << name << " differs from mtcut cut's";
+        const cutter::Mesh mesh = cutter::readMesh(mine);
+        const cutter::MeshCheck check = cutter::checkMesh(mesh);
+        EXPECT_EQ(check.defects(), check.negativeVolumeShells) << name << ":\n" << check.report();
+        EXPECT_LE(check.negativeVolumeShells, 1u) << name;
+        const uint32_t offset = uint32_t(all.positions.size());
+        all.positions.insert(all.positions.end(), mesh.positions.begin(), mesh.positions.end());
+        for (uint32_t i : mesh.indices) all.indices.push_back(offset + i);
+    }
+    EXPECT_GT(fragments, 1u);
+    const cutter::MeshCheck allCheck = cutter::checkMesh(all);
+    EXPECT_TRUE(allCheck.ok()) << "all fragments:\n" << allCheck.report();
+    EXPECT_EQ(allCheck.shells, fragments);
+    for (const char* name : {"cut.vdb", "slices.exr", "summary.json"}) {
+        EXPECT_TRUE(fs::exists(dir.file(std::string("out/") + name))) << name;
+    }
+    const std::string summary = readBytes(dir.file("out/summary.json"));
+    EXPECT_NE(summary.find("\"defects\": 0"), std::string::npos) << summary;
+    EXPECT_NE(summary.find("\"kerf_mm\": 0.5"), std::string::npos) << summary;
+    std::printf("viewer session %.1f s, whole test %.1f s\n", viewSeconds,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+TEST_F(ViewScript, AMouseStrokeCutsAndUndoes)
+{
+    // `drag` goes through the mouse's path: the blade picked on the bone at the
+    // start pixel, moved across the screen at that depth, pointing into it.
+    test::TempDir dir;
+    auto shot = [&](const std::string& name) { return dir.file(name + ".png"); };
+    writeText(dir.file("s.txt"), "iso 400\nview front\nscreenshot " + shot("uncut") +
+                                     "\ndrag 262 292 160 292\nscreenshot " + shot("cut") + "\nexport " +
+                                     dir.file("out") + "\nundo\nscreenshot " + shot("undone") + "\nquit\n");
+    const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file("s.txt"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(r.output.find("error"), std::string::npos) << r.output;
+    const render::Frame uncut = render::readPng(shot("uncut")), cut = render::readPng(shot("cut")),
+                        undone = render::readPng(shot("undone"));
+    EXPECT_GT(compare(uncut, cut).different, 100u) << "the stroke should show";
+    EXPECT_EQ(compare(uncut, undone).different, 0u) << "undo gives the uncut surface back exactly";
+    const std::string summary = readBytes(dir.file("out/summary.json"));
+    const size_t at = summary.find("\"cut_cells\": ");
+    ASSERT_NE(at, std::string::npos) << summary;
+    EXPECT_GT(std::stoul(summary.substr(at + 13)), 100u) << summary;
+    EXPECT_NE(summary.find("\"defects\": 0"), std::string::npos) << summary;
+}
+
+TEST_F(ViewScript, UnknownActionStopsWithItsLineNumber)
+{
+    test::TempDir dir;
+    writeText(dir.file("bad.txt"), "view front\n\n# comment\nfrobnicate 3\nquit\n");
+    const test::RunResult r = runView(mHead + " --script " + dir.file("bad.txt"));
+    EXPECT_NE(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find(dir.file("bad.txt") + ":4: unknown action 'frobnicate'"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("opened"), std::string::npos) << "stops before opening anything:\n" << r.output;
+
+    writeText(dir.file("badiso.txt"), "iso\n");
+    const test::RunResult r2 = runView(mHead + " --script " + dir.file("badiso.txt"));
+    EXPECT_NE(r2.exitCode, 0) << r2.output;
+    EXPECT_NE(r2.output.find(dir.file("badiso.txt") + ":1: iso needs an argument"), std::string::npos) << r2.output;
+}
+
+TEST_F(ViewScript, MissingFilesAreMessagesAndTheViewerGoesOn)
+{
+    test::TempDir dir;
+    // A path file that does not exist, then a screenshot: the session goes on.
+    writeText(dir.file("s.txt"), "path " + dir.file("nowhere.csv") + "\nundo\nscreenshot " + dir.file("after.png") +
+                                     "\nscreenshot " + dir.file("x.bmp") + "\nquit\n");
+    const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file("s.txt"));
+    EXPECT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("error: " + dir.file("s.txt") + ":1: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("nowhere.csv"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("nothing to undo"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(":4: screenshot " + dir.file("x.bmp") + ": expected a .png or .exr"), std::string::npos)
+        << r.output;
+    EXPECT_TRUE(fs::exists(dir.file("after.png"))) << r.output;
+
+    // A scan that does not load: a message, the window stays (the script runs to its end).
+    const test::RunResult r2 = runView(dir.file("missing.nrrd") + " --size 640x480 --script " + dir.file("s.txt"));
+    EXPECT_EQ(r2.exitCode, 0) << r2.output;
+    EXPECT_NE(r2.output.find("error: " + dir.file("missing.nrrd")), std::string::npos) << r2.output;
+    EXPECT_NE(r2.output.find("screenshot " + dir.file("x.bmp")), std::string::npos) << r2.output;
+}
