@@ -524,6 +524,7 @@ void Viewer::scriptDrag(const std::string& argument)
     if (std::sscanf(argument.c_str(), "%lf %lf %lf %lf %c", &x0, &y0, &x1, &y1, &tail) != 4) {
         throw InputError("drag " + argument + ": expected X0 Y0 X1 Y1 (pixels)");
     }
+    mRenderer->render(mCamera, style(false)); // pick on what the current camera sees
     const float depth = mRenderer->viewDepthAt(int(x0), int(y0));
     if (!std::isfinite(depth)) throw InputError("drag " + argument + ": no bone under the start pixel");
     mStrokeDepth = depth;
