@@ -827,7 +827,7 @@ int Viewer::run()
         if (busy) {
             glfwPollEvents();
         } else {
-            glfwWaitEventsTimeout(0.05);
+            glfwWaitEventsTimeout(0.25); // idle: draw on input, else 4 times a second (llvmpipe is busy enough)
         }
         if (glfwWindowShouldClose(mWindow)) break;
         pollSession();
