@@ -42,7 +42,6 @@ Mesh CutRemesher::fusedMesh() const
         m.indices.insert(m.indices.end(), mUncut.indices.begin() + long(3 * t), mUncut.indices.begin() + long(3 * t + 3));
         m.triangleVoxels.push_back(c);
     }
-    const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> added;
     std::vector<std::pair<std::pair<uint64_t, uint64_t>, uint32_t>> edgeMap;
     std::vector<std::pair<uint64_t, uint64_t>> corners;
@@ -67,9 +66,7 @@ Mesh CutRemesher::fusedMesh() const
             }
             auto [it, isNew] = added.emplace(id, uint32_t(m.positions.size()));
             if (isNew) {
-                const glm::dvec3& p = geom.indexPositions[v];
-                m.positions.push_back(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
-                                                float(origin[2] + spacing[2] * p.z)));
+                m.positions.push_back(worldPosition(*mVolume, geom.indexPositions[v]));
                 if (normals) m.normals.push_back(glm::vec3(0.0f));
             }
             index[v] = it->second;

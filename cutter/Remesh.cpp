@@ -1984,6 +1984,13 @@ CutVertexId isoEdgeVertex(const std::pair<uint64_t, uint64_t>& e)
 
 } // namespace
 
+glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& p)
+{
+    const openvdb::Vec3d origin = volume.origin(), spacing = volume.spacing();
+    return glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
+                     float(origin[2] + spacing[2] * p.z));
+}
+
 void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
 {
     if (changed.empty()) return;
@@ -2037,8 +2044,11 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     // uncut mesh's; a new vertex: from the first cell, ascending, that makes
     // it), and its snap rounding: names joined by an edge at one float
     // position are one vertex, and the triangles that collapse are dropped.
-    const openvdb::Vec3d origin = mVolume->origin(), spacing = mVolume->spacing();
-    std::vector<glm::dvec3> world(ids.size(), glm::dvec3(std::numeric_limits<double>::quiet_NaN()));
+    // Held as float, as written: GCC 12.2's SLP vectoriser folded the
+    // round trip double(float(x)) of two lanes away when these were
+    // dvec3(vec3(float(..), ..)), so the check judged unrounded positions
+    // and let two float-degenerate triangles through (seed 1021).
+    std::vector<glm::vec3> world(ids.size(), glm::vec3(std::numeric_limits<float>::quiet_NaN()));
     std::vector<char> known(ids.size(), 0);
     for (const Coord& c : region) {
         auto cut = mCells.find(c);
@@ -2049,7 +2059,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                 const uint32_t vertex = mUncut.indices[3 * size_t(range->second.first) + k];
                 auto it = names.find(isoEdgeVertex(corners[k]));
                 if (it != names.end() && !known[it->second]) {
-                    world[it->second] = glm::dvec3(mUncut.positions[vertex]);
+                    world[it->second] = mUncut.positions[vertex];
                     known[it->second] = 1;
                 }
             }
@@ -2059,9 +2069,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
         for (size_t v = 0; v < g.vertexIds.size(); ++v) {
             const uint32_t name = names.at(g.vertexIds[v]);
             if (known[name] || g.vertexIds[v].isIsoEdgeVertex()) continue;
-            const glm::dvec3& p = g.indexPositions[v];
-            world[name] = glm::dvec3(glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
-                                               float(origin[2] + spacing[2] * p.z)));
+            world[name] = worldPosition(*mVolume, g.indexPositions[v]);
             known[name] = 1;
         }
     }
@@ -2179,7 +2187,8 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     for (const Tri& tr : tris) {
         if (!isChanged(tr.cell) || !mCells.count(tr.cell)) continue;
         if (!known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
-        const glm::dvec3 n = glm::cross(world[tr.v[1]] - world[tr.v[0]], world[tr.v[2]] - world[tr.v[0]]);
+        const glm::dvec3 a(world[tr.v[0]]), b(world[tr.v[1]]), c(world[tr.v[2]]);
+        const glm::dvec3 n = glm::cross(b - a, c - a);
         if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) fail("a triangle of zero area in float mm", tr.cell);
     }
 }

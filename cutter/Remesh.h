@@ -208,6 +208,10 @@ private:
     void checkLocally(const std::vector<openvdb::Coord>& changed) const;
 };
 
+/// The float world position (mm) that fusedMesh() writes for an index-space
+/// point of a cut cell: origin + spacing * p per axis, rounded to float.
+glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& indexPoint);
+
 /// The voxels (grid points, index space) inside the removed region of a
 /// kerf > 0 cut: the union of the quads' prisms as the re-mesher shapes them
 /// (mitre joints included). Empty for kerf 0. For the carved volume.

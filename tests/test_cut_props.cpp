@@ -1098,7 +1098,6 @@ TEST_P(CutProps, RandomStrokesOnThe4mmHead)
     HeadStats st;
     const auto t0 = std::chrono::steady_clock::now();
     for (uint32_t seed = 1001; seed <= 1026; ++seed) {
-        if (seed == 1021) continue; // DISABLED_Seed1021Stroke0IsNeverSilentlyDegenerate
         HeadRun run(vol, uncut, 400.0f, w);
         const auto strokes = randomStrokes(frame, seed, 4);
         for (size_t s = 0; s < strokes.size(); ++s) {
@@ -1144,7 +1143,6 @@ TEST_P(CutProps, HandMadeStrokesOnTheHeads)
                                                 "two strokes crossing"};
         for (const auto& [shape, strokes] : handStrokes(frame)) {
             if (fine && !fineShapes.count(shape)) continue;
-            if (shape == "figure eight retracing its start") continue; // DISABLED_RetracedStrokeStart...
             HeadRun run(vol, uncut, 400.0f, w);
             for (size_t s = 0; s < strokes.size(); ++s) {
                 const std::string what = std::string(name) + ", " + shape + " (stroke " + std::to_string(s) + "), " +
@@ -1217,8 +1215,8 @@ std::pair<Mesh, Mesh> liveAndBatch(const vdb::Volume& vol, const Mesh& uncut, fl
 } // namespace
 
 // Live cutting updates after every quad; a batch cut updates once. Both give
-// the same triangles (each up to the corner it starts at, see the DISABLED
-// test below), with zero defects.
+// the same triangles, with zero defects (the test below asks for the same
+// arrays).
 TEST_P(CutProps, LiveUpdatesGiveTheBatchTriangles)
 {
     const vdb::Volume vol = volumeOf(sphereSolid());
@@ -1251,13 +1249,14 @@ TEST(CutProps, LiveUpdatesGiveTheBatchMeshExactly)
 
 // A stroke whose end retraces its start (the blade comes back over the same
 // cut, nearly in the same plane) must be refused or come out clean; never a
-// silently non-manifold mesh. DISABLED: fails today (w = 0): update() returns
-// normally and the fused mesh has 1 non-manifold edge (in 4 triangles, all in
-// cell (54, 48, 36)). Reproducer, 4 mm head at 400 HU: the "figure eight
-// retracing its start" stroke of handStrokes() (197 quads); minimal: its quads
-// 4..5 and 193..194 as two strokes of 2 quads each (also quads 2..7 and
-// 191..196). The local check of update() does not see this edge.
-TEST(CutPropsDefects, DISABLED_RetracedStrokeStartIsNeverSilentlyNonManifold)
+// silently non-manifold mesh. This failed (w = 0) until the local check
+// judged float positions (see the seed 1021 test below): update() returned
+// normally and the fused mesh had 1 non-manifold edge (in 4 triangles, all in
+// cell (54, 48, 36)); it is refused now ("an edge used 2 time(s) one way and 2
+// the other"). Reproducer, 4 mm head at 400 HU: the "figure eight retracing
+// its start" stroke of handStrokes() (197 quads); minimal: its quads 4..5 and
+// 193..194 as two strokes of 2 quads each (also quads 2..7 and 191..196).
+TEST(CutPropsDefects, RetracedStrokeStartIsNeverSilentlyNonManifold)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
     const vdb::Volume vol = vdb::readVolume(path);
@@ -1275,19 +1274,19 @@ TEST(CutPropsDefects, DISABLED_RetracedStrokeStartIsNeverSilentlyNonManifold)
     }
     CutRemesher remesher(vol, 400.0f, uncut);
     const UpdateResult u = tryUpdate(remesher, mask);
-    if (u.outcome == Outcome::Refused) return; // refused: not silent
+    if (u.outcome == Outcome::Refused) { std::printf("refused: %s\n", u.message.c_str()); return; } // refused: not silent
     const MeshCheck check = checkMesh(remesher.fusedMesh());
     EXPECT_TRUE(check.ok()) << check.report();
 }
 
 // Random stroke seed 1021, stroke 0 (randomStrokes(frame, 1021, 4): 200 poses,
 // 0.6 mm per pose, 30 mm blade) on the 4 mm head at 400 HU, w = 0, on a
-// fresh mask: refused or clean, never silently defective. DISABLED: fails
-// since b3916e9 (snap rounding of float-coincident vertices in fusedMesh):
-// update() returns normally and the fused mesh has 2 degenerate (zero-area in
-// float) triangles. Before b3916e9 the same stroke was refused ("a triangle of
-// zero area in float mm ... in cell (39, 31, 16)").
-TEST(CutPropsDefects, DISABLED_Seed1021Stroke0IsNeverSilentlyDegenerate)
+// fresh mask: refused or clean, never silently defective. This failed after
+// b3916e9 (snap rounding in fusedMesh): the fused mesh had 2 triangles of
+// zero area in float in cell (39, 31, 16), because the local check judged
+// double positions: GCC 12.2's SLP vectoriser had folded the check's
+// double(float(x)) round trip away for two of the three axes.
+TEST(CutPropsDefects, Seed1021Stroke0IsNeverSilentlyDegenerate)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
     const vdb::Volume vol = vdb::readVolume(path);
@@ -1297,7 +1296,7 @@ TEST(CutPropsDefects, DISABLED_Seed1021Stroke0IsNeverSilentlyDegenerate)
     addStroke(mask, randomStrokes(frame, 1021, 4)[0]);
     CutRemesher remesher(vol, 400.0f, uncut);
     const UpdateResult u = tryUpdate(remesher, mask);
-    if (u.outcome == Outcome::Refused) return; // refused: not silent
+    if (u.outcome == Outcome::Refused) { std::printf("refused: %s\n", u.message.c_str()); return; } // refused: not silent
     const Mesh fused = remesher.fusedMesh();
     const MeshCheck check = checkMesh(fused);
     EXPECT_TRUE(check.ok()) << check.report();
