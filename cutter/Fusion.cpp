@@ -6,6 +6,8 @@
 
 #include <functional>
 
+#include <tbb/parallel_for.h>
+
 #include <glm/geometric.hpp>
 
 #include <algorithm>
@@ -15,16 +17,64 @@
 
 namespace mtcut::cutter {
 
+namespace {
+
+struct Group
+{
+    std::vector<uint32_t> shells; ///< the outer (or lone) shell first, then its cavities
+    double volume = 0.0, area = 0.0;
+};
+
+std::vector<Group> fragmentGroups(const std::vector<Shell>& shells, const std::vector<int>& parent)
+{
+    std::vector<int> groupOf(shells.size(), -1);
+    std::vector<Group> groups;
+    for (size_t s = 0; s < shells.size(); ++s) {
+        if (parent[s] >= 0) continue;
+        groupOf[s] = int(groups.size());
+        groups.push_back(Group{{uint32_t(s)}, shells[s].volume, shells[s].area});
+    }
+    for (size_t s = 0; s < shells.size(); ++s) {
+        if (parent[s] < 0) continue;
+        Group& g = groups[size_t(groupOf[size_t(parent[s])])];
+        g.shells.push_back(uint32_t(s));
+        g.volume += shells[s].volume;
+        g.area += shells[s].area;
+    }
+    // Largest solid first; ties by the outer shell's first triangle (groups
+    // are made in that order).
+    std::stable_sort(groups.begin(), groups.end(), [](const Group& a, const Group& b) { return a.volume > b.volume; });
+    return groups;
+}
+
+std::vector<uint32_t> trianglesOf(const Group& g, const std::vector<Shell>& shells)
+{
+    std::vector<uint32_t> out;
+    for (uint32_t s : g.shells) out.insert(out.end(), shells[s].triangles.begin(), shells[s].triangles.end());
+    return out;
+}
+
+} // namespace
+
+std::vector<std::vector<uint32_t>> fragmentTriangles(const Mesh& mesh)
+{
+    const std::vector<Shell> shells = findShells(mesh);
+    std::vector<std::vector<uint32_t>> out;
+    for (const Group& g : fragmentGroups(shells, enclosingShells(mesh, shells))) out.push_back(trianglesOf(g, shells));
+    return out;
+}
+
 std::vector<Fragment> fragmentsOf(const Mesh& mesh)
 {
-    std::vector<Mesh> shells = splitShells(mesh);
-    std::vector<Fragment> out(shells.size());
-    for (size_t i = 0; i < shells.size(); ++i) {
-        out[i].volume = meshVolume(shells[i]);
-        out[i].area = meshArea(shells[i]);
-        out[i].mesh = std::move(shells[i]);
-    }
-    std::stable_sort(out.begin(), out.end(), [](const Fragment& a, const Fragment& b) { return a.volume > b.volume; });
+    const std::vector<Shell> shells = findShells(mesh);
+    const std::vector<Group> groups = fragmentGroups(shells, enclosingShells(mesh, shells));
+    std::vector<Fragment> out(groups.size());
+    tbb::parallel_for(size_t(0), groups.size(), [&](size_t i) {
+        out[i].mesh = subMesh(mesh, trianglesOf(groups[i], shells));
+        out[i].volume = groups[i].volume;
+        out[i].area = groups[i].area;
+        out[i].cavities = groups[i].shells.size() - 1;
+    });
     return out;
 }
 

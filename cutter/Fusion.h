@@ -10,16 +10,26 @@
 
 namespace mtcut::cutter {
 
-/// One connected piece of a cut mesh.
+/// One solid piece of a cut mesh: an outer shell and the cavity shells it
+/// directly encloses (e.g. the inner wall of a hollow bone, a marrow or air
+/// pocket), so a fragment file is a closed solid on its own, never an
+/// inside-out pocket.
 struct Fragment
 {
-    Mesh mesh;           ///< the shell alone (vertices renumbered in order of first use)
-    double volume = 0.0; ///< mm^3, positive for a closed outward-oriented shell
-    double area = 0.0;   ///< mm^2
+    Mesh mesh;             ///< its shells (vertices renumbered in order of first use)
+    double volume = 0.0;   ///< mm^3 of solid: the outer shell's minus its cavities'
+    double area = 0.0;     ///< mm^2, every shell's
+    size_t cavities = 0;   ///< cavity shells inside the outer one
 };
 
-/// The shells of `mesh` as separate meshes, largest volume first (ties: the
-/// order of their first triangle). Cost O(triangles).
+/// The triangles of each fragment of `mesh`, in fragmentsOf order: each
+/// positive shell followed by the cavity shells it directly encloses
+/// (enclosingShells); a shell facing the wrong way for its nesting stays a
+/// fragment of its own (checkMesh counts it as a defect). Largest solid
+/// volume first, ties by the first triangle. Cost O(triangles).
+std::vector<std::vector<uint32_t>> fragmentTriangles(const Mesh& mesh);
+
+/// The fragments of `mesh` as separate meshes (fragmentTriangles order).
 std::vector<Fragment> fragmentsOf(const Mesh& mesh);
 
 } // namespace mtcut::cutter

@@ -52,12 +52,12 @@ struct Csr
     std::vector<uint64_t> values; // packed payloads
 };
 
-/// For each shell, the winding number of all other shells at the centroid
-/// of its first triangle: rays along the generic direction (a, b, 1), i.e.
+/// For each shell, the winding number of each other shell at the centroid
+/// of its first triangle (only the shells with a non-zero number, ascending): rays along the generic direction (a, b, 1), i.e.
 /// along +z after the shear x' = x - a z, y' = y - b z (determinant 1, so
 /// orientation is kept); a crossing counts +1 where the ray leaves a solid
 /// (projected triangle counter-clockwise), -1 where it enters.
-std::vector<int> windingOfOtherShells(const Mesh& mesh, const std::vector<Shell>& shells)
+std::vector<std::vector<std::pair<uint32_t, int>>> windingByOtherShell(const Mesh& mesh, const std::vector<Shell>& shells)
 {
     constexpr double a = 0.013703599, b = 0.0071828183;
     auto shear = [&](uint32_t v) {
@@ -105,15 +105,15 @@ std::vector<int> windingOfOtherShells(const Mesh& mesh, const std::vector<Shell>
         std::vector<uint32_t> fill(start.begin(), start.end() - 1);
         for (size_t i = 0; i < triangles.size(); ++i) forCells(i, [&](size_t c) { bucket[fill[c]++] = uint32_t(i); });
     }
-    std::vector<int> winding(shells.size(), 0);
+    std::vector<std::vector<std::pair<uint32_t, int>>> winding(shells.size());
     tbb::parallel_for(size_t(0), shells.size(), [&](size_t s) {
+        std::vector<std::pair<uint32_t, int>> crossings;
         const uint32_t t0 = shells[s].triangles.front();
         glm::dvec3 p(0.0);
         for (int k = 0; k < 3; ++k) p += glm::dvec3(mesh.positions[mesh.indices[3 * size_t(t0) + k]]) / 3.0;
         p = glm::dvec3(p.x - a * p.z, p.y - b * p.z, p.z);
         const glm::ivec2 c = cellOf(glm::dvec2(p));
         const size_t cell = size_t(c.y) * n + c.x;
-        int w = 0;
         for (uint32_t k = start[cell]; k < start[cell + 1]; ++k) {
             const uint32_t i = bucket[k];
             if (shellOf[i] == s) continue;
@@ -129,9 +129,15 @@ std::vector<int> windingOfOtherShells(const Mesh& mesh, const std::vector<Shell>
             const bool inside = area > 0 ? (w0 > 0 && w1 > 0 && w2 > 0) : (w0 < 0 && w1 < 0 && w2 < 0);
             if (!inside) continue;
             const double z = (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area;
-            if (z > p.z) w += area > 0 ? 1 : -1;
+            if (z > p.z) crossings.push_back({shellOf[i], area > 0 ? 1 : -1});
         }
-        winding[s] = w;
+        std::sort(crossings.begin(), crossings.end());
+        for (const auto& [other, sign] : crossings) {
+            if (winding[s].empty() || winding[s].back().first != other) winding[s].push_back({other, 0});
+            winding[s].back().second += sign;
+        }
+        winding[s].erase(std::remove_if(winding[s].begin(), winding[s].end(), [](const auto& w) { return w.second == 0; }),
+                         winding[s].end());
     });
     return winding;
 }
@@ -315,14 +321,34 @@ MeshCheck checkMesh(const Mesh& mesh)
     const std::vector<Shell> shells = findShells(mesh);
     r.shells = shells.size();
     if (shells.empty()) return r;
-    const std::vector<int> winding = windingOfOtherShells(mesh, shells);
+    const auto byShell = windingByOtherShell(mesh, shells);
     for (size_t s = 0; s < shells.size(); ++s) {
-        const bool cavity = shells[s].volume < 0.0 && winding[s] == 1;
-        const bool outer = shells[s].volume > 0.0 && winding[s] == 0;
+        int winding = 0;
+        for (const auto& w : byShell[s]) winding += w.second;
+        const bool cavity = shells[s].volume < 0.0 && winding == 1;
+        const bool outer = shells[s].volume > 0.0 && winding == 0;
         r.cavities += cavity;
         r.negativeVolumeShells += !cavity && !outer;
     }
     return r;
+}
+
+std::vector<int> enclosingShells(const Mesh& mesh, const std::vector<Shell>& shells)
+{
+    std::vector<int> out(shells.size(), -1);
+    if (std::none_of(shells.begin(), shells.end(), [](const Shell& s) { return s.volume < 0.0; })) return out;
+    const auto byShell = windingByOtherShell(mesh, shells);
+    for (size_t s = 0; s < shells.size(); ++s) {
+        if (!(shells[s].volume < 0.0)) continue;
+        int winding = 0;
+        for (const auto& w : byShell[s]) winding += w.second;
+        if (winding != 1) continue; // not a cavity: wrong way for its nesting
+        for (const auto& [other, w] : byShell[s])
+            if (w == 1 && shells[other].volume > 0.0 &&
+                (out[s] < 0 || shells[other].volume < shells[size_t(out[s])].volume))
+                out[s] = int(other);
+    }
+    return out;
 }
 
 std::vector<Shell> findShells(const Mesh& mesh)

@@ -66,6 +66,14 @@ struct Shell
 /// with an out-of-range index are skipped. Cost: O(triangles) (union-find).
 std::vector<Shell> findShells(const Mesh& mesh);
 
+/// For each shell of `shells` (findShells(mesh)), the shell that directly
+/// encloses it when it is a cavity (negative volume, winding number 1 of the
+/// other shells): the smallest positive shell whose own winding number is 1
+/// there. -1 for every other shell (outer shells, islands, and shells facing
+/// the wrong way for their nesting). Cost O(triangles) when there are
+/// cavities, nothing otherwise.
+std::vector<int> enclosingShells(const Mesh& mesh, const std::vector<Shell>& shells);
+
 /// Signed volume (mm^3, positive for closed outward-oriented meshes) and
 /// area (mm^2) of the whole mesh, in double precision.
 double meshVolume(const Mesh& mesh);

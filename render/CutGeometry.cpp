@@ -1,5 +1,6 @@
 #include "render/CutGeometry.h"
 
+#include "cutter/Fusion.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 
@@ -180,14 +181,10 @@ CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume
 
 std::vector<uint32_t> fragmentIdsOf(const cutter::Mesh& mesh)
 {
-    const std::vector<cutter::Shell> shells = cutter::findShells(mesh);
-    std::vector<size_t> order(shells.size());
-    std::iota(order.begin(), order.end(), size_t(0));
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return shells[a].volume > shells[b].volume; });
     std::vector<uint32_t> ids(mesh.triangleCount(), 0u);
-    for (size_t rank = 0; rank < order.size(); ++rank) {
-        for (uint32_t t : shells[order[rank]].triangles) ids[t] = uint32_t(rank + 1);
-    }
+    const std::vector<std::vector<uint32_t>> fragments = cutter::fragmentTriangles(mesh);
+    for (size_t rank = 0; rank < fragments.size(); ++rank)
+        for (uint32_t t : fragments[rank]) ids[t] = uint32_t(rank + 1);
     return ids;
 }
 

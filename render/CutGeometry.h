@@ -49,9 +49,9 @@ struct CutGeometry
 CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue,
                           CutNormals normals = CutNormals::Shading);
 
-/// Fragment id of every triangle of `mesh`: 1 + the index of its shell in
-/// cutter::fragmentsOf order (largest volume first, ties by first triangle),
-/// i.e. fragment_000 -> 1. Cost O(triangles).
+/// Fragment id of every triangle of `mesh`: 1 + the index of its fragment
+/// (an outer shell with its cavities) in cutter::fragmentsOf order (largest
+/// solid volume first), i.e. fragment_000 -> 1. Cost O(triangles).
 std::vector<uint32_t> fragmentIdsOf(const cutter::Mesh& mesh);
 
 /// Fragment ids for the discard render of a cut, from the shells of

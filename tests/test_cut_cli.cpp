@@ -247,11 +247,15 @@ TEST(CutCli, DemoLeFortStrokeSeparatesThePhantomMaxilla)
     TempDir dir;
     const std::string phantom = dir.file("p.vdb");
     ASSERT_EQ(runMtcut("phantom " + phantom + " --size 128,128,64").exitCode, 0);
-    const auto mesh = runMtcut("mesh " + phantom + " --iso 400 -o " + dir.file("bone.stl"));
+    const auto mesh = runMtcut("mesh " + phantom + " --iso 400 -o " + dir.file("bone.stl") + " --check");
     ASSERT_EQ(mesh.exitCode, 0) << mesh.output;
     const size_t shellsAt = mesh.output.find(" shells at iso");
     ASSERT_NE(shellsAt, std::string::npos) << mesh.output;
-    const int uncutShells = std::stoi(mesh.output.substr(mesh.output.rfind(' ', shellsAt - 1) + 1));
+    // A fragment is an outer shell with its cavities.
+    const size_t cavitiesAt = mesh.output.find(" cavities face inward");
+    ASSERT_NE(cavitiesAt, std::string::npos) << mesh.output;
+    const int uncutShells = std::stoi(mesh.output.substr(mesh.output.rfind(' ', shellsAt - 1) + 1)) -
+                            std::stoi(mesh.output.substr(mesh.output.rfind(' ', cavitiesAt - 1) + 1));
 
     const std::string path = std::string(MTCUT_SOURCE_ROOT) + "/tools/phantom_lefort.csv";
     const auto cut = runMtcut("cut " + phantom + " --iso 400 --path " + path + " -o " + dir.file("out") + " --check");

@@ -164,7 +164,8 @@ TEST(Remesh, SphereCutByAKerfSlabGivesTwoShellsAndLosesTheSlab)
 }
 
 // The blade stops inside the sphere: one shell, still closed and manifold;
-// a blade wholly inside leaves a closed zero-volume crack (a cavity shell).
+// a blade wholly inside leaves a closed zero-volume crack (a cavity shell of
+// the one fragment).
 TEST(Remesh, BladeStoppingInsideKeepsOneClosedShell)
 {
     const double R = 15.0;
@@ -186,11 +187,16 @@ TEST(Remesh, BladeStoppingInsideKeepsOneClosedShell)
         EXPECT_TRUE(c.check.ok()) << "stroke " << s << "\n" << c.check.report();
         if (s < 2) {
             EXPECT_EQ(c.fragments.size(), 1u) << "stroke " << s;
-        } else { // a slit entirely inside the solid: a zero-volume cavity
-            ASSERT_EQ(c.fragments.size(), 2u);
+        } else { // a slit entirely inside the solid: a zero-volume cavity of the one fragment
+            ASSERT_EQ(c.fragments.size(), 1u);
             EXPECT_EQ(c.check.cavities, 1u);
-            EXPECT_NEAR(c.fragments[1].volume, 0.0, 1e-9 * v0);
-            EXPECT_GT(c.fragments[1].area, 2 * 20.0); // two caps of the 6 mm blade over ~8 mm
+            EXPECT_EQ(c.fragments[0].cavities, 1u);
+            const std::vector<Shell> shells = findShells(c.fused);
+            ASSERT_EQ(shells.size(), 2u);
+            const Shell& crack = shells[0].volume < shells[1].volume ? shells[0] : shells[1];
+            EXPECT_NEAR(crack.volume, 0.0, 1e-9 * v0);
+            EXPECT_GT(crack.area, 2 * 20.0); // two caps of the 6 mm blade over ~8 mm
+            EXPECT_NEAR(c.fragments[0].area, shells[0].area + shells[1].area, 1e-9 * c.fragments[0].area);
         }
         EXPECT_NEAR(meshVolume(c.fused), v0, 1e-5 * v0);
         expectUntouchedOutside(uncut, c.fused, mask, remesher);
@@ -496,5 +502,53 @@ TEST(Remesh, HeadSeed13StrokeIsNeverSilentlyOpen)
         }
         const MeshCheck check = checkMesh(remesher.fusedMesh());
         EXPECT_TRUE(check.ok()) << "seed 13 stroke " << s << "\n" << check.report();
+    }
+}
+
+// A hollow ball (solid between radii 6 and 12 mm) with a loose ball (radius
+// 3 mm) in its cavity, a cap cut off it at x = 9 (kerf 0 and 0.5 mm, the
+// cavity untouched): three fragments, the hollow one written with its cavity
+// (so each fragment checks clean on its own, never an inside-out pocket),
+// largest solid first, and their solid volumes add up to the uncut volume
+// (kerf 0) or less (kerf 0.5).
+TEST(Remesh, FragmentsKeepTheirCavities)
+{
+    const auto field = [](const Vec3d& p) {
+        const double r = p.length();
+        return std::max(std::min(12.0 - r, r - 6.0), 3.0 - r);
+    };
+    const vdb::Volume vol = fieldVolume(Coord(32), Vec3d(1.0), Vec3d(-15.5), field);
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    ASSERT_TRUE(checkMesh(uncut).ok()) << checkMesh(uncut).report();
+    ASSERT_EQ(findShells(uncut).size(), 3u);
+    const std::vector<Fragment> whole = fragmentsOf(uncut);
+    ASSERT_EQ(whole.size(), 2u);
+    EXPECT_EQ(whole[0].cavities, 1u);
+    EXPECT_EQ(whole[1].cavities, 0u);
+    const double pi = 3.14159265358979;
+    EXPECT_NEAR(whole[0].volume, 4.0 / 3.0 * pi * (12 * 12 * 12 - 6 * 6 * 6), 0.03 * 4.0 / 3.0 * pi * 1512);
+    EXPECT_NEAR(whole[1].volume, 4.0 / 3.0 * pi * 27, 0.15 * 4.0 / 3.0 * pi * 27);
+    EXPECT_NEAR(whole[0].volume + whole[1].volume, meshVolume(uncut), 1e-6 * meshVolume(uncut));
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(vol), kerf);
+        addStroke(mask, straightStroke(dvec3(9.0, -20, 20), dvec3(9.0, 20, 20), dvec3(0, 0, -1), 40.0, 100));
+        CutRemesher remesher(vol, 0.0f, uncut);
+        remesher.update(mask);
+        const CutResult c = cutAndCheck(remesher);
+        EXPECT_TRUE(c.check.ok()) << c.check.report();
+        ASSERT_EQ(c.fragments.size(), 3u) << "kerf " << kerf;
+        EXPECT_EQ(c.fragments[0].cavities, 1u);
+        double sum = 0;
+        for (const Fragment& f : c.fragments) {
+            const MeshCheck alone = checkMesh(f.mesh);
+            EXPECT_TRUE(alone.ok()) << "kerf " << kerf << "\n" << alone.report();
+            EXPECT_NEAR(f.volume, meshVolume(f.mesh), 1e-9 * std::abs(f.volume) + 1e-9);
+            EXPECT_GT(f.volume, 0.0);
+            sum += f.volume;
+        }
+        EXPECT_TRUE(std::is_sorted(c.fragments.begin(), c.fragments.end(),
+                                   [](const Fragment& a, const Fragment& b) { return a.volume > b.volume; }));
+        if (kerf == 0.0) EXPECT_NEAR(sum, meshVolume(uncut), 1e-5 * meshVolume(uncut));
+        else EXPECT_LT(sum, meshVolume(uncut));
     }
 }

@@ -28,7 +28,8 @@ struct FragmentRecord
 {
     std::string file; ///< "fragment_000.stl"
     size_t triangles = 0;
-    double volume = 0.0, area = 0.0; ///< mm^3, mm^2
+    double volume = 0.0, area = 0.0; ///< mm^3 of solid (cavities taken out), mm^2
+    size_t cavities = 0;             ///< cavity shells inside the outer one
 };
 
 /// What to write and what summary.json says about it.
