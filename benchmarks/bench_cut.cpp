@@ -40,10 +40,16 @@
 // then through-cuts; the count of refused strokes is printed.
 //
 // Usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only]
-//                  [--targets N,N,...] [--no-baselines] [--dump DIR]
+//                  [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]
 //   --quick: 256x256x128 phantom and the 4 mm head, targets 100,419,1000, 1 run.
 //   --no-baselines: ours only (to profile the remesher, e.g. under perf).
 //   --dump DIR: write every refused stroke to DIR as a path file (mtcut cut --path).
+//   --hash: also print, per case, FNV-1a hashes of the results (the whole
+//          cut's fusedMesh: positions, normals, indices, triangle voxels; its
+//          cells(): ids, index positions, indices; and every haptic step's
+//          fusedMesh, chained), so a speed-up can be checked bit-identical:
+//          run before and after with the same arguments and diff the
+//          "case=hash" lines.
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
@@ -85,6 +91,46 @@ constexpr double kAspect = 1.5; // sweep length / blade length
 constexpr int kSteps = 8;       // haptic steps per run
 bool gBaselines = true;         // --no-baselines: ours only (for profiling)
 std::string gDumpDir;           // --dump DIR: write refused strokes there as path files
+bool gHash = false;             // --hash: print hashes of the results
+
+/// FNV-1a over raw bytes, chained through `h`.
+uint64_t fnv(uint64_t h, const void* data, size_t bytes)
+{
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+template <class T> uint64_t fnvVec(uint64_t h, const std::vector<T>& v)
+{
+    const uint64_t n = v.size();
+    h = fnv(h, &n, sizeof n);
+    return v.empty() ? h : fnv(h, v.data(), v.size() * sizeof(T));
+}
+constexpr uint64_t kFnvSeed = 1469598103934665603ull;
+uint64_t meshHash(const Mesh& m, uint64_t h = kFnvSeed)
+{
+    h = fnvVec(h, m.positions);
+    h = fnvVec(h, m.normals);
+    h = fnvVec(h, m.indices);
+    return fnvVec(h, m.triangleVoxels);
+}
+uint64_t cellsHash(const CutRemesher& r)
+{
+    uint64_t h = kFnvSeed;
+    for (const auto& [c, g] : r.cells()) {
+        const int xyz[3] = {c.x(), c.y(), c.z()};
+        h = fnv(h, xyz, sizeof xyz);
+        for (const CutVertexId& id : g.vertexIds) {
+            h = fnv(h, &id.dim, 3);
+            h = fnv(h, id.feature.data(), sizeof id.feature);
+            h = fnv(h, id.planes.data(), sizeof(uint64_t) * id.planeCount);
+            h = fnv(h, id.tags.data(), sizeof(uint64_t) * id.tagCount);
+        }
+        h = fnvVec(h, g.indexPositions);
+        h = fnvVec(h, g.indices);
+    }
+    return h;
+}
 
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -393,6 +439,9 @@ struct Row
     size_t bDefects = 0, bTris = 0;
     std::string bDefectText;
     bool ok = false;
+    // --hash
+    uint64_t wholeHash = 0, cellsHash = 0, stepsHash = kFnvSeed;
+    size_t fusedVertices = 0;
 };
 
 Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
@@ -475,6 +524,11 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         }
         row.cells = mask->cutCellCount();
         row.quads = quads.size();
+        if (gHash) {
+            row.wholeHash = meshHash(fused);
+            row.cellsHash = cellsHash(*remesher);
+            row.fusedVertices = fused.vertexCount();
+        }
         row.setupMs = median(setup);
         row.wholeUpdateMs = median(wholeUpdate);
         row.wholeFusedMs = median(wholeFused);
@@ -522,6 +576,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                     t0 = Clock::now();
                     fused = remesher->fusedMesh();
                     fus.push_back(msSince(t0));
+                    if (gHash && r == 0) row.stepsHash = meshHash(fused, row.stepsHash);
                 }
             }
         } catch (const std::exception& e) {
@@ -629,6 +684,12 @@ void printRow(const Row& r)
                 r.bWholeMs / r.wholeUpdateMs, r.oursTris, r.bTris, r.oursDefects, r.bDefects, r.variant, kindName(r.variant), r.from.x,
                 r.from.y, r.from.z, r.to.x, r.to.y, r.to.z, r.note.empty() ? "" : " note=", r.note.c_str());
     if (r.bDefects) std::printf("  OpenVDB route defects: %s\n", r.bDefectText.c_str());
+    if (gHash)
+        std::printf("case=hash volume=%s kerf=%g target=%zu cut_cells=%zu quads=%zu variant=%d fused_tris=%zu "
+                    "fused_vertices=%zu whole=%016llx cells=%016llx steps=%016llx%s%s\n",
+                    r.volume.c_str(), r.kerf, r.target, r.cells, r.quads, r.variant, r.oursTris, r.fusedVertices,
+                    static_cast<unsigned long long>(r.wholeHash), static_cast<unsigned long long>(r.cellsHash),
+                    static_cast<unsigned long long>(r.stepsHash), r.note.empty() ? "" : " note=", r.note.c_str());
     std::fflush(stdout);
 }
 
@@ -720,6 +781,8 @@ int main(int argc, char** argv)
             head = false;
         } else if (!std::strcmp(argv[i], "--dump") && i + 1 < argc) {
             gDumpDir = argv[++i];
+        } else if (!std::strcmp(argv[i], "--hash")) {
+            gHash = true;
         } else if (!std::strcmp(argv[i], "--no-baselines")) {
             gBaselines = false;
         } else if (!std::strcmp(argv[i], "--head-only")) {
@@ -730,7 +793,7 @@ int main(int argc, char** argv)
             while (std::getline(ss, item, ',')) targets.push_back(size_t(std::atol(item.c_str())));
         } else {
             std::fprintf(stderr,
-                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR]\n");
+                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]\n");
             return 2;
         }
     }
