@@ -5,6 +5,8 @@
 
 #include <glm/geometric.hpp>
 
+#include <boost/container/small_vector.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -281,10 +283,22 @@ struct RimEntry
     };
     std::array<double, 12> signature{};
     std::vector<Rim> rims;
+    uint64_t serial = 0; ///< which build of an entry this is (PrismCache::serial)
 };
 struct PrismCache
 {
     std::unordered_map<uint64_t, RimEntry> entries;
+    /// Each quad's prism as makePrismGeom last built it, with what it was
+    /// built from: the quad and its stroke neighbours, kerf and frame
+    /// (prismGeomKey), and the build of the previous quad's rim entry.
+    struct Geom
+    {
+        std::array<double, 3 * 17 + 7> key;
+        uint64_t previousSerial = 0;
+        QuadGeom geom;
+    };
+    std::unordered_map<uint64_t, Geom> geoms;
+    uint64_t serial = 0;
 };
 
 namespace {
@@ -315,6 +329,7 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///   mitre in the same rim line and leave no sub-micron sliver there.
 /// The mask voxelises cutRegion(), which covers the mitre joints.
 QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache);
+std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& r);
 
 const RimEntry& rimEntry(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
 {
@@ -442,7 +457,13 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
         side.orient = side.plane.h(centre) >= 0 ? 1.0 : -1.0;
         g.sides.push_back(side);
     }
-    cache.entries[uint64_t(ref.stroke) << 32 | ref.quad] = std::move(entry);
+    entry.serial = ++cache.serial;
+    const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
+    PrismCache::Geom& memo = cache.geoms[key];
+    memo.key = prismGeomKey(mask, ref);
+    memo.previousSerial = previous ? previous->serial : 0;
+    memo.geom = g;
+    cache.entries[key] = std::move(entry);
     return g;
 }
 
@@ -601,6 +622,11 @@ bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, c
 
 // ================================================================ kernel ====
 
+/// Inline-storage vectors for the kernel's short per-vertex and per-polygon
+/// lists (a few entries each), so building them allocates nothing.
+template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
+using PlaneList = SmallVector<uint64_t, 8>;
+
 class RemeshKernel
 {
 public:
@@ -619,14 +645,14 @@ private:
         CutVertexId key; // planes only, no tags
         dvec3 pos;
         uint8_t support = 0; // tet-local vertices of the smallest simplex holding it
-        std::vector<std::pair<uint64_t, int8_t>> signs;
+        SmallVector<std::pair<uint64_t, int8_t>, 8> signs;
         int8_t member = 2; // P membership cache (2 = unknown)
         bool steiner = false; // a Steiner point: always a corner
     };
     struct Poly
     {
-        std::vector<int> v;
-        std::vector<uint64_t> lab; // lab[i]: edge v[i] -> v[i+1]
+        SmallVector<int, 8> v;
+        SmallVector<uint64_t, 8> lab; // lab[i]: edge v[i] -> v[i+1]
     };
     struct Support
     {
@@ -746,8 +772,8 @@ private:
     }
 
     dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
-    int makeVertex(uint8_t support, std::vector<uint64_t> defining, const dvec3& pos0);
-    int makeSteiner(uint8_t support, std::vector<uint64_t> planes, const dvec3& pos);
+    int makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
+    int makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos);
     /// A slit chord of quad r between two rim points on different rim lines:
     /// the two sides of the slit need a tagged vertex on it.
     bool needsMidpoint(int u, int v, const QuadGeom& r)
@@ -796,7 +822,7 @@ private:
     }
 
     void splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
-    void remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_t>& cellIndex);
+    void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
 
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
     float mIso;
@@ -868,14 +894,14 @@ dvec3 RemeshKernel::canonicalPosition(const CutVertexId& key, uint8_t support, c
     return pos0;
 }
 
-int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, const dvec3& pos0)
+int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0)
 {
     CutVertexId key = featureKey(support);
     const double eps = epsAt(pos0);
     // The name is the set of ACTIVE planes through the point (the iso surface,
     // quads holding it); the planes that happened to make it (in this tet's
     // arrangement) are used only when the active ones do not fix the point.
-    std::vector<uint64_t> planes;
+    PlaneList planes;
     for (uint64_t& p : defining) {
         // An iso triangle's plane is the iso surface only on the faces and
         // edges that hold that triangle's MT geometry; elsewhere (a fold's
@@ -917,7 +943,7 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     // on both. `on`: the planes the point lies on (made by them, or within eps).
     std::sort(planes.begin(), planes.end());
     planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
-    std::vector<uint64_t> on(defining.begin(), defining.end());
+    PlaneList on(defining.begin(), defining.end());
     for (const auto& pl : mPlanes)
         if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
     on.insert(on.end(), planes.begin(), planes.end());
@@ -947,7 +973,7 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
     }
     for (int round = 0; round < 4 && !mPrism; ++round) {
-        std::vector<uint64_t> add;
+        PlaneList add;
         auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
         for (const QuadGeom* q : mQuads) {
             for (const auto& s : q->sides) {
@@ -1015,7 +1041,7 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     return int(mVerts.size() - 1);
 }
 
-int RemeshKernel::makeSteiner(uint8_t support, std::vector<uint64_t> planes, const dvec3& pos)
+int RemeshKernel::makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos)
 {
     CutVertexId key = featureKey(support);
     std::sort(planes.begin(), planes.end());
@@ -1106,7 +1132,7 @@ int RemeshKernel::member(int vi)
 void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
 {
     const size_t n = in.v.size();
-    std::vector<int> sv(n);
+    SmallVector<int, 8> sv(n);
     bool pos = false, neg = false;
     for (size_t i = 0; i < n; ++i) {
         sv[i] = sign(in.v[i], p);
@@ -1119,7 +1145,7 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
     }
     const Plane* pl = planeById(p);
     // Cut points on crossing edges.
-    std::vector<int> cut(n, -1);
+    SmallVector<int, 8> cut(n, -1);
     for (size_t i = 0; i < n; ++i) {
         const size_t j = (i + 1) % n;
         if (sv[i] * sv[j] >= 0) continue;
@@ -1129,7 +1155,7 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
         double t = (ha - hb) != 0 ? ha / (ha - hb) : 0.5;
         if (!(t > 0.0 && t < 1.0)) t = 0.5;
         const dvec3 x = a.pos + t * (b.pos - a.pos);
-        std::vector<uint64_t> def{p};
+        PlaneList def{p};
         if (polyPlane != 0) def.push_back(polyPlane);
         if (!(in.lab[i] & kBoundaryLabel)) def.push_back(in.lab[i]);
         cut[i] = makeVertex(uint8_t(a.support | b.support), def, x);
@@ -1161,7 +1187,7 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
     mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
-    std::map<CutVertexId, uint32_t> cellIndex;
+    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> cellIndex;
     const int parity = cellParity(cell.x(), cell.y(), cell.z());
     const auto& tets = cellTets(parity);
     for (int t = 0; t < kTetsPerCell; ++t) {
@@ -1196,7 +1222,7 @@ static std::array<int, 4> evenPerm(std::initializer_list<int> first)
     return p;
 }
 
-void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_t>& cellIndex)
+void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
 {
     mVerts.clear();
     mQuads.clear();
@@ -1560,7 +1586,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                     const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
                     uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
                     uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
-                    std::vector<uint64_t> planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
+                    PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
                     const uint8_t sup = uint8_t(vu.support | vw.support);
                     if (bits(sup) < 4) {
                         const bool isoU = vu.key.planeCount && vu.key.planes[0] == kIso;
@@ -1859,23 +1885,64 @@ struct QuadGeomCache
 
 namespace {
 
-QuadGeomCache::Key quadGeomKey(const CutMask& mask, const QuadRef& r)
+/// The data (QuadGeomCache::kPerQuad doubles each) of quads r-reach..r+reach
+/// of r's stroke, 1e308 where there is none.
+void putQuads(const CutMask& mask, const QuadRef& r, int reach, double* out)
 {
-    QuadGeomCache::Key k;
-    k.fill(1e308);
     const int64_t count = int64_t(mask.quadCount(r.stroke));
-    for (int d = 0; d < 5; ++d) {
-        const int64_t qi = int64_t(r.quad) + d - 2;
+    for (int d = 0; d <= 2 * reach; ++d) {
+        double* o = out + QuadGeomCache::kPerQuad * size_t(d);
+        std::fill(o, o + QuadGeomCache::kPerQuad, 1e308);
+        const int64_t qi = int64_t(r.quad) + d - reach;
         if (qi < 0 || qi >= count) continue;
         const Quad& q = mask.quad(QuadRef{r.stroke, uint32_t(qi)});
-        double* o = k.data() + QuadGeomCache::kPerQuad * size_t(d);
         for (int i = 0; i < 4; ++i)
             for (int a = 0; a < 3; ++a) o[3 * i + a] = q.corners[size_t(i)][a];
         for (int a = 0; a < 3; ++a) o[12 + a] = q.normal[a];
         o[15] = double(q.cornerCount);
         o[16] = q.degenerate ? 1.0 : 0.0;
     }
+}
+
+QuadGeomCache::Key quadGeomKey(const CutMask& mask, const QuadRef& r)
+{
+    QuadGeomCache::Key k;
+    putQuads(mask, r, 2, k.data());
     return k;
+}
+
+std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& r)
+{
+    static_assert(QuadGeomCache::kPerQuad == 17, "key layout");
+    std::array<double, 3 * 17 + 7> k;
+    putQuads(mask, r, 1, k.data());
+    const IndexFrame& f = mask.frame();
+    double* o = k.data() + 3 * 17;
+    o[0] = mask.kerf();
+    for (int a = 0; a < 3; ++a) {
+        o[1 + a] = f.origin[a];
+        o[4 + a] = f.spacing[a];
+    }
+    return k;
+}
+
+/// makePrismGeom(mask, ref, cache), reusing the quad's last build when it was
+/// made from the same data and the same build of the previous quad's rim entry.
+QuadGeom cachedPrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
+{
+    const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
+    auto it = cache.geoms.find(key);
+    if (it == cache.geoms.end() || !(it->second.key == prismGeomKey(mask, ref))) return makePrismGeom(mask, ref, cache);
+    uint64_t previousSerial = 0;
+    if (ref.quad > 0 && !mask.quad(ref).degenerate) {
+        // The entry makePrismGeom would take (it rebuilds a missing or stale one).
+        auto p = cache.entries.find(key - 1);
+        if (p == cache.entries.end() || p->second.signature != cornerSignature(mask.quad(QuadRef{ref.stroke, ref.quad - 1})))
+            return makePrismGeom(mask, ref, cache);
+        previousSerial = p->second.serial;
+    }
+    if (previousSerial != it->second.previousSerial) return makePrismGeom(mask, ref, cache);
+    return it->second.geom;
 }
 
 const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCache& cache)
@@ -1889,14 +1956,15 @@ const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCa
     return e.geom;
 }
 
-/// quadCache: zero kerf only, optional.
+/// quadCache: optional; when given, each quad's geometry is built once
+/// (zero kerf: in quadCache; kerf > 0: in `cache`) instead of once per cell.
 std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache,
                                 QuadGeomCache* quadCache = nullptr)
 {
     std::vector<QuadGeom> quads;
     for (const QuadRef& r : refs) {
         if (mask.quad(r).degenerate) continue; // zero area: removes nothing (the mask gives it no kerf either)
-        if (mask.kerf() > 0) quads.push_back(makePrismGeom(mask, r, cache));
+        if (mask.kerf() > 0) quads.push_back(quadCache ? cachedPrismGeom(mask, r, cache) : makePrismGeom(mask, r, cache));
         else if (quadCache) quads.push_back(cachedQuadGeom(mask, r, *quadCache));
         else quads.push_back(makeQuadGeom(mask, r));
     }
