@@ -1,5 +1,5 @@
 // Cut-update latency: a new piece of stroke -> cut mask -> re-meshed and
-// fused geometry (CutRemesher), for straight zero-kerf strokes through bone
+// fused geometry (CutRemesher), for straight strokes (kerf 0, then 0.5 mm) through bone
 // whose cut-cell counts are close to the paper's Table 1 (419, 3,638 and
 // 11,716 cells), on the phantom (512x512x256) and on the real VHM head
 // (512x512x245, 1 mm, iso 400 HU), against two baselines run in the same
@@ -22,6 +22,9 @@
 //          The steps are the last `kSteps` quads of the cut, re-added after
 //          CutMask::undoToQuad, so the mask holds the whole cut minus a few
 //          quads when they run (the real haptic situation at that cut size).
+//   view:  after a step, what an interactive view needs instead of a fused
+//          mesh: the geometry of CutRemesher::lastChangedCells() gathered into
+//          world-mm float positions and indices (what a renderer uploads).
 //   whole: a fresh remesher's update() over the whole mask, and + fusedMesh().
 //   noop:  update() when nothing changed (the per-update O(cut cells) scan).
 //   kernel: remeshCell() over every cut cell, from outside (kernel alone).
@@ -431,7 +434,7 @@ struct Row
     glm::dvec3 from{0.0}, to{0.0}; // the stroke's first and last base, world mm
     std::string note;
     // ours, one core
-    double stepVoxUs = 0, stepUpdateUs = 0, stepFusedMs = 0, stepNew = 0, stepRemeshed = 0;
+    double stepVoxUs = 0, stepUpdateUs = 0, stepFusedMs = 0, stepNew = 0, stepRemeshed = 0, stepViewUs = 0;
     double setupMs = 0, wholeUpdateMs = 0, wholeFusedMs = 0, noopMs = 0, kernelMs = 0;
     size_t oursDefects = 0, oursTris = 0;
     // baselines
@@ -556,7 +559,9 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
 
         // -- haptic steps ---------------------------------------------------------
         const int steps = int(std::min<size_t>(kSteps, quads.size() - 1));
-        std::vector<double> vox, upd, fus, added, remeshed;
+        std::vector<double> vox, upd, fus, added, remeshed, view;
+        std::vector<glm::vec3> viewPositions;
+        std::vector<uint32_t> viewIndices;
         std::vector<glm::ivec3> cellBuf;
         try {
             for (int r = 0; r < runs; ++r) {
@@ -573,6 +578,20 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                     t0 = Clock::now();
                     remeshed.push_back(double(remesher->update(*mask)));
                     upd.push_back(1e3 * msSince(t0));
+                    // The interactive view: the changed cells' new geometry
+                    // in world mm, as a renderer would upload it.
+                    t0 = Clock::now();
+                    viewPositions.clear();
+                    viewIndices.clear();
+                    for (const Coord& c : remesher->lastChangedCells()) {
+                        auto it = remesher->cells().find(c);
+                        if (it == remesher->cells().end()) continue;
+                        const uint32_t base = uint32_t(viewPositions.size());
+                        for (const glm::dvec3& p : it->second.indexPositions)
+                            viewPositions.push_back(glm::vec3(vc.frame.toWorld(p)));
+                        for (uint32_t k : it->second.indices) viewIndices.push_back(base + k);
+                    }
+                    view.push_back(1e3 * msSince(t0));
                     t0 = Clock::now();
                     fused = remesher->fusedMesh();
                     fus.push_back(msSince(t0));
@@ -596,6 +615,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         row.stepVoxUs = median(vox);
         row.stepUpdateUs = median(upd);
         row.stepFusedMs = median(fus);
+        row.stepViewUs = median(view);
         row.stepNew = median(added);
         row.stepRemeshed = median(remeshed);
     }
@@ -671,13 +691,13 @@ void printRow(const Row& r)
     const double stepUs = r.stepVoxUs + r.stepUpdateUs;
     std::printf("case=cut volume=%s kerf=%g target=%zu cut_cells=%zu surface_cells=%zu remeshed_whole=%zu quads=%zu "
                 "blade_mm=%.2f sweep_mm=%.2f refused=%d step_new_cells=%.0f step_remeshed=%.0f step_vox_us=%.1f "
-                "step_update_us=%.1f step_us=%.1f step_fused_ms=%.2f setup_ms=%.1f whole_update_ms=%.2f "
+                "step_update_us=%.1f step_us=%.1f step_view_us=%.1f step_fused_ms=%.2f setup_ms=%.1f whole_update_ms=%.2f "
                 "whole_fused_ms=%.2f noop_update_ms=%.3f kernel_ms=%.2f us_per_cell=%.1f a_ms=%.1f b_step_ms=%.1f "
                 "b_blade_ms=%.2f b_copy_ms=%.1f b_csg_ms=%.2f b_mesh_ms=%.1f b_whole_ms=%.1f step_vs_a=%.0f "
                 "step_vs_b=%.0f whole_vs_a=%.2f whole_fused_vs_a=%.2f whole_vs_b=%.2f ours_tris=%zu b_tris=%zu "
                 "ours_defects=%zu b_defects=%zu variant=%d kind=%s from=%.3f,%.3f,%.3f to=%.3f,%.3f,%.3f%s%s\n",
                 r.volume.c_str(), r.kerf, r.target, r.cells, r.surfaceCells, r.remeshedWhole, r.quads, r.blade, r.sweep, r.refused,
-                r.stepNew, r.stepRemeshed, r.stepVoxUs, r.stepUpdateUs, stepUs, r.stepFusedMs, r.setupMs,
+                r.stepNew, r.stepRemeshed, r.stepVoxUs, r.stepUpdateUs, stepUs, r.stepViewUs, r.stepFusedMs, r.setupMs,
                 r.wholeUpdateMs, r.wholeFusedMs, r.noopMs, r.kernelMs, 1e3 * r.wholeUpdateMs / double(r.remeshedWhole),
                 r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs, r.bMeshMs, r.bWholeMs, r.aMs / (stepUs * 1e-3),
                 r.bStepMs / (stepUs * 1e-3), r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs,
@@ -697,20 +717,20 @@ void printTables(const std::vector<Row>& rows)
 {
     std::printf("\nHaptic step (ours one core; median of runs x %d steps) vs baselines per step\n\n", kSteps);
     std::printf("| volume | cut cells (target) | surface cells | new cells / re-meshed per step | vox+mask us | "
-                "update us | step us | fusedMesh ms | (a) re-extract ms | (b) OpenVDB ms (blade/copy/csg/mesh) | "
+                "update us | step us | + view us | fusedMesh ms | (a) re-extract ms | (b) OpenVDB ms (blade/copy/csg/mesh) | "
                 "step vs (a) | step vs (b) |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows) {
         if (!r.ok) {
-            std::printf("| %s | (%zu) | refused (%d strokes): %s | | | | | | | | | |\n", label(r).c_str(), r.target,
+            std::printf("| %s | (%zu) | refused (%d strokes): %s | | | | | | | | | | |\n", label(r).c_str(), r.target,
                         r.refused, r.note.c_str());
             continue;
         }
         const double stepUs = r.stepVoxUs + r.stepUpdateUs;
-        std::printf("| %s | %zu (%zu) | %zu | %.0f / %.0f | %.0f | %.0f | %.0f | %.1f | %.0f | %.0f (%.1f/%.0f/%.1f/%.0f) | "
+        std::printf("| %s | %zu (%zu) | %zu | %.0f / %.0f | %.0f | %.0f | %.0f | %.1f | %.1f | %.0f | %.0f (%.1f/%.0f/%.1f/%.0f) | "
                     "%.0fx | %.0fx |\n",
                     label(r).c_str(), r.cells, r.target, r.surfaceCells, r.stepNew, r.stepRemeshed, r.stepVoxUs,
-                    r.stepUpdateUs, stepUs, r.stepFusedMs, r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs,
+                    r.stepUpdateUs, stepUs, r.stepViewUs, r.stepFusedMs, r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs,
                     r.bMeshMs, r.aMs / (stepUs * 1e-3), r.bStepMs / (stepUs * 1e-3));
     }
     std::printf("\nWhole cut from scratch (ours one core; median of runs)\n\n");
