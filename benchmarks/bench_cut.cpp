@@ -1,5 +1,5 @@
 // Cut-update latency: a new piece of stroke -> cut mask -> re-meshed and
-// fused geometry (CutRemesher), for straight zero-kerf strokes through bone
+// fused geometry (CutRemesher), for straight strokes (kerf 0, then 0.5 mm) through bone
 // whose cut-cell counts are close to the paper's Table 1 (419, 3,638 and
 // 11,716 cells), on the phantom (512x512x256) and on the real VHM head
 // (512x512x245, 1 mm, iso 400 HU), against two baselines run in the same
@@ -22,6 +22,9 @@
 //          The steps are the last `kSteps` quads of the cut, re-added after
 //          CutMask::undoToQuad, so the mask holds the whole cut minus a few
 //          quads when they run (the real haptic situation at that cut size).
+//   view:  after a step, what an interactive view needs instead of a fused
+//          mesh: the geometry of CutRemesher::lastChangedCells() gathered into
+//          world-mm float positions and indices (what a renderer uploads).
 //   whole: a fresh remesher's update() over the whole mask, and + fusedMesh().
 //   noop:  update() when nothing changed (the per-update O(cut cells) scan).
 //   kernel: remeshCell() over every cut cell, from outside (kernel alone).
@@ -40,10 +43,16 @@
 // then through-cuts; the count of refused strokes is printed.
 //
 // Usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only]
-//                  [--targets N,N,...] [--no-baselines] [--dump DIR]
+//                  [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]
 //   --quick: 256x256x128 phantom and the 4 mm head, targets 100,419,1000, 1 run.
 //   --no-baselines: ours only (to profile the remesher, e.g. under perf).
 //   --dump DIR: write every refused stroke to DIR as a path file (mtcut cut --path).
+//   --hash: also print, per case, FNV-1a hashes of the results (the whole
+//          cut's fusedMesh: positions, normals, indices, triangle voxels; its
+//          cells(): ids, index positions, indices; and every haptic step's
+//          fusedMesh, chained), so a speed-up can be checked bit-identical:
+//          run before and after with the same arguments and diff the
+//          "case=hash" lines.
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
@@ -85,6 +94,46 @@ constexpr double kAspect = 1.5; // sweep length / blade length
 constexpr int kSteps = 8;       // haptic steps per run
 bool gBaselines = true;         // --no-baselines: ours only (for profiling)
 std::string gDumpDir;           // --dump DIR: write refused strokes there as path files
+bool gHash = false;             // --hash: print hashes of the results
+
+/// FNV-1a over raw bytes, chained through `h`.
+uint64_t fnv(uint64_t h, const void* data, size_t bytes)
+{
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+template <class T> uint64_t fnvVec(uint64_t h, const std::vector<T>& v)
+{
+    const uint64_t n = v.size();
+    h = fnv(h, &n, sizeof n);
+    return v.empty() ? h : fnv(h, v.data(), v.size() * sizeof(T));
+}
+constexpr uint64_t kFnvSeed = 1469598103934665603ull;
+uint64_t meshHash(const Mesh& m, uint64_t h = kFnvSeed)
+{
+    h = fnvVec(h, m.positions);
+    h = fnvVec(h, m.normals);
+    h = fnvVec(h, m.indices);
+    return fnvVec(h, m.triangleVoxels);
+}
+uint64_t cellsHash(const CutRemesher& r)
+{
+    uint64_t h = kFnvSeed;
+    for (const auto& [c, g] : r.cells()) {
+        const int xyz[3] = {c.x(), c.y(), c.z()};
+        h = fnv(h, xyz, sizeof xyz);
+        for (const CutVertexId& id : g.vertexIds) {
+            h = fnv(h, &id.dim, 3);
+            h = fnv(h, id.feature.data(), sizeof id.feature);
+            h = fnv(h, id.planes.data(), sizeof(uint64_t) * id.planeCount);
+            h = fnv(h, id.tags.data(), sizeof(uint64_t) * id.tagCount);
+        }
+        h = fnvVec(h, g.indexPositions);
+        h = fnvVec(h, g.indices);
+    }
+    return h;
+}
 
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -385,7 +434,7 @@ struct Row
     glm::dvec3 from{0.0}, to{0.0}; // the stroke's first and last base, world mm
     std::string note;
     // ours, one core
-    double stepVoxUs = 0, stepUpdateUs = 0, stepFusedMs = 0, stepNew = 0, stepRemeshed = 0;
+    double stepVoxUs = 0, stepUpdateUs = 0, stepFusedMs = 0, stepNew = 0, stepRemeshed = 0, stepViewUs = 0;
     double setupMs = 0, wholeUpdateMs = 0, wholeFusedMs = 0, noopMs = 0, kernelMs = 0;
     size_t oursDefects = 0, oursTris = 0;
     // baselines
@@ -393,6 +442,9 @@ struct Row
     size_t bDefects = 0, bTris = 0;
     std::string bDefectText;
     bool ok = false;
+    // --hash
+    uint64_t wholeHash = 0, cellsHash = 0, stepsHash = kFnvSeed;
+    size_t fusedVertices = 0;
 };
 
 Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
@@ -475,6 +527,11 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         }
         row.cells = mask->cutCellCount();
         row.quads = quads.size();
+        if (gHash) {
+            row.wholeHash = meshHash(fused);
+            row.cellsHash = cellsHash(*remesher);
+            row.fusedVertices = fused.vertexCount();
+        }
         row.setupMs = median(setup);
         row.wholeUpdateMs = median(wholeUpdate);
         row.wholeFusedMs = median(wholeFused);
@@ -502,7 +559,9 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
 
         // -- haptic steps ---------------------------------------------------------
         const int steps = int(std::min<size_t>(kSteps, quads.size() - 1));
-        std::vector<double> vox, upd, fus, added, remeshed;
+        std::vector<double> vox, upd, fus, added, remeshed, view;
+        std::vector<glm::vec3> viewPositions;
+        std::vector<uint32_t> viewIndices;
         std::vector<glm::ivec3> cellBuf;
         try {
             for (int r = 0; r < runs; ++r) {
@@ -519,9 +578,24 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                     t0 = Clock::now();
                     remeshed.push_back(double(remesher->update(*mask)));
                     upd.push_back(1e3 * msSince(t0));
+                    // The interactive view: the changed cells' new geometry
+                    // in world mm, as a renderer would upload it.
+                    t0 = Clock::now();
+                    viewPositions.clear();
+                    viewIndices.clear();
+                    for (const Coord& c : remesher->lastChangedCells()) {
+                        auto it = remesher->cells().find(c);
+                        if (it == remesher->cells().end()) continue;
+                        const uint32_t base = uint32_t(viewPositions.size());
+                        for (const glm::dvec3& p : it->second.indexPositions)
+                            viewPositions.push_back(glm::vec3(vc.frame.toWorld(p)));
+                        for (uint32_t k : it->second.indices) viewIndices.push_back(base + k);
+                    }
+                    view.push_back(1e3 * msSince(t0));
                     t0 = Clock::now();
                     fused = remesher->fusedMesh();
                     fus.push_back(msSince(t0));
+                    if (gHash && r == 0) row.stepsHash = meshHash(fused, row.stepsHash);
                 }
             }
         } catch (const std::exception& e) {
@@ -541,6 +615,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         row.stepVoxUs = median(vox);
         row.stepUpdateUs = median(upd);
         row.stepFusedMs = median(fus);
+        row.stepViewUs = median(view);
         row.stepNew = median(added);
         row.stepRemeshed = median(remeshed);
     }
@@ -616,19 +691,25 @@ void printRow(const Row& r)
     const double stepUs = r.stepVoxUs + r.stepUpdateUs;
     std::printf("case=cut volume=%s kerf=%g target=%zu cut_cells=%zu surface_cells=%zu remeshed_whole=%zu quads=%zu "
                 "blade_mm=%.2f sweep_mm=%.2f refused=%d step_new_cells=%.0f step_remeshed=%.0f step_vox_us=%.1f "
-                "step_update_us=%.1f step_us=%.1f step_fused_ms=%.2f setup_ms=%.1f whole_update_ms=%.2f "
+                "step_update_us=%.1f step_us=%.1f step_view_us=%.1f step_fused_ms=%.2f setup_ms=%.1f whole_update_ms=%.2f "
                 "whole_fused_ms=%.2f noop_update_ms=%.3f kernel_ms=%.2f us_per_cell=%.1f a_ms=%.1f b_step_ms=%.1f "
                 "b_blade_ms=%.2f b_copy_ms=%.1f b_csg_ms=%.2f b_mesh_ms=%.1f b_whole_ms=%.1f step_vs_a=%.0f "
                 "step_vs_b=%.0f whole_vs_a=%.2f whole_fused_vs_a=%.2f whole_vs_b=%.2f ours_tris=%zu b_tris=%zu "
                 "ours_defects=%zu b_defects=%zu variant=%d kind=%s from=%.3f,%.3f,%.3f to=%.3f,%.3f,%.3f%s%s\n",
                 r.volume.c_str(), r.kerf, r.target, r.cells, r.surfaceCells, r.remeshedWhole, r.quads, r.blade, r.sweep, r.refused,
-                r.stepNew, r.stepRemeshed, r.stepVoxUs, r.stepUpdateUs, stepUs, r.stepFusedMs, r.setupMs,
+                r.stepNew, r.stepRemeshed, r.stepVoxUs, r.stepUpdateUs, stepUs, r.stepViewUs, r.stepFusedMs, r.setupMs,
                 r.wholeUpdateMs, r.wholeFusedMs, r.noopMs, r.kernelMs, 1e3 * r.wholeUpdateMs / double(r.remeshedWhole),
                 r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs, r.bMeshMs, r.bWholeMs, r.aMs / (stepUs * 1e-3),
                 r.bStepMs / (stepUs * 1e-3), r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs,
                 r.bWholeMs / r.wholeUpdateMs, r.oursTris, r.bTris, r.oursDefects, r.bDefects, r.variant, kindName(r.variant), r.from.x,
                 r.from.y, r.from.z, r.to.x, r.to.y, r.to.z, r.note.empty() ? "" : " note=", r.note.c_str());
     if (r.bDefects) std::printf("  OpenVDB route defects: %s\n", r.bDefectText.c_str());
+    if (gHash)
+        std::printf("case=hash volume=%s kerf=%g target=%zu cut_cells=%zu quads=%zu variant=%d fused_tris=%zu "
+                    "fused_vertices=%zu whole=%016llx cells=%016llx steps=%016llx%s%s\n",
+                    r.volume.c_str(), r.kerf, r.target, r.cells, r.quads, r.variant, r.oursTris, r.fusedVertices,
+                    static_cast<unsigned long long>(r.wholeHash), static_cast<unsigned long long>(r.cellsHash),
+                    static_cast<unsigned long long>(r.stepsHash), r.note.empty() ? "" : " note=", r.note.c_str());
     std::fflush(stdout);
 }
 
@@ -636,20 +717,20 @@ void printTables(const std::vector<Row>& rows)
 {
     std::printf("\nHaptic step (ours one core; median of runs x %d steps) vs baselines per step\n\n", kSteps);
     std::printf("| volume | cut cells (target) | surface cells | new cells / re-meshed per step | vox+mask us | "
-                "update us | step us | fusedMesh ms | (a) re-extract ms | (b) OpenVDB ms (blade/copy/csg/mesh) | "
+                "update us | step us | + view us | fusedMesh ms | (a) re-extract ms | (b) OpenVDB ms (blade/copy/csg/mesh) | "
                 "step vs (a) | step vs (b) |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const Row& r : rows) {
         if (!r.ok) {
-            std::printf("| %s | (%zu) | refused (%d strokes): %s | | | | | | | | | |\n", label(r).c_str(), r.target,
+            std::printf("| %s | (%zu) | refused (%d strokes): %s | | | | | | | | | | |\n", label(r).c_str(), r.target,
                         r.refused, r.note.c_str());
             continue;
         }
         const double stepUs = r.stepVoxUs + r.stepUpdateUs;
-        std::printf("| %s | %zu (%zu) | %zu | %.0f / %.0f | %.0f | %.0f | %.0f | %.1f | %.0f | %.0f (%.1f/%.0f/%.1f/%.0f) | "
+        std::printf("| %s | %zu (%zu) | %zu | %.0f / %.0f | %.0f | %.0f | %.0f | %.1f | %.1f | %.0f | %.0f (%.1f/%.0f/%.1f/%.0f) | "
                     "%.0fx | %.0fx |\n",
                     label(r).c_str(), r.cells, r.target, r.surfaceCells, r.stepNew, r.stepRemeshed, r.stepVoxUs,
-                    r.stepUpdateUs, stepUs, r.stepFusedMs, r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs,
+                    r.stepUpdateUs, stepUs, r.stepViewUs, r.stepFusedMs, r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs,
                     r.bMeshMs, r.aMs / (stepUs * 1e-3), r.bStepMs / (stepUs * 1e-3));
     }
     std::printf("\nWhole cut from scratch (ours one core; median of runs)\n\n");
@@ -720,6 +801,8 @@ int main(int argc, char** argv)
             head = false;
         } else if (!std::strcmp(argv[i], "--dump") && i + 1 < argc) {
             gDumpDir = argv[++i];
+        } else if (!std::strcmp(argv[i], "--hash")) {
+            gHash = true;
         } else if (!std::strcmp(argv[i], "--no-baselines")) {
             gBaselines = false;
         } else if (!std::strcmp(argv[i], "--head-only")) {
@@ -730,7 +813,7 @@ int main(int argc, char** argv)
             while (std::getline(ss, item, ',')) targets.push_back(size_t(std::atol(item.c_str())));
         } else {
             std::fprintf(stderr,
-                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR]\n");
+                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]\n");
             return 2;
         }
     }

@@ -4,13 +4,12 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
 
-#include <functional>
-
 #include <tbb/parallel_for.h>
 
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <numeric>
 #include <stdexcept>
 #include <unordered_map>
@@ -82,19 +81,30 @@ Mesh CutRemesher::fusedMesh() const
 {
     Mesh m;
     const size_t uncutVertices = mUncut.positions.size();
-    m.positions = mUncut.positions;
     const bool normals = mUncut.normals.size() == uncutVertices && uncutVertices > 0;
-    if (normals) m.normals = mUncut.normals;
-    const size_t nt = mUncut.triangleCount();
-    for (size_t t = 0; t < nt; ++t) {
-        const glm::ivec3 c = mUncut.triangleVoxels[t];
-        if (mCells.count(openvdb::Coord(c.x, c.y, c.z))) continue;
-        m.indices.insert(m.indices.end(), mUncut.indices.begin() + long(3 * t), mUncut.indices.begin() + long(3 * t + 3));
-        m.triangleVoxels.push_back(c);
+    // The uncut triangles of the cut cells: runs (first, count), ascending
+    // (extractIsosurface writes each cell's triangles together).
+    std::vector<std::pair<uint32_t, uint32_t>> cutRuns;
+    size_t cutTriangles = 0;
+    for (const auto& entry : mCells) {
+        auto it = mUncutCells.find(entry.first);
+        if (it == mUncutCells.end()) continue;
+        cutRuns.push_back(it->second);
+        cutTriangles += it->second.second;
     }
+    std::sort(cutRuns.begin(), cutRuns.end());
+    // The cut cells' triangles over fused vertex indices: all uncut vertices,
+    // then the new ones in order of first use.
+    m.positions.reserve(uncutVertices + 4 * mCells.size());
+    m.positions = mUncut.positions;
+    if (normals) m.normals = mUncut.normals;
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> added;
     std::vector<std::pair<std::pair<uint64_t, uint64_t>, uint32_t>> edgeMap;
     std::vector<std::pair<uint64_t, uint64_t>> corners;
+    std::vector<std::pair<uint32_t, const CutVertexId*>> welded; // uncut vertex, its iso edge vertex id
+    std::vector<uint32_t> newIndices;
+    std::vector<glm::ivec3> newVoxels;
+    std::vector<uint32_t> index;
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
@@ -104,7 +114,7 @@ Mesh CutRemesher::fusedMesh() const
             for (size_t k = 0; k < corners.size(); ++k)
                 edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(range->second.first) + k]});
         }
-        std::vector<uint32_t> index(geom.vertexIds.size());
+        index.resize(geom.vertexIds.size());
         for (size_t v = 0; v < geom.vertexIds.size(); ++v) {
             const CutVertexId& id = geom.vertexIds[v];
             if (id.isIsoEdgeVertex()) {
@@ -112,6 +122,7 @@ Mesh CutRemesher::fusedMesh() const
                 auto it = std::find_if(edgeMap.begin(), edgeMap.end(), [&](const auto& e) { return e.first == key; });
                 if (it == edgeMap.end()) throw std::logic_error("fusion: a cut cell's iso vertex has no uncut vertex");
                 index[v] = it->second;
+                welded.push_back({it->second, &id});
                 continue;
             }
             auto [it, isNew] = added.emplace(id, uint32_t(m.positions.size()));
@@ -122,47 +133,128 @@ Mesh CutRemesher::fusedMesh() const
             index[v] = it->second;
         }
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
-            for (int j = 0; j < 3; ++j) m.indices.push_back(index[geom.indices[i + size_t(j)]]);
-            m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
+            for (int j = 0; j < 3; ++j) newIndices.push_back(index[geom.indices[i + size_t(j)]]);
+            newVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
         }
     }
     // Snap rounding: two vertices joined by an edge that land on the same
     // float position (a sub-micron sliver of the exact geometry, e.g. where a
     // grid plane passes within 1e-5 voxel of a blade corner) are one vertex
-    // in the float mesh; the triangles that collapse are dropped. The lower
-    // index is kept (an uncut vertex before a new one), so uncut triangles
-    // never change. checkLocally() checks the mesh after this step.
-    {
-        std::vector<uint32_t> rep(m.positions.size());
-        for (size_t v = 0; v < rep.size(); ++v) rep[v] = uint32_t(v);
-        std::function<uint32_t(uint32_t)> find = [&](uint32_t x) { return rep[x] == x ? x : rep[x] = find(rep[x]); };
-        bool any = false;
-        for (size_t i = 0; i < m.indices.size(); i += 3)
-            for (int k = 0; k < 3; ++k) {
-                const uint32_t a = m.indices[i + size_t(k)], b = m.indices[i + size_t((k + 1) % 3)];
-                if (a == b || !(m.positions[a] == m.positions[b])) continue;
-                const uint32_t ra = find(a), rb = find(b);
-                if (ra == rb) continue;
-                rep[std::max(ra, rb)] = std::min(ra, rb);
-                any = true;
-            }
-        if (any) {
-            std::vector<uint32_t> indices;
-            std::vector<glm::ivec3> voxels;
-            indices.reserve(m.indices.size());
-            voxels.reserve(m.triangleVoxels.size());
-            for (size_t t = 0; t < m.triangleCount(); ++t) {
-                const uint32_t a = find(m.indices[3 * t]), b = find(m.indices[3 * t + 1]), c = find(m.indices[3 * t + 2]);
-                if (a == b || b == c || a == c) continue;
-                indices.insert(indices.end(), {a, b, c});
-                voxels.push_back(m.triangleVoxels[t]);
-            }
-            m.indices.swap(indices);
-            m.triangleVoxels.swap(voxels);
+    // in the float mesh; the triangles that collapse are dropped. The lowest
+    // index of each such group is kept (an uncut vertex before a new one), so
+    // uncut triangles only change where they held such an edge themselves.
+    // checkLocally() checks the mesh after this step. Only the edges that can
+    // be of zero length are looked at: the new triangles' and those of the
+    // uncut triangles listed in mSnapTriangles (outside cut cells).
+    std::unordered_map<uint32_t, uint32_t> rep; // vertex -> a lower vertex of its group; absent: itself
+    auto find = [&](uint32_t x) {
+        uint32_t r = x;
+        for (auto it = rep.find(r); it != rep.end(); it = rep.find(r)) r = it->second;
+        while (x != r) {
+            auto it = rep.find(x);
+            x = it->second;
+            it->second = r;
+        }
+        return r;
+    };
+    auto uniteZeroLength = [&](const uint32_t* tri) {
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = tri[k], b = tri[(k + 1) % 3];
+            if (a == b || !(m.positions[a] == m.positions[b])) continue;
+            const uint32_t ra = find(a), rb = find(b);
+            if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+        }
+    };
+    auto isCutCell = [&](const glm::ivec3& c) { return mCells.count(openvdb::Coord(c.x, c.y, c.z)) != 0; };
+    for (uint32_t t : mSnapTriangles)
+        if (!isCutCell(mUncut.triangleVoxels[t])) uniteZeroLength(&mUncut.indices[3 * size_t(t)]);
+    for (size_t i = 0; i < newIndices.size(); i += 3) uniteZeroLength(&newIndices[i]);
+    // Uncut triangles (outside cut cells) that change: those holding a
+    // vertex that is not the lowest of its group: the candidates of
+    // mSnapTriangles, and the uncut triangles next to the cut cells around
+    // a welded iso vertex. Value: the new corners, or none (collapsed).
+    std::vector<std::pair<uint32_t, std::array<uint32_t, 3>>> patches;
+    if (!rep.empty()) {
+        std::vector<uint32_t> candidates;
+        for (uint32_t t : mSnapTriangles)
+            if (!isCutCell(mUncut.triangleVoxels[t])) candidates.push_back(t);
+        for (const auto& [v, id] : welded) {
+            if (find(v) == v) continue;
+            const openvdb::Coord a = gridVertexCoord(id->feature[0]), b = gridVertexCoord(id->feature[1]);
+            const openvdb::Coord lo = openvdb::Coord::maxComponent(a, b) - openvdb::Coord(1);
+            const openvdb::Coord hi = openvdb::Coord::minComponent(a, b);
+            for (int x = lo.x(); x <= hi.x(); ++x)
+                for (int y = lo.y(); y <= hi.y(); ++y)
+                    for (int z = lo.z(); z <= hi.z(); ++z) {
+                        const openvdb::Coord c(x, y, z);
+                        auto run = mUncutCells.find(c);
+                        if (run == mUncutCells.end() || mCells.count(c)) continue;
+                        for (uint32_t t = run->second.first; t < run->second.first + run->second.second; ++t)
+                            for (int k = 0; k < 3; ++k)
+                                if (mUncut.indices[3 * size_t(t) + size_t(k)] == v) candidates.push_back(t);
+                    }
+        }
+        std::sort(candidates.begin(), candidates.end());
+        candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+        for (uint32_t t : candidates) {
+            const uint32_t* tri = &mUncut.indices[3 * size_t(t)];
+            const std::array<uint32_t, 3> mapped{find(tri[0]), find(tri[1]), find(tri[2])};
+            if (mapped[0] != tri[0] || mapped[1] != tri[1] || mapped[2] != tri[2]) patches.push_back({t, mapped});
         }
     }
+    // The uncut triangles outside the cut cells, in their order (copied in
+    // runs between the cut cells' triangles and the patched ones).
+    const size_t nt = mUncut.triangleCount();
+    m.indices.reserve(3 * (nt - cutTriangles) + newIndices.size());
+    m.triangleVoxels.reserve(nt - cutTriangles + newVoxels.size());
+    size_t from = 0;
+    auto copyTo = [&](size_t to) {
+        if (to <= from) return;
+        m.indices.insert(m.indices.end(), mUncut.indices.begin() + long(3 * from), mUncut.indices.begin() + long(3 * to));
+        m.triangleVoxels.insert(m.triangleVoxels.end(), mUncut.triangleVoxels.begin() + long(from),
+                                mUncut.triangleVoxels.begin() + long(to));
+        from = to;
+    };
+    size_t p = 0;
+    for (const auto& run : cutRuns) {
+        for (; p < patches.size() && patches[p].first < run.first; ++p) {
+            copyTo(patches[p].first);
+            const auto& tri = patches[p].second;
+            if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
+                m.indices.insert(m.indices.end(), tri.begin(), tri.end());
+                m.triangleVoxels.push_back(mUncut.triangleVoxels[patches[p].first]);
+            }
+            from = patches[p].first + 1;
+        }
+        copyTo(run.first);
+        from = size_t(run.first) + run.second;
+    }
+    for (; p < patches.size(); ++p) {
+        copyTo(patches[p].first);
+        const auto& tri = patches[p].second;
+        if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
+            m.indices.insert(m.indices.end(), tri.begin(), tri.end());
+            m.triangleVoxels.push_back(mUncut.triangleVoxels[patches[p].first]);
+        }
+        from = patches[p].first + 1;
+    }
+    copyTo(nt);
+    // Then the cut cells' triangles, cells ascending.
+    const size_t firstNew = m.triangleCount();
+    for (size_t i = 0, t = 0; i < newIndices.size(); i += 3, ++t) {
+        uint32_t a = newIndices[i], b = newIndices[i + 1], c = newIndices[i + 2];
+        if (!rep.empty()) {
+            a = find(a);
+            b = find(b);
+            c = find(c);
+            if (a == b || b == c || a == c) continue;
+        }
+        m.indices.insert(m.indices.end(), {a, b, c});
+        m.triangleVoxels.push_back(newVoxels[t]);
+    }
     if (normals) {
-        for (size_t t = 0; t < m.triangleCount(); ++t) {
+        // Only the cut cells' triangles can hold a new vertex.
+        for (size_t t = firstNew; t < m.triangleCount(); ++t) {
             const uint32_t a = m.indices[3 * t], b = m.indices[3 * t + 1], c = m.indices[3 * t + 2];
             if (a < uncutVertices && b < uncutVertices && c < uncutVertices) continue;
             const glm::vec3 n = glm::cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);

@@ -5,6 +5,8 @@
 
 #include <glm/geometric.hpp>
 
+#include <boost/container/small_vector.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -52,6 +54,13 @@ uint64_t gridVertexId(int i, int j, int k)
 {
     constexpr int64_t off = int64_t(1) << 20;
     return (uint64_t(int64_t(k) + off) << 42) | (uint64_t(int64_t(j) + off) << 21) | uint64_t(int64_t(i) + off);
+}
+
+openvdb::Coord gridVertexCoord(uint64_t id)
+{
+    constexpr int64_t off = int64_t(1) << 20;
+    constexpr uint64_t m = (uint64_t(1) << 21) - 1;
+    return openvdb::Coord(int(int64_t(id & m) - off), int(int64_t(id >> 21 & m) - off), int(int64_t(id >> 42 & m) - off));
 }
 
 namespace {
@@ -274,10 +283,22 @@ struct RimEntry
     };
     std::array<double, 12> signature{};
     std::vector<Rim> rims;
+    uint64_t serial = 0; ///< which build of an entry this is (PrismCache::serial)
 };
 struct PrismCache
 {
     std::unordered_map<uint64_t, RimEntry> entries;
+    /// Each quad's prism as makePrismGeom last built it, with what it was
+    /// built from: the quad and its stroke neighbours, kerf and frame
+    /// (prismGeomKey), and the build of the previous quad's rim entry.
+    struct Geom
+    {
+        std::array<double, 3 * 17 + 7> key;
+        uint64_t previousSerial = 0;
+        QuadGeom geom;
+    };
+    std::unordered_map<uint64_t, Geom> geoms;
+    uint64_t serial = 0;
 };
 
 namespace {
@@ -308,6 +329,7 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///   mitre in the same rim line and leave no sub-micron sliver there.
 /// The mask voxelises cutRegion(), which covers the mitre joints.
 QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache);
+std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& r);
 
 const RimEntry& rimEntry(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
 {
@@ -435,7 +457,13 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
         side.orient = side.plane.h(centre) >= 0 ? 1.0 : -1.0;
         g.sides.push_back(side);
     }
-    cache.entries[uint64_t(ref.stroke) << 32 | ref.quad] = std::move(entry);
+    entry.serial = ++cache.serial;
+    const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
+    PrismCache::Geom& memo = cache.geoms[key];
+    memo.key = prismGeomKey(mask, ref);
+    memo.previousSerial = previous ? previous->serial : 0;
+    memo.geom = g;
+    cache.entries[key] = std::move(entry);
     return g;
 }
 
@@ -594,6 +622,11 @@ bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, c
 
 // ================================================================ kernel ====
 
+/// Inline-storage vectors for the kernel's short per-vertex and per-polygon
+/// lists (a few entries each), so building them allocates nothing.
+template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
+using PlaneList = SmallVector<uint64_t, 8>;
+
 class RemeshKernel
 {
 public:
@@ -612,14 +645,14 @@ private:
         CutVertexId key; // planes only, no tags
         dvec3 pos;
         uint8_t support = 0; // tet-local vertices of the smallest simplex holding it
-        std::vector<std::pair<uint64_t, int8_t>> signs;
+        SmallVector<std::pair<uint64_t, int8_t>, 8> signs;
         int8_t member = 2; // P membership cache (2 = unknown)
         bool steiner = false; // a Steiner point: always a corner
     };
     struct Poly
     {
-        std::vector<int> v;
-        std::vector<uint64_t> lab; // lab[i]: edge v[i] -> v[i+1]
+        SmallVector<int, 8> v;
+        SmallVector<uint64_t, 8> lab; // lab[i]: edge v[i] -> v[i+1]
     };
     struct Support
     {
@@ -739,8 +772,8 @@ private:
     }
 
     dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
-    int makeVertex(uint8_t support, std::vector<uint64_t> defining, const dvec3& pos0);
-    int makeSteiner(uint8_t support, std::vector<uint64_t> planes, const dvec3& pos);
+    int makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
+    int makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos);
     /// A slit chord of quad r between two rim points on different rim lines:
     /// the two sides of the slit need a tagged vertex on it.
     bool needsMidpoint(int u, int v, const QuadGeom& r)
@@ -789,7 +822,7 @@ private:
     }
 
     void splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
-    void remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_t>& cellIndex);
+    void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
 
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
     float mIso;
@@ -861,14 +894,14 @@ dvec3 RemeshKernel::canonicalPosition(const CutVertexId& key, uint8_t support, c
     return pos0;
 }
 
-int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, const dvec3& pos0)
+int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0)
 {
     CutVertexId key = featureKey(support);
     const double eps = epsAt(pos0);
     // The name is the set of ACTIVE planes through the point (the iso surface,
     // quads holding it); the planes that happened to make it (in this tet's
     // arrangement) are used only when the active ones do not fix the point.
-    std::vector<uint64_t> planes;
+    PlaneList planes;
     for (uint64_t& p : defining) {
         // An iso triangle's plane is the iso surface only on the faces and
         // edges that hold that triangle's MT geometry; elsewhere (a fold's
@@ -910,7 +943,7 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     // on both. `on`: the planes the point lies on (made by them, or within eps).
     std::sort(planes.begin(), planes.end());
     planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
-    std::vector<uint64_t> on(defining.begin(), defining.end());
+    PlaneList on(defining.begin(), defining.end());
     for (const auto& pl : mPlanes)
         if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
     on.insert(on.end(), planes.begin(), planes.end());
@@ -940,7 +973,7 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
     }
     for (int round = 0; round < 4 && !mPrism; ++round) {
-        std::vector<uint64_t> add;
+        PlaneList add;
         auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
         for (const QuadGeom* q : mQuads) {
             for (const auto& s : q->sides) {
@@ -1008,7 +1041,7 @@ int RemeshKernel::makeVertex(uint8_t support, std::vector<uint64_t> defining, co
     return int(mVerts.size() - 1);
 }
 
-int RemeshKernel::makeSteiner(uint8_t support, std::vector<uint64_t> planes, const dvec3& pos)
+int RemeshKernel::makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos)
 {
     CutVertexId key = featureKey(support);
     std::sort(planes.begin(), planes.end());
@@ -1099,7 +1132,7 @@ int RemeshKernel::member(int vi)
 void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
 {
     const size_t n = in.v.size();
-    std::vector<int> sv(n);
+    SmallVector<int, 8> sv(n);
     bool pos = false, neg = false;
     for (size_t i = 0; i < n; ++i) {
         sv[i] = sign(in.v[i], p);
@@ -1112,7 +1145,7 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
     }
     const Plane* pl = planeById(p);
     // Cut points on crossing edges.
-    std::vector<int> cut(n, -1);
+    SmallVector<int, 8> cut(n, -1);
     for (size_t i = 0; i < n; ++i) {
         const size_t j = (i + 1) % n;
         if (sv[i] * sv[j] >= 0) continue;
@@ -1122,7 +1155,7 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
         double t = (ha - hb) != 0 ? ha / (ha - hb) : 0.5;
         if (!(t > 0.0 && t < 1.0)) t = 0.5;
         const dvec3 x = a.pos + t * (b.pos - a.pos);
-        std::vector<uint64_t> def{p};
+        PlaneList def{p};
         if (polyPlane != 0) def.push_back(polyPlane);
         if (!(in.lab[i] & kBoundaryLabel)) def.push_back(in.lab[i]);
         cut[i] = makeVertex(uint8_t(a.support | b.support), def, x);
@@ -1154,7 +1187,7 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
     mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
-    std::map<CutVertexId, uint32_t> cellIndex;
+    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> cellIndex;
     const int parity = cellParity(cell.x(), cell.y(), cell.z());
     const auto& tets = cellTets(parity);
     for (int t = 0; t < kTetsPerCell; ++t) {
@@ -1189,7 +1222,7 @@ static std::array<int, 4> evenPerm(std::initializer_list<int> first)
     return p;
 }
 
-void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_t>& cellIndex)
+void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
 {
     mVerts.clear();
     mQuads.clear();
@@ -1553,7 +1586,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
                     const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
                     uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
                     uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
-                    std::vector<uint64_t> planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
+                    PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
                     const uint8_t sup = uint8_t(vu.support | vw.support);
                     if (bits(sup) < 4) {
                         const bool isoU = vu.key.planeCount && vu.key.planes[0] == kIso;
@@ -1830,12 +1863,110 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::map<CutVertexId, uint32_
 
 namespace {
 
-std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache)
+} // namespace
+
+/// Zero kerf: each quad's QuadGeom (makeQuadGeom), built once per quad. It
+/// depends on the quad and the two quads either side of it in its stroke
+/// (junctions with the neighbours; the rim sides at a junction's ends look at
+/// the neighbour's other neighbour), so it is kept with those five quads'
+/// data and rebuilt when any of it changes. One mask frame (CutRemesher
+/// clears it when the frame or kerf changes).
+struct QuadGeomCache
+{
+    static constexpr size_t kPerQuad = 17; // corners, normal, cornerCount, degenerate
+    using Key = std::array<double, 5 * kPerQuad>;
+    struct Entry
+    {
+        Key key;
+        QuadGeom geom;
+    };
+    std::unordered_map<uint64_t, Entry> entries;
+};
+
+namespace {
+
+/// The data (QuadGeomCache::kPerQuad doubles each) of quads r-reach..r+reach
+/// of r's stroke, 1e308 where there is none.
+void putQuads(const CutMask& mask, const QuadRef& r, int reach, double* out)
+{
+    const int64_t count = int64_t(mask.quadCount(r.stroke));
+    for (int d = 0; d <= 2 * reach; ++d) {
+        double* o = out + QuadGeomCache::kPerQuad * size_t(d);
+        std::fill(o, o + QuadGeomCache::kPerQuad, 1e308);
+        const int64_t qi = int64_t(r.quad) + d - reach;
+        if (qi < 0 || qi >= count) continue;
+        const Quad& q = mask.quad(QuadRef{r.stroke, uint32_t(qi)});
+        for (int i = 0; i < 4; ++i)
+            for (int a = 0; a < 3; ++a) o[3 * i + a] = q.corners[size_t(i)][a];
+        for (int a = 0; a < 3; ++a) o[12 + a] = q.normal[a];
+        o[15] = double(q.cornerCount);
+        o[16] = q.degenerate ? 1.0 : 0.0;
+    }
+}
+
+QuadGeomCache::Key quadGeomKey(const CutMask& mask, const QuadRef& r)
+{
+    QuadGeomCache::Key k;
+    putQuads(mask, r, 2, k.data());
+    return k;
+}
+
+std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& r)
+{
+    static_assert(QuadGeomCache::kPerQuad == 17, "key layout");
+    std::array<double, 3 * 17 + 7> k;
+    putQuads(mask, r, 1, k.data());
+    const IndexFrame& f = mask.frame();
+    double* o = k.data() + 3 * 17;
+    o[0] = mask.kerf();
+    for (int a = 0; a < 3; ++a) {
+        o[1 + a] = f.origin[a];
+        o[4 + a] = f.spacing[a];
+    }
+    return k;
+}
+
+/// makePrismGeom(mask, ref, cache), reusing the quad's last build when it was
+/// made from the same data and the same build of the previous quad's rim entry.
+QuadGeom cachedPrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
+{
+    const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
+    auto it = cache.geoms.find(key);
+    if (it == cache.geoms.end() || !(it->second.key == prismGeomKey(mask, ref))) return makePrismGeom(mask, ref, cache);
+    uint64_t previousSerial = 0;
+    if (ref.quad > 0 && !mask.quad(ref).degenerate) {
+        // The entry makePrismGeom would take (it rebuilds a missing or stale one).
+        auto p = cache.entries.find(key - 1);
+        if (p == cache.entries.end() || p->second.signature != cornerSignature(mask.quad(QuadRef{ref.stroke, ref.quad - 1})))
+            return makePrismGeom(mask, ref, cache);
+        previousSerial = p->second.serial;
+    }
+    if (previousSerial != it->second.previousSerial) return makePrismGeom(mask, ref, cache);
+    return it->second.geom;
+}
+
+const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCache& cache)
+{
+    const QuadGeomCache::Key key = quadGeomKey(mask, r);
+    QuadGeomCache::Entry& e = cache.entries[uint64_t(r.stroke) << 32 | r.quad];
+    if (!(e.key == key)) {
+        e.geom = makeQuadGeom(mask, r);
+        e.key = key;
+    }
+    return e.geom;
+}
+
+/// quadCache: optional; when given, each quad's geometry is built once
+/// (zero kerf: in quadCache; kerf > 0: in `cache`) instead of once per cell.
+std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache,
+                                QuadGeomCache* quadCache = nullptr)
 {
     std::vector<QuadGeom> quads;
     for (const QuadRef& r : refs) {
         if (mask.quad(r).degenerate) continue; // zero area: removes nothing (the mask gives it no kerf either)
-        quads.push_back(mask.kerf() > 0 ? makePrismGeom(mask, r, cache) : makeQuadGeom(mask, r));
+        if (mask.kerf() > 0) quads.push_back(quadCache ? cachedPrismGeom(mask, r, cache) : makePrismGeom(mask, r, cache));
+        else if (quadCache) quads.push_back(cachedQuadGeom(mask, r, *quadCache));
+        else quads.push_back(makeQuadGeom(mask, r));
     }
     for (QuadGeom& q : quads)
         for (auto& s : q.sides) {
@@ -1904,7 +2035,7 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
 
 CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
     : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mPrismCache(std::make_unique<PrismCache>()),
-      mVolume(&volume), mIso(isovalue), mUncut(uncut)
+      mQuadCache(std::make_unique<QuadGeomCache>()), mVolume(&volume), mIso(isovalue), mUncut(uncut)
 {
     const size_t nt = mUncut.triangleCount();
     for (size_t t = 0; t < nt;) {
@@ -1914,6 +2045,19 @@ CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& 
         mUncutCells[Coord(c.x, c.y, c.z)] = {uint32_t(t), uint32_t(e - t)};
         t = e;
     }
+    // Snap rounding candidates (fusedMesh): the ends of zero-length uncut edges, and their triangles.
+    std::vector<char> snapVertex;
+    for (size_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = mUncut.indices[3 * t + size_t(k)], b = mUncut.indices[3 * t + size_t((k + 1) % 3)];
+            if (a == b || !(mUncut.positions[a] == mUncut.positions[b])) continue;
+            if (snapVertex.empty()) snapVertex.assign(mUncut.positions.size(), 0);
+            snapVertex[a] = snapVertex[b] = 1;
+        }
+    if (!snapVertex.empty())
+        for (size_t t = 0; t < nt; ++t)
+            if (snapVertex[mUncut.indices[3 * t]] || snapVertex[mUncut.indices[3 * t + 1]] || snapVertex[mUncut.indices[3 * t + 2]])
+                mSnapTriangles.push_back(uint32_t(t));
 }
 
 CutRemesher::~CutRemesher() = default;
@@ -1946,13 +2090,6 @@ void CutRemesher::uncutCornerEdges(const Coord& cell, std::vector<std::pair<uint
 }
 
 namespace {
-
-Coord gridVertexCoord(uint64_t id)
-{
-    constexpr int64_t off = int64_t(1) << 20;
-    constexpr uint64_t m = (uint64_t(1) << 21) - 1;
-    return Coord(int(int64_t(id & m) - off), int(int64_t(id >> 21 & m) - off), int(int64_t(id >> 42 & m) - off));
-}
 
 /// The cells whose closed box holds vertex v: [lo, hi] per axis.
 void cellsHolding(const CutVertexId& v, Coord& lo, Coord& hi)
@@ -2195,42 +2332,110 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
 
 size_t CutRemesher::update(const CutMask& mask)
 {
-    // The cells to re-mesh: the mask's, plus the cells just outside the scan
-    // box that a quad of a border cell touches (the isosurface closes there,
-    // and the mask only holds cells inside the box).
-    std::map<Coord, std::vector<QuadRef>> cells;
     const Coord last = mVolume->dims - Coord(2);
+    auto inBox = [&](const Coord& c) {
+        return c.x() >= 0 && c.y() >= 0 && c.z() >= 0 && c.x() <= last.x() && c.y() <= last.y() && c.z() <= last.z();
+    };
+    // The quads that changed since the last update (added, undone, replaced,
+    // or all of them when the kerf or frame changed), compared with what it saw.
+    const IndexFrame& frame = mask.frame();
+    const bool sameSetting = mSeenKerf == mask.kerf() && mSeenFrame.origin == frame.origin &&
+                             mSeenFrame.spacing == frame.spacing && mSeenFrame.dims == frame.dims;
+    if (!sameSetting) mQuadCache.reset(new QuadGeomCache);
+    auto sameQuad = [](const SeenQuad& s, const Quad& q, const std::vector<Coord>& cells) {
+        return s.corners == cornerSignature(q) && s.normal == q.normal && s.cornerCount == q.cornerCount &&
+               s.degenerate == q.degenerate && s.cells == cells;
+    };
+    const uint32_t strokes = std::max<uint32_t>(mask.strokeCount(), uint32_t(mSeen.size()));
+    std::vector<std::vector<char>> changedQuad(strokes);
+    bool anyQuad = false;
+    for (uint32_t s = 1; s <= strokes; ++s) {
+        const uint32_t now = mask.quadCount(s);
+        const uint32_t seen = s <= mSeen.size() ? uint32_t(mSeen[s - 1].size()) : 0u;
+        std::vector<char>& flags = changedQuad[s - 1];
+        flags.assign(std::max(now, seen), 1);
+        for (uint32_t q = 0; q < std::min(now, seen) && sameSetting; ++q) {
+            const QuadRef ref{s, q};
+            flags[q] = !sameQuad(mSeen[s - 1][q], mask.quad(ref), mask.cellsOf(ref));
+        }
+        for (char f : flags) anyQuad = anyQuad || f;
+    }
+    // The cells to look at: those of the changed quads (before and now) and of
+    // their stroke neighbours (their junction sides change), plus the cells
+    // just outside the scan box next to any of them (the isosurface closes
+    // there: a quad of a border cell that touches such a cell re-meshes it).
+    std::vector<Coord> dirty;
+    for (uint32_t s = 1; s <= strokes && anyQuad; ++s) {
+        const std::vector<char>& flags = changedQuad[s - 1];
+        const uint32_t now = mask.quadCount(s);
+        for (uint32_t q = 0; q < flags.size(); ++q) {
+            const bool neighbourChanged = (q > 0 && flags[q - 1]) || (q + 1 < flags.size() && flags[q + 1]);
+            if (flags[q]) {
+                if (s <= mSeen.size() && q < mSeen[s - 1].size()) {
+                    const std::vector<Coord>& cells = mSeen[s - 1][q].cells;
+                    dirty.insert(dirty.end(), cells.begin(), cells.end());
+                }
+            }
+            if (q < now && (flags[q] || neighbourChanged)) {
+                const std::vector<Coord>& cells = mask.cellsOf(QuadRef{s, q});
+                dirty.insert(dirty.end(), cells.begin(), cells.end());
+            }
+        }
+    }
+    std::sort(dirty.begin(), dirty.end());
+    dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
+    {
+        const size_t inside = dirty.size();
+        for (size_t i = 0; i < inside; ++i) {
+            const Coord c = dirty[i];
+            const bool border = c.x() == 0 || c.y() == 0 || c.z() == 0 || c.x() == last.x() || c.y() == last.y() ||
+                                c.z() == last.z();
+            if (!border) continue;
+            for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dz = -1; dz <= 1; ++dz) {
+                        const Coord n = c + Coord(dx, dy, dz);
+                        bool outside = false, valid = true;
+                        for (int a = 0; a < 3; ++a) {
+                            outside |= n[a] < 0 || n[a] > last[a];
+                            valid &= n[a] >= -1 && n[a] <= last[a] + 1;
+                        }
+                        if (outside && valid) dirty.push_back(n);
+                    }
+        }
+        if (dirty.size() > inside) {
+            std::sort(dirty.begin(), dirty.end());
+            dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
+        }
+    }
+    // A cell's quad list: the mask's; for a cell just outside the box, the
+    // quads of its cut neighbours inside the box that touch it, sorted.
     std::map<std::pair<uint32_t, uint32_t>, QuadRegion> regions;
-    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
-        cells[c] = list;
-        const bool border = c.x() == 0 || c.y() == 0 || c.z() == 0 || c.x() == last.x() || c.y() == last.y() ||
-                            c.z() == last.z();
-        if (!border) return;
+    std::vector<QuadRef> outsideList;
+    auto listOf = [&](const Coord& c) -> const std::vector<QuadRef>* {
+        if (inBox(c)) return mask.quadsAt(c);
+        outsideList.clear();
         for (int dx = -1; dx <= 1; ++dx)
             for (int dy = -1; dy <= 1; ++dy)
                 for (int dz = -1; dz <= 1; ++dz) {
-                    const Coord n = c + Coord(dx, dy, dz);
-                    bool outside = false, valid = true;
-                    for (int a = 0; a < 3; ++a) {
-                        outside |= n[a] < 0 || n[a] > last[a];
-                        valid &= n[a] >= -1 && n[a] <= last[a] + 1;
-                    }
-                    if (!outside || !valid) continue;
-                    for (const QuadRef& r : list) {
+                    const Coord b = c + Coord(dx, dy, dz);
+                    if (!inBox(b)) continue;
+                    const std::vector<QuadRef>* list = mask.quadsAt(b);
+                    if (!list) continue;
+                    for (const QuadRef& r : *list) {
                         auto it = regions.find({r.stroke, r.quad});
                         if (it == regions.end())
                             it = regions.emplace(std::make_pair(r.stroke, r.quad), cutRegion(mask.quad(r), mask.kerf(), mask.frame())).first;
-                        if (it->second.touchesCell(glm::ivec3(n.x(), n.y(), n.z()))) cells[n].push_back(r);
+                        if (it->second.touchesCell(glm::ivec3(c.x(), c.y(), c.z()))) outsideList.push_back(r);
                     }
                 }
-    });
-    for (auto& [c, list] : cells) {
-        if (mask.isCut(c)) continue;
-        std::sort(list.begin(), list.end(), [](const QuadRef& a, const QuadRef& b) {
+        if (outsideList.empty()) return nullptr;
+        std::sort(outsideList.begin(), outsideList.end(), [](const QuadRef& a, const QuadRef& b) {
             return a.stroke != b.stroke ? a.stroke < b.stroke : a.quad < b.quad;
         });
-        list.erase(std::unique(list.begin(), list.end()), list.end());
-    }
+        outsideList.erase(std::unique(outsideList.begin(), outsideList.end()), outsideList.end());
+        return &outsideList;
+    };
     // Every change is saved first, so a throw leaves the remesher as it was.
     struct Saved
     {
@@ -2265,24 +2470,36 @@ size_t CutRemesher::update(const CutMask& mask)
             }
         }
     };
-    // Forget cells that are no longer cut.
-    for (auto it = mRecords.begin(); it != mRecords.end();) {
-        if (!cells.count(it->first)) {
-            save(it->first);
-            mCells.erase(it->first);
-            it = mRecords.erase(it);
-        } else {
-            ++it;
+    // Forget cells that are no longer cut (before any re-meshing, as the
+    // cells' geometry does not depend on each other).
+    std::vector<const std::vector<QuadRef>*> lists(dirty.size());
+    std::vector<std::vector<QuadRef>> outsideLists;
+    outsideLists.reserve(dirty.size());
+    for (size_t i = 0; i < dirty.size(); ++i) {
+        const std::vector<QuadRef>* list = listOf(dirty[i]);
+        if (list == &outsideList) {
+            outsideLists.push_back(outsideList);
+            list = &outsideLists.back();
         }
+        lists[i] = list;
+        if (list) continue;
+        auto it = mRecords.find(dirty[i]);
+        if (it == mRecords.end()) continue;
+        save(dirty[i]);
+        mCells.erase(dirty[i]);
+        mRecords.erase(it);
     }
     size_t count = 0;
     try {
-        for (const auto& [c, list] : cells) {
+        for (size_t i = 0; i < dirty.size(); ++i) {
+            if (!lists[i]) continue;
+            const Coord& c = dirty[i];
+            const std::vector<QuadRef>& list = *lists[i];
             auto it = mRecords.find(c);
             bool changed = it == mRecords.end() || !(it->second.quads == list);
             if (!changed) {
-                for (size_t i = 0; i < list.size() && !changed; ++i)
-                    changed = it->second.quadCorners[i] != quadSignature(mask, list[i]);
+                for (size_t k = 0; k < list.size() && !changed; ++k)
+                    changed = it->second.quadCorners[k] != quadSignature(mask, list[k]);
             }
             if (!changed) continue;
             CellRecord rec;
@@ -2290,8 +2507,8 @@ size_t CutRemesher::update(const CutMask& mask)
             for (const QuadRef& r : rec.quads) rec.quadCorners.push_back(quadSignature(mask, r));
             save(c);
             CutCellGeometry& geometry = mCells[c];
-            mRecords[c] = std::move(rec);
-            mKernel->remesh(c, cellQuads(mask, mRecords[c].quads, *mPrismCache), mask.kerf() > 0, geometry);
+            CellRecord& stored = mRecords[c] = std::move(rec);
+            mKernel->remesh(c, cellQuads(mask, stored.quads, *mPrismCache, mQuadCache.get()), mask.kerf() > 0, geometry);
             if (mCellHook) mCellHook(c, geometry);
             ++count;
         }
@@ -2301,6 +2518,27 @@ size_t CutRemesher::update(const CutMask& mask)
         restore();
         throw;
     }
+    // Success: remember the quads as they are now.
+    mSeenKerf = mask.kerf();
+    mSeenFrame = frame;
+    mSeen.resize(mask.strokeCount());
+    for (uint32_t s = 1; s <= mask.strokeCount(); ++s) {
+        std::vector<SeenQuad>& seen = mSeen[s - 1];
+        const uint32_t now = mask.quadCount(s);
+        seen.resize(now);
+        for (uint32_t q = 0; q < now; ++q) {
+            if (!changedQuad[s - 1][q]) continue;
+            const QuadRef ref{s, q};
+            const Quad& quad = mask.quad(ref);
+            SeenQuad& sq = seen[q];
+            sq.corners = cornerSignature(quad);
+            sq.normal = quad.normal;
+            sq.cornerCount = quad.cornerCount;
+            sq.degenerate = quad.degenerate;
+            sq.cells = mask.cellsOf(ref);
+        }
+    }
+    mLastChanged = std::move(changedCells);
     return count;
 }
 

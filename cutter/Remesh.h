@@ -70,6 +70,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 namespace mtcut::cutter {
@@ -101,6 +102,8 @@ struct CutVertexIdHash
 /// Packs grid vertex (i,j,k), -2^20 <= i,j,k < 2^20, into an id ordered like
 /// the isosurface's "lower-keyed end": by (k, j, i).
 uint64_t gridVertexId(int i, int j, int k);
+/// The grid vertex (i,j,k) of a gridVertexId.
+openvdb::Coord gridVertexCoord(uint64_t id);
 
 /// The new geometry of one cut cell: triangles over cell-local vertices.
 struct CutCellGeometry
@@ -118,6 +121,7 @@ struct CutCellGeometry
 
 class RemeshKernel; // per-cell kernel, scratch buffers (Remesh.cpp)
 struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
+struct QuadGeomCache; // zero kerf: each quad's index-space geometry, built once per quad (Remesh.cpp)
 
 /// Keeps the re-meshed geometry of every cut cell of a CutMask and fuses it
 /// with the uncut isosurface.
@@ -127,8 +131,10 @@ struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
 /// quad, and cells of a quad whose stroke neighbour came or went: its junction
 /// side changes) and forgets cells that are no longer cut, so after undo the fused
 /// mesh equals the earlier one exactly (same vertices, same triangles, same
-/// order). Cost per update: O(cut cells) to find the changed ones, plus about
-/// 20..200 us per re-meshed cell. Not thread-safe.
+/// order). Cost per update: O(quads of the mask) to find the changed quads
+/// (each compared with what the last update saw), O(cells of the changed
+/// quads and their stroke neighbours) to find the changed cells, plus the
+/// kernel per re-meshed cell. Not thread-safe.
 class CutRemesher
 {
 public:
@@ -179,6 +185,11 @@ public:
 
     /// The cut cells' new geometry only (no uncut triangles), cells ascending.
     const std::map<openvdb::Coord, CutCellGeometry>& cells() const { return mCells; }
+    /// The cells whose geometry the last successful update() re-made or
+    /// forgot (ascending; empty when it changed nothing). For an interactive
+    /// view: upload cells().at(c) for each of them that is still in cells(),
+    /// drop the others, instead of building a whole fusedMesh() per step.
+    const std::vector<openvdb::Coord>& lastChangedCells() const { return mLastChanged; }
     const Mesh& uncut() const { return mUncut; }
     size_t cutCellCount() const { return mCells.size(); }
 
@@ -188,15 +199,33 @@ private:
         std::vector<QuadRef> quads;
         std::vector<std::array<double, 36>> quadCorners; ///< the quads' (and their stroke neighbours') corners when meshed
     };
+    /// A quad of the mask as the last successful update() saw it.
+    struct SeenQuad
+    {
+        std::array<double, 12> corners{};
+        glm::dvec3 normal{0.0};
+        uint32_t cornerCount = 0;
+        bool degenerate = false;
+        std::vector<openvdb::Coord> cells;
+    };
     std::unique_ptr<RemeshKernel> mKernel;
     std::unique_ptr<PrismCache> mPrismCache;
+    std::unique_ptr<QuadGeomCache> mQuadCache;
+    std::vector<std::vector<SeenQuad>> mSeen; ///< per stroke, per quad
+    double mSeenKerf = -1.0;                  ///< the mask's kerf and frame at the last update (-1: none yet)
+    IndexFrame mSeenFrame;
+    std::vector<openvdb::Coord> mLastChanged;
     const vdb::Volume* mVolume;
     float mIso;
     Mesh mUncut;
     std::map<openvdb::Coord, CutCellGeometry> mCells;
     std::map<openvdb::Coord, CellRecord> mRecords;
     /// Uncut triangles per cell: first triangle, count.
-    std::map<openvdb::Coord, std::pair<uint32_t, uint32_t>> mUncutCells;
+    std::unordered_map<openvdb::Coord, std::pair<uint32_t, uint32_t>> mUncutCells;
+    /// Uncut triangles (ascending) that hold an end of an uncut edge whose two
+    /// vertices have one float position: the only uncut triangles that
+    /// fusedMesh()'s snap rounding can change, besides those next to cut cells.
+    std::vector<uint32_t> mSnapTriangles;
     std::function<void(const openvdb::Coord&, CutCellGeometry&)> mCellHook;
 
     /// The grid edge (lower, higher gridVertexId) of each corner of the
