@@ -1224,6 +1224,11 @@ static std::array<int, 4> evenPerm(std::initializer_list<int> first)
 
 void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
 {
+    // No solid in the tet (all four values below the isovalue): P is empty,
+    // so there is neither an iso piece nor a cap (caps are kept inside P;
+    // prism faces inside the solid). Most cells of a cut through a head are
+    // air; they cost nothing now.
+    if (!mT.inside[0] && !mT.inside[1] && !mT.inside[2] && !mT.inside[3]) return;
     mVerts.clear();
     mQuads.clear();
     mPlanes.clear();
@@ -2120,6 +2125,30 @@ CutVertexId isoEdgeVertex(const std::pair<uint64_t, uint64_t>& e)
 }
 
 } // namespace
+
+bool isBladePlaneId(uint64_t planeId)
+{
+    // planeIdOf: (stroke << 36) | (quad << 4) | kind, strokes from 1;
+    // tet-local planes have kBoundaryLabel set. Kind 0 is the quad's plane,
+    // 1..4 the sides, kJunctionKind the junction or mitre, kPlusKind and
+    // kMinusKind the offset planes. With w = 0 sides and junctions bound the
+    // quad but carry no surface, so no triangle has all three vertices on one.
+    if (planeId < (uint64_t(1) << 36) || (planeId & kBoundaryLabel) != 0) return false;
+    const uint64_t kind = planeId & 15u;
+    return kind <= 4 || kind == uint64_t(kJunctionKind) || kind == uint64_t(kPlusKind) || kind == uint64_t(kMinusKind);
+}
+
+uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexId& c)
+{
+    auto on = [](const CutVertexId& v, uint64_t p) {
+        return std::find(v.planes.begin(), v.planes.begin() + v.planeCount, p) != v.planes.begin() + v.planeCount;
+    };
+    for (int i = 0; i < a.planeCount; ++i) {
+        const uint64_t p = a.planes[size_t(i)];
+        if (isBladePlaneId(p) && on(b, p) && on(c, p)) return p;
+    }
+    return 0;
+}
 
 glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& p)
 {

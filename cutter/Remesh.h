@@ -237,6 +237,17 @@ private:
     void checkLocally(const std::vector<openvdb::Coord>& changed) const;
 };
 
+/// True when `planeId` (an entry of CutVertexId::planes) is a face of the
+/// blade's removed region: the quad's plane (the caps of a zero-kerf cut),
+/// or, with kerf > 0, a prism face (the offset planes at +-w/2, a side
+/// through a hull edge, a mitre between consecutive quads). False for the
+/// iso surface's planes, Steiner markers and tet-local planes.
+bool isBladePlaneId(uint64_t planeId);
+
+/// The blade plane (isBladePlaneId) that all three vertices lie on, i.e. the
+/// supporting plane of a cap triangle; 0 for a piece of the isosurface.
+uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexId& c);
+
 /// The float world position (mm) that fusedMesh() writes for an index-space
 /// point of a cut cell: origin + spacing * p per axis, rounded to float.
 glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& indexPoint);

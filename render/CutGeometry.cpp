@@ -18,46 +18,6 @@ using openvdb::Coord;
 
 namespace {
 
-Coord gridVertexOf(uint64_t id)
-{
-    constexpr uint64_t mask = (uint64_t(1) << 21) - 1;
-    constexpr int64_t off = int64_t(1) << 20;
-    return Coord(int(int64_t(id & mask) - off), int(int64_t((id >> 21) & mask) - off), int(int64_t(id >> 42) - off));
-}
-
-/// A plane of the blade's removed region, by the plane-id encoding of
-/// cutter/Remesh.cpp's planeIdOf: (stroke << 36) | (quad << 4) | kind, strokes
-/// from 1, tet-local planes with bit 63 set. Kinds: 0 the quad's plane (the
-/// caps of a zero-kerf cut); 1..4 a side through a hull edge, 7 a junction or
-/// mitre between consecutive quads, 8 and 9 the offset planes at +-w/2 (kerf
-/// w > 0: the caps are the prism faces on these, and on the sides and mitres
-/// where the removed region ends inside the solid). With w = 0 sides and
-/// junctions bound the quad but carry no surface, so no non-degenerate
-/// triangle has all three vertices on one of them. Iso planes (ids 1..3) and
-/// Steiner markers (4, 5) are below 2^36.
-/// Mirrors a private encoding of the re-mesher: keep in step with
-/// Remesh.cpp (test_render_kerf checks it for kerf 0.5 and 0).
-bool isBladePlane(uint64_t planeId)
-{
-    if (planeId < (uint64_t(1) << 36) || (planeId >> 63) != 0) return false;
-    const uint64_t kind = planeId & 15u;
-    return kind <= 4 || kind == 7 || kind == 8 || kind == 9;
-}
-
-/// The blade plane the three vertices share (the cap's supporting plane), or
-/// 0 when none.
-uint64_t sharedBladePlane(const cutter::CutVertexId& a, const cutter::CutVertexId& b, const cutter::CutVertexId& c)
-{
-    for (int i = 0; i < a.planeCount; ++i) {
-        const uint64_t p = a.planes[size_t(i)];
-        if (!isBladePlane(p)) continue;
-        const bool inB = std::find(b.planes.begin(), b.planes.begin() + b.planeCount, p) != b.planes.begin() + b.planeCount;
-        const bool inC = std::find(c.planes.begin(), c.planes.begin() + c.planeCount, p) != c.planes.begin() + c.planeCount;
-        if (inB && inC) return p;
-    }
-    return 0;
-}
-
 /// Trilinear interpolation, at index point p of `cell`, of the central
 /// difference gradients at the cell's corners (pointing to lower values,
 /// world space), normalised; zero when the field is flat there.
@@ -136,7 +96,7 @@ CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             const uint32_t* corner = &geom.indices[i];
             const uint64_t plane =
-                sharedBladePlane(geom.vertexIds[corner[0]], geom.vertexIds[corner[1]], geom.vertexIds[corner[2]]);
+                cutter::capPlaneOf(geom.vertexIds[corner[0]], geom.vertexIds[corner[1]], geom.vertexIds[corner[2]]);
             out.triangleIsCap.push_back(uint8_t(plane != 0));
             m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
             for (int j = 0; j < 3; ++j) {
@@ -151,8 +111,8 @@ CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume
                                                 float(origin[2] + spacing[2] * p.z)));
                 glm::vec3 n(0.0f);
                 if (id.isIsoEdgeVertex() && !(shading && plane)) {
-                    n = gradientNormal(acc, volume.dims, isovalue, spacing, gridVertexOf(id.feature[0]),
-                                       gridVertexOf(id.feature[1]));
+                    n = gradientNormal(acc, volume.dims, isovalue, spacing, cutter::gridVertexCoord(id.feature[0]),
+                                       cutter::gridVertexCoord(id.feature[1]));
                 } else if (shading && !plane) {
                     n = trilinearGradientNormal(acc, spacing, cell, p);
                 }
