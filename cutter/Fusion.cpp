@@ -77,8 +77,9 @@ std::vector<Fragment> fragmentsOf(const Mesh& mesh)
     return out;
 }
 
-Mesh CutRemesher::fusedMesh() const
+Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
 {
+    if (source) source->clear();
     Mesh m;
     const size_t uncutVertices = mUncut.positions.size();
     const bool normals = mUncut.normals.size() == uncutVertices && uncutVertices > 0;
@@ -213,6 +214,8 @@ Mesh CutRemesher::fusedMesh() const
         m.indices.insert(m.indices.end(), mUncut.indices.begin() + long(3 * from), mUncut.indices.begin() + long(3 * to));
         m.triangleVoxels.insert(m.triangleVoxels.end(), mUncut.triangleVoxels.begin() + long(from),
                                 mUncut.triangleVoxels.begin() + long(to));
+        if (source)
+            for (size_t t = from; t < to; ++t) source->push_back(uint32_t(t));
         from = to;
     };
     size_t p = 0;
@@ -223,6 +226,7 @@ Mesh CutRemesher::fusedMesh() const
             if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
                 m.indices.insert(m.indices.end(), tri.begin(), tri.end());
                 m.triangleVoxels.push_back(mUncut.triangleVoxels[patches[p].first]);
+                if (source) source->push_back(patches[p].first);
             }
             from = patches[p].first + 1;
         }
@@ -235,6 +239,7 @@ Mesh CutRemesher::fusedMesh() const
         if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
             m.indices.insert(m.indices.end(), tri.begin(), tri.end());
             m.triangleVoxels.push_back(mUncut.triangleVoxels[patches[p].first]);
+            if (source) source->push_back(patches[p].first);
         }
         from = patches[p].first + 1;
     }
@@ -251,6 +256,7 @@ Mesh CutRemesher::fusedMesh() const
         }
         m.indices.insert(m.indices.end(), {a, b, c});
         m.triangleVoxels.push_back(newVoxels[t]);
+        if (source) source->push_back(uint32_t(nt + t));
     }
     if (normals) {
         // Only the cut cells' triangles can hold a new vertex.

@@ -180,8 +180,12 @@ public:
     /// ascending (x,y,z)). Vertices: all uncut vertices (unused ones stay),
     /// then the new ones; marching-tetrahedra vertices of cut cells are the
     /// uncut mesh's own (welded by edge key). Normals when the uncut mesh has
-    /// them (new vertices: area-weighted triangle normals). Cost O(mesh).
-    Mesh fusedMesh() const;
+    /// them (new vertices: area-weighted triangle normals). Snap rounding
+    /// (file comment) can drop collapsed triangles. With `source`, for each
+    /// fused triangle where it came from: an uncut triangle's index, or
+    /// uncut().triangleCount() + j for the j-th triangle of cells() (cells
+    /// ascending, each cell's triangles in order). Cost O(mesh).
+    Mesh fusedMesh(std::vector<uint32_t>* source = nullptr) const;
 
     /// The cut cells' new geometry only (no uncut triangles), cells ascending.
     const std::map<openvdb::Coord, CutCellGeometry>& cells() const { return mCells; }

@@ -149,23 +149,25 @@ std::vector<uint32_t> fragmentIdsOf(const cutter::Mesh& mesh)
 }
 
 void discardFragmentIds(const cutter::CutRemesher& remesher, const cutter::Mesh& fused,
-                        std::vector<uint32_t>& uncutIds, std::vector<uint32_t>& cutIds)
+                        const std::vector<uint32_t>& source, std::vector<uint32_t>& uncutIds,
+                        std::vector<uint32_t>& cutIds)
 {
+    if (source.size() != fused.triangleCount())
+        throw std::logic_error("discardFragmentIds: one source entry per fused triangle expected");
     const std::vector<uint32_t> ids = fragmentIdsOf(fused);
-    const cutter::Mesh& uncut = remesher.uncut();
-    const auto& cells = remesher.cells();
-    uncutIds.assign(uncut.triangleCount(), 0u);
-    size_t k = 0;
-    for (size_t t = 0; t < uncut.triangleCount(); ++t) {
-        const glm::ivec3 c = uncut.triangleVoxels[t];
-        if (cells.count(Coord(c.x, c.y, c.z))) continue;
-        if (k >= ids.size()) throw std::logic_error("discardFragmentIds: the fused mesh has fewer triangles");
-        uncutIds[t] = ids[k++];
-    }
-    cutIds.assign(ids.begin() + long(k), ids.end());
+    const size_t uncutCount = remesher.uncut().triangleCount();
     size_t cutTriangles = 0;
-    for (const auto& entry : cells) cutTriangles += entry.second.indices.size() / 3;
-    if (cutIds.size() != cutTriangles) throw std::logic_error("discardFragmentIds: the fused mesh's order is not as expected");
+    for (const auto& entry : remesher.cells()) cutTriangles += entry.second.indices.size() / 3;
+    // Triangles snap rounding dropped (collapsed to zero area) keep id 0:
+    // the discard pass drops them, as the fused mesh does.
+    uncutIds.assign(uncutCount, 0u);
+    cutIds.assign(cutTriangles, 0u);
+    for (size_t t = 0; t < ids.size(); ++t) {
+        const size_t s = source[t];
+        if (s < uncutCount) uncutIds[s] = ids[t];
+        else if (s - uncutCount < cutTriangles) cutIds[s - uncutCount] = ids[t];
+        else throw std::logic_error("discardFragmentIds: a source entry out of range");
+    }
 }
 
 } // namespace mtcut::render

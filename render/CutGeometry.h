@@ -54,13 +54,14 @@ CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume
 /// solid volume first), i.e. fragment_000 -> 1. Cost O(triangles).
 std::vector<uint32_t> fragmentIdsOf(const cutter::Mesh& mesh);
 
-/// Fragment ids for the discard render of a cut, from the shells of
-/// `fused` = remesher.fusedMesh() (fragmentIdsOf): one per uncut triangle
-/// (0 where its cell is re-meshed: the discard pass drops it) and one per
-/// cut-geometry triangle (cutGeometryOf order). Relies on fusedMesh's order:
-/// kept uncut triangles in order, then the cut cells' triangles. Throws
-/// std::logic_error when the counts disagree.
+/// Fragment ids for the discard render of a cut, from the fragments of
+/// `fused` = remesher.fusedMesh(&source) (fragmentIdsOf): one per uncut
+/// triangle (0 where its cell is re-meshed: the discard pass drops it) and
+/// one per cut-geometry triangle (cutGeometryOf order); 0 also for the
+/// triangles snap rounding dropped. Throws std::logic_error when `source`
+/// does not fit.
 void discardFragmentIds(const cutter::CutRemesher& remesher, const cutter::Mesh& fused,
-                        std::vector<uint32_t>& uncutIds, std::vector<uint32_t>& cutIds);
+                        const std::vector<uint32_t>& source, std::vector<uint32_t>& uncutIds,
+                        std::vector<uint32_t>& cutIds);
 
 } // namespace mtcut::render

@@ -84,13 +84,14 @@ std::vector<Frame> checkOracle(const vdb::Volume& vol, float iso, const cutter::
 {
     cutter::CutRemesher remesher(vol, iso, uncut);
     remesher.update(mask);
-    const cutter::Mesh fused = remesher.fusedMesh();
+    std::vector<uint32_t> source;
+    const cutter::Mesh fused = remesher.fusedMesh(&source);
     const CutGeometry cut = cutGeometryOf(remesher, vol, iso, CutNormals::Fused);
     const CutGeometry shadedCut = cutGeometryOf(remesher, vol, iso, CutNormals::Shading);
     EXPECT_EQ(shadedCut.mesh.indices.size(), cut.mesh.indices.size());
     EXPECT_EQ(shadedCut.triangleIsCap, cut.triangleIsCap);
     std::vector<uint32_t> uncutIds, cutIds;
-    discardFragmentIds(remesher, fused, uncutIds, cutIds);
+    discardFragmentIds(remesher, fused, source, uncutIds, cutIds);
     const std::vector<uint32_t> fusedIds = fragmentIdsOf(fused);
     const uint32_t fragments = *std::max_element(fusedIds.begin(), fusedIds.end());
     if (expectFragments) {

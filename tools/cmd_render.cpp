@@ -109,10 +109,11 @@ int runRender(const Args& args)
         try {
             cutter::CutRemesher remesher(vol, iso, uncut);
             remesher.update(mask);
-            const cutter::Mesh fused = remesher.fusedMesh();
+            std::vector<uint32_t> source;
+            const cutter::Mesh fused = remesher.fusedMesh(&source);
             const render::CutGeometry cut = render::cutGeometryOf(remesher, vol, iso);
             std::vector<uint32_t> uncutIds, cutIds;
-            render::discardFragmentIds(remesher, fused, uncutIds, cutIds);
+            render::discardFragmentIds(remesher, fused, source, uncutIds, cutIds);
             for (uint32_t id : uncutIds) fragments = std::max<size_t>(fragments, id);
             for (uint32_t id : cutIds) fragments = std::max<size_t>(fragments, id);
             renderer.setSurface(uncut, uncutIds);

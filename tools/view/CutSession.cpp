@@ -258,8 +258,9 @@ void CutSession::publish()
             s.fragmentsDirty = false;
             std::vector<uint32_t> uncutIds, cutIds;
             if (geometry) {
-                const cutter::Mesh fused = s.remesher->fusedMesh();
-                render::discardFragmentIds(*s.remesher, fused, uncutIds, cutIds);
+                std::vector<uint32_t> source;
+                const cutter::Mesh fused = s.remesher->fusedMesh(&source);
+                render::discardFragmentIds(*s.remesher, fused, source, uncutIds, cutIds);
             } else {
                 uncutIds = render::fragmentIdsOf(*s.surface);
             }
