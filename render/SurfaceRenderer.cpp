@@ -21,6 +21,7 @@ struct SurfaceRenderer::DrawMesh
     Buffer vertices, indices, triangles;
     VertexArray vao;
     GLsizei indexCount = 0;
+    size_t triangleCount = 0;
     Bounds bounds;
     bool empty = true;
 };
@@ -33,6 +34,22 @@ struct TriangleInfo
     uint32_t info; ///< fragment id (bits 0..29) | cap (bit 30) | cut geometry (bit 31)
 };
 static_assert(sizeof(TriangleInfo) == 16, "std430 layout of shaders/surface.frag's TriangleInfo");
+
+/// The per-triangle TriangleInfo array of `mesh` (sizes checked by the caller).
+std::vector<TriangleInfo> triangleInfos(const cutter::Mesh& mesh, const std::vector<uint32_t>& fragmentIds,
+                                        const std::vector<uint8_t>& isCap, bool cutGeometry)
+{
+    const size_t nt = mesh.triangleCount();
+    std::vector<TriangleInfo> tri(nt);
+    for (size_t t = 0; t < nt; ++t) {
+        const glm::ivec3 c = mesh.triangleVoxels[t];
+        const uint32_t id = fragmentIds.empty() ? 1u : fragmentIds[t];
+        if (id >= (1u << 30)) throw InputError("more than 2^30 fragments");
+        tri[t] = {{c.x, c.y, c.z},
+                  id | (!isCap.empty() && isCap[t] ? 0x40000000u : 0u) | (cutGeometry ? 0x80000000u : 0u)};
+    }
+    return tri;
+}
 
 void makeTarget(Texture& t, GLenum format, int w, int h)
 {
@@ -102,17 +119,11 @@ std::unique_ptr<SurfaceRenderer::DrawMesh> SurfaceRenderer::upload(const cutter:
         lo = glm::min(lo, glm::dvec3(mesh.positions[i]));
         hi = glm::max(hi, glm::dvec3(mesh.positions[i]));
     }
-    std::vector<TriangleInfo> tri(nt);
-    for (size_t t = 0; t < nt; ++t) {
-        const glm::ivec3 c = mesh.triangleVoxels[t];
-        const uint32_t id = fragmentIds.empty() ? 1u : fragmentIds[t];
-        if (id >= (1u << 30)) throw InputError("more than 2^30 fragments");
-        tri[t] = {{c.x, c.y, c.z},
-                  id | (!isCap.empty() && isCap[t] ? 0x40000000u : 0u) | (cutGeometry ? 0x80000000u : 0u)};
-    }
+    const std::vector<TriangleInfo> tri = triangleInfos(mesh, fragmentIds, isCap, cutGeometry);
     m->vertices = Buffer(interleaved.size() * sizeof(float), interleaved.data());
     m->indices = Buffer(mesh.indices.size() * sizeof(uint32_t), mesh.indices.data());
-    m->triangles = Buffer(tri.size() * sizeof(TriangleInfo), tri.data());
+    // The surface's triangle infos can be rewritten in place (setSurfaceFragmentIds).
+    m->triangles = Buffer(tri.size() * sizeof(TriangleInfo), tri.data(), cutGeometry ? 0 : GL_DYNAMIC_STORAGE_BIT);
     const GLuint vao = m->vao.id();
     glVertexArrayVertexBuffer(vao, 0, m->vertices.id(), 0, GLsizei(6 * sizeof(float)));
     glVertexArrayElementBuffer(vao, m->indices.id());
@@ -123,6 +134,7 @@ std::unique_ptr<SurfaceRenderer::DrawMesh> SurfaceRenderer::upload(const cutter:
     glVertexArrayAttribFormat(vao, 1, 3, GL_FLOAT, GL_FALSE, GLuint(3 * sizeof(float)));
     glVertexArrayAttribBinding(vao, 1, 0);
     m->indexCount = GLsizei(mesh.indices.size());
+    m->triangleCount = nt;
     m->empty = nt == 0;
     if (!m->empty) m->bounds = {lo, hi};
     checkGlError("SurfaceRenderer: upload");
@@ -134,6 +146,19 @@ void SurfaceRenderer::setSurface(const cutter::Mesh& uncut, const std::vector<ui
     mSurface = upload(uncut, fragmentIds, {}, false);
     mCut.reset();
     mAtlas.reset();
+}
+
+void SurfaceRenderer::setSurfaceFragmentIds(const cutter::Mesh& uncut, const std::vector<uint32_t>& fragmentIds)
+{
+    const size_t nt = uncut.triangleCount();
+    if (!mSurface || mSurface->triangleCount != nt || uncut.triangleVoxels.size() != nt ||
+        (!fragmentIds.empty() && fragmentIds.size() != nt)) {
+        throw std::invalid_argument("SurfaceRenderer::setSurfaceFragmentIds: not the surface given to setSurface");
+    }
+    if (nt == 0) return;
+    const std::vector<TriangleInfo> tri = triangleInfos(uncut, fragmentIds, {}, false);
+    glNamedBufferSubData(mSurface->triangles.id(), 0, GLsizeiptr(tri.size() * sizeof(TriangleInfo)), tri.data());
+    checkGlError("SurfaceRenderer::setSurfaceFragmentIds");
 }
 
 void SurfaceRenderer::clearCut()

@@ -56,6 +56,11 @@ public:
     /// cells; world mm) once. fragmentIds: one per triangle (empty: all 1).
     /// Clears the cut cells and cut geometry.
     void setSurface(const cutter::Mesh& uncut, const std::vector<uint32_t>& fragmentIds = {});
+    /// New fragment ids (one per triangle; empty: all 1) for the surface last
+    /// given to setSurface (`uncut` must be that mesh: its cells are written
+    /// again). Rewrites only the per-triangle info buffer in place, not the
+    /// vertices or indices; keeps the cut cells and cut geometry.
+    void setSurfaceFragmentIds(const cutter::Mesh& uncut, const std::vector<uint32_t>& fragmentIds);
     /// The cells whose surface triangles the discard pass drops, coded on the
     /// GPU (one point per cell, OR logic-op) or, with gpuCoding false,
     /// uploaded from the CPU tiles.

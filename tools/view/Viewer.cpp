@@ -310,11 +310,19 @@ void Viewer::applySnapshot()
     if (snap == mShown || !mRenderer) return;
     const bool firstSurface = !mShown || !mShown->surface || mShown->input != snap->input;
     if (snap->surface) {
-        if (snap->surfaceSerial != mShownSurfaceSerial || !mShown || snap->surface != mShown->surface) {
-            mRenderer->setSurface(*snap->surface, snap->surfaceIds ? *snap->surfaceIds : std::vector<uint32_t>{});
+        const std::vector<uint32_t> noIds;
+        const std::vector<uint32_t>& ids = snap->surfaceIds ? *snap->surfaceIds : noIds;
+        if (!mShown || snap->surface != mShown->surface) {
+            mRenderer->setSurface(*snap->surface, ids);
             mShownSurfaceSerial = snap->surfaceSerial;
         } else {
             mRenderer->clearCut();
+            if (snap->surfaceSerial != mShownSurfaceSerial) {
+                // Same surface, new fragment ids (a stroke ended): rewrite only
+                // the per-triangle buffer, not the whole surface.
+                mRenderer->setSurfaceFragmentIds(*snap->surface, ids);
+                mShownSurfaceSerial = snap->surfaceSerial;
+            }
         }
         if (snap->cut && snap->cells) {
             mRenderer->setCutCells(*snap->cells);
