@@ -144,6 +144,8 @@ private:
     render::Bounds sceneBounds() const;
     void setPreset(const std::string& view);
     void updateCamera();
+    /// The preset view `mPreset` as `mtcut render --view` frames it on the whole image.
+    render::Camera presetCamera() const;
     /// The blade for the cursor at pixel (x, y), at the stroke's picked depth, at `time` s.
     cutter::Pose bladeAt(double x, double y, double time) const;
     /// Script `drag`: a mouse stroke from pixel a to b, through the same path as the mouse.
@@ -174,6 +176,7 @@ private:
     render::Camera mCamera;
     std::string mPreset = "front"; ///< non-empty: the camera follows this preset view
     int mWidth = 0, mHeight = 0;
+    double mPanelRight = 0.0; ///< framebuffer x of the panel's right edge (0: no panel); preset views centre right of it
 
     // panel state
     float mIso = 0.0f;
@@ -294,11 +297,31 @@ void Viewer::setPreset(const std::string& view)
     updateCamera();
 }
 
+render::Camera Viewer::presetCamera() const
+{
+    return render::cameraFor(mPreset, sceneBounds(), double(mWidth) / mHeight);
+}
+
 void Viewer::updateCamera()
 {
     if (mWidth <= 0 || mHeight <= 0) return;
-    if (!mPreset.empty()) {
-        mCamera = render::cameraFor(mPreset, sceneBounds(), double(mWidth) / mHeight);
+    const double free = double(mWidth) - mPanelRight;
+    if (!mPreset.empty() && mOptions.script.empty() && mPanelRight > 0.0 && free >= 0.3 * mWidth) {
+        // Interactive window: frame the preset in the area right of the panel
+        // (its aspect), then move eye and target sideways so the target lies
+        // at that area's centre. Screenshots use presetCamera() (the whole
+        // image, as `mtcut render`); a script never gets here.
+        mCamera = render::cameraFor(mPreset, sceneBounds(), free / mHeight);
+        const glm::dvec3 forward = glm::normalize(mCamera.target - mCamera.eye);
+        const glm::dvec3 right = glm::normalize(glm::cross(forward, mCamera.up));
+        const double distance = glm::length(mCamera.target - mCamera.eye);
+        const double mmPerPixel = 2.0 * distance * std::tan(glm::radians(mCamera.fovYDegrees) / 2.0) / mHeight;
+        const glm::dvec3 shift = -0.5 * mPanelRight * mmPerPixel * right;
+        mCamera.eye += shift;
+        mCamera.target += shift;
+        render::fitDepth(mCamera, sceneBounds());
+    } else if (!mPreset.empty()) {
+        mCamera = presetCamera();
     } else {
         render::fitDepth(mCamera, sceneBounds());
     }
@@ -494,7 +517,8 @@ void Viewer::screenshot(const std::string& path)
     const std::string ext = lowerExtension(path);
     if (ext != ".png" && ext != ".exr") throw InputError("screenshot " + path + ": expected a .png or .exr file name");
     if (!mRenderer) throw InputError("screenshot " + path + ": nothing on screen yet");
-    mRenderer->render(mCamera, style(true));
+    // A preset view as `mtcut render` frames it (the window's may sit right of the panel).
+    mRenderer->render(mPreset.empty() ? mCamera : presetCamera(), style(true));
     const render::Frame frame = mRenderer->readFrame();
     if (ext == ".png") {
         render::writePng(frame, path);
@@ -581,6 +605,9 @@ void Viewer::panel()
     ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
     ImGui::SetNextWindowSize(ImVec2(360, float(std::max(mHeight - 16, 200))), ImGuiCond_FirstUseEver);
     ImGui::Begin("MTCut");
+    mPanelRight = ImGui::IsWindowCollapsed()
+                      ? 0.0
+                      : double(ImGui::GetWindowPos().x + ImGui::GetWindowSize().x) * ImGui::GetIO().DisplayFramebufferScale.x;
     ImGui::TextWrapped("LMB on bone: cut | LMB elsewhere / RMB: orbit | MMB or Shift+LMB: pan | wheel: zoom | "
                        "1-4: front/side/top/iso, R: reset | Ctrl+Z / Ctrl+Shift+Z: undo/redo | H: highlight | "
                        "drop a file or folder to open it");
