@@ -447,13 +447,17 @@ struct UpperEdge
 struct UpperEdges
 {
     std::vector<UpperEdge> edges[7];
+    uint8_t groupMask[7] = {}; ///< bit g: the owner's group g lies in this block's upper faces
     UpperEdges()
     {
         constexpr int slotN = kBlock + 1;
         for (int offset = 1; offset < 7; ++offset) {
             const Coord d(offset & 1, offset >> 1 & 1, offset >> 2 & 1);
             bool wanted[kGroups];
-            for (int g = 0; g < kGroups; ++g) wanted[g] = g < 6 && (kGroupFixedAxes[g] & offset) == offset;
+            for (int g = 0; g < kGroups; ++g) {
+                wanted[g] = g < 6 && (kGroupFixedAxes[g] & offset) == offset;
+                groupMask[offset] |= uint8_t(wanted[g] ? 1 << g : 0);
+            }
             const int xEnd = d.x() ? 1 : kBlock, yEnd = d.y() ? 1 : kBlock, zEnd = d.z() ? 1 : kBlock;
             for (int x = 0; x < xEnd; ++x)
                 for (int y = 0; y < yEnd; ++y)
@@ -932,8 +936,10 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                         const int i = ((x + 1) * n2 + y + 1) * n2 + z + 1; // window starts at o - 1
                         const int parity = (x + y + z) & 1;
                         const auto& ends = offsets2.end[parity];
-                        for (int type = 0; type < kEdgeTypes; ++type) {
-                            if (!(crossed[type] >> z & 1)) continue;
+                        uint32_t types = 0; // crossed edge types of cell z, bit per type
+                        for (int type = 0; type < kEdgeTypes; ++type) types |= (crossed[type] >> z & 1) << type;
+                        for (; types; types &= types - 1) {
+                            const int type = lowestBit(types);
                             const int i0 = i + ends[type][0], i1 = i + ends[type][1];
                             Coord p0, p1;
                             edgeEnds(o + Coord(x, y, z), type, p0, p1);
@@ -969,10 +975,17 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                 const Coord d(offset & 1, offset >> 1 & 1, offset >> 2 & 1);
                 const Block* owner = findBlock(o + Coord(d.x() * kBlock, d.y() * kBlock, d.z() * kBlock));
                 if (!owner) continue; // no crossed edge there (its owner would have been visited)
-                uint32_t rank[kGroups];
-                for (int g = 0; g < kGroups; ++g) rank[g] = uint32_t(owner->vertexBase) + owner->groupOffset[g];
-                for (const UpperEdge& e : upper.edges[offset]) {
-                    if ((rows[e.row0] >> e.z0 ^ rows[e.row1] >> e.z1) & 1) slots[e.slot] = rank[e.group]++;
+                uint32_t rank[kGroups], remaining = 0; // crossed edges of those groups, all in the list
+                for (int g = 0; g < kGroups; ++g) {
+                    rank[g] = uint32_t(owner->vertexBase) + owner->groupOffset[g];
+                    if (upper.groupMask[offset] >> g & 1) remaining += owner->groupOffset[g + 1] - owner->groupOffset[g];
+                }
+                for (auto e = upper.edges[offset].begin(); remaining; ++e) {
+                    assert(e != upper.edges[offset].end());
+                    if ((rows[e->row0] >> e->z0 ^ rows[e->row1] >> e->z1) & 1) {
+                        slots[e->slot] = rank[e->group]++;
+                        --remaining;
+                    }
                 }
             }
 
