@@ -7,14 +7,21 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <sstream>
 #include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
 
 namespace mtcut::cutter {
 
@@ -245,86 +252,139 @@ constexpr int kGroupFixedAxes[kGroups] = {3, 5, 6, 1, 2, 4, 0};
 
 constexpr int kBlock = 8;
 
-/// Dense copy of the values over the box [lo, lo + n - 1]^3 (z fastest), with
-/// the inside flags. Vertices outside the scan box get the background value
-/// and are outside.
-struct Window
+/// Inside bits of one leaf (8^3 voxels): byte x * 8 + y holds the (x, y)
+/// row, bit z set when the voxel's value is >= the isovalue and the voxel is
+/// in the scan box. Made once per leaf; the passes read signs only from here.
+struct LeafRows
 {
-    Coord lo;
-    int n = 0;
-    std::vector<float> values;
-    std::vector<uint8_t> inside;
-    bool uniform = false; ///< all inside or all outside
+    uint8_t row[64];
+};
 
-    int index(int x, int y, int z) const { return ((x - lo.x()) * n + (y - lo.y())) * n + (z - lo.z()); }
-    int index(const Coord& p) const { return index(p.x(), p.y(), p.z()); }
+/// Fill rows from a leaf's values: the signs of the 8 values of each row.
+inline void makeLeafRows(const float* data, float iso, LeafRows& rows)
+{
+    for (int r = 0; r < 64; ++r) {
+        const float* v = data + 8 * r;
+        uint32_t m = 0;
+        for (int z = 0; z < 8; ++z) m |= uint32_t(v[z] >= iso) << z;
+        rows.row[r] = uint8_t(m);
+    }
+}
 
-    void load(const openvdb::tree::ValueAccessor<const openvdb::FloatTree>& acc, const Coord& lower, int size,
-              const Coord& dims, float background, float iso)
+/// Signs of a block's vertices, local (x, y, z) in [0, 8]^3 (its leaf and the
+/// +1 layer of its upper neighbours): entry x * 9 + y, bit z.
+constexpr int kSignN = kBlock + 1;
+using SignRows = std::array<uint16_t, kSignN * kSignN>;
+
+/// leaf[(dx * 2 + dy) * 2 + dz]: the rows of the leaf at block + (dx, dy, dz).
+inline void makeSignRows(const LeafRows* const leaf[8], SignRows& rows)
+{
+    for (int x = 0; x < kSignN; ++x)
+        for (int y = 0; y < kSignN; ++y) {
+            const int l = ((x >> 3) * 2 + (y >> 3)) * 2, r = (x & 7) * 8 + (y & 7);
+            rows[size_t(x * kSignN + y)] = uint16_t(leaf[l]->row[r] | (leaf[l + 1]->row[r] & 1) << 8);
+        }
+}
+
+/// The cells of row (x, y) of a block, bit z each (block origins are even, so
+/// a cell's parity is (x + y + z) & 1).
+struct CellRow
+{
+    uint32_t r00, r10, r01, r11; ///< sign rows (x, y), (x+1, y), (x, y+1), (x+1, y+1)
+
+    CellRow(const SignRows& rows, int x, int y)
+        : r00(rows[size_t(x * kSignN + y)]), r10(rows[size_t((x + 1) * kSignN + y)]),
+          r01(rows[size_t(x * kSignN + y + 1)]), r11(rows[size_t((x + 1) * kSignN + y + 1)])
     {
-        lo = lower;
-        n = size;
-        values.resize(size_t(n) * n * n);
-        inside.resize(values.size());
-        const Coord hi = lo + Coord(n - 1);
-        for (int bx = lo.x() & ~(kBlock - 1); bx <= hi.x(); bx += kBlock) {
-            for (int by = lo.y() & ~(kBlock - 1); by <= hi.y(); by += kBlock) {
-                for (int bz = lo.z() & ~(kBlock - 1); bz <= hi.z(); bz += kBlock) {
-                    const Coord origin(bx, by, bz);
-                    const int x0 = std::max(lo.x(), bx), x1 = std::min(hi.x(), bx + kBlock - 1);
-                    const int y0 = std::max(lo.y(), by), y1 = std::min(hi.y(), by + kBlock - 1);
-                    const int z0 = std::max(lo.z(), bz), z1 = std::min(hi.z(), bz + kBlock - 1);
-                    if (const LeafT* leaf = acc.probeConstLeaf(origin)) {
-                        const float* data = leaf->buffer().data();
-                        for (int x = x0; x <= x1; ++x)
-                            for (int y = y0; y <= y1; ++y) {
-                                const float* in = data + (((x & 7) << 6) | ((y & 7) << 3) | (z0 & 7));
-                                std::memcpy(&values[size_t(index(x, y, z0))], in, sizeof(float) * size_t(z1 - z0 + 1));
-                            }
-                    } else {
-                        const float v = acc.getValue(origin);
-                        for (int x = x0; x <= x1; ++x)
-                            for (int y = y0; y <= y1; ++y)
-                                std::fill_n(&values[size_t(index(x, y, z0))], z1 - z0 + 1, v);
-                    }
-                }
+    }
+    /// Crossed owned edges of each type (see edgeEnds) by the cell's z.
+    void crossed(int x, int y, uint32_t t[kEdgeTypes]) const
+    {
+        const uint32_t even = ((x + y) & 1) ? 0xAAu : 0x55u, odd = even ^ 0xFFu;
+        t[0] = (r00 ^ r10) & 0xFFu;
+        t[1] = (r00 ^ r01) & 0xFFu;
+        t[2] = (r00 ^ r00 >> 1) & 0xFFu;
+        t[3] = ((r00 ^ r11) & even) | ((r10 ^ r01) & odd);
+        t[4] = ((r00 ^ r10 >> 1) & even) | ((r10 ^ r00 >> 1) & odd);
+        t[5] = ((r00 ^ r01 >> 1) & even) | ((r01 ^ r00 >> 1) & odd);
+    }
+    /// Cells with corners both inside and outside.
+    uint32_t mixed() const
+    {
+        const uint32_t any = r00 | r10 | r01 | r11, all = r00 & r10 & r01 & r11;
+        return (any | any >> 1) & ~(all & all >> 1) & 0xFFu;
+    }
+    /// Inside mask of cell z (bit c = x + 2y + 4z of the local corner).
+    uint8_t cellMask(int z) const
+    {
+        const uint32_t q = (r00 >> z & 3) | (r10 >> z & 3) << 2 | (r01 >> z & 3) << 4 | (r11 >> z & 3) << 6;
+        // q holds (corner xy, z) at bit 2 * xy + z; reorder to xy + 4 z.
+        return uint8_t((q & 1) | (q >> 1 & 2) | (q >> 2 & 4) | (q >> 3 & 8) | (q << 3 & 16) | (q << 2 & 32) |
+                       (q << 1 & 64) | (q & 128));
+    }
+};
+
+inline int popcount8(uint32_t v)
+{
+    v = v - ((v >> 1) & 0x55u);
+    v = (v & 0x33u) + ((v >> 2) & 0x33u);
+    return int((v + (v >> 4)) & 0x0Fu);
+}
+
+inline int popcount64(uint64_t v)
+{
+    v = v - ((v >> 1) & 0x5555555555555555ull);
+    v = (v & 0x3333333333333333ull) + ((v >> 2) & 0x3333333333333333ull);
+    v = (v + (v >> 4)) & 0x0F0F0F0F0F0F0F0Full;
+    return int((v * 0x0101010101010101ull) >> 56);
+}
+
+inline int lowestBit(uint32_t v) { return __builtin_ctz(v); }
+
+/// Dense copy of the values over the window [origin - 1, origin + 9]^3 of a
+/// block (z fastest). Vertices outside the scan box get the background value.
+struct ValueWindow
+{
+    static constexpr int n = kBlock + 3;
+    std::vector<float> values = std::vector<float>(size_t(n) * n * n);
+
+    /// leaf[(lx * 3 + ly) * 3 + lz]: the values of the leaf at block +
+    /// (lx, ly, lz) - 1, or null with the tile value in tile[].
+    void load(const float* const leaf[27], const float tile[27], const Coord& origin, const Coord& dims,
+              float background)
+    {
+        float* out = values.data();
+        auto put = [&](float* dst, int l, int offset, int count) {
+            if (leaf[l]) {
+                const float* src = leaf[l] + offset;
+                for (int k = 0; k < count; ++k) dst[k] = src[k];
+            } else {
+                for (int k = 0; k < count; ++k) dst[k] = tile[l];
+            }
+        };
+        for (int xi = 0; xi < n; ++xi) {
+            const int lx = (xi + 7) >> 3, fx = (xi + 7) & 7;
+            for (int yi = 0; yi < n; ++yi) {
+                const int ly = (yi + 7) >> 3, fy = (yi + 7) & 7;
+                float* dst = out + (xi * n + yi) * n;
+                const int l = (lx * 3 + ly) * 3, row = fx << 6 | fy << 3;
+                put(dst, l, row + 7, 1);
+                put(dst + 1, l + 1, row, 8);
+                put(dst + 9, l + 2, row, 2);
             }
         }
-        const bool inBox = lo.x() >= 0 && lo.y() >= 0 && lo.z() >= 0 && hi.x() < dims.x() && hi.y() < dims.y() &&
-                           hi.z() < dims.z();
-        if (inBox) {
-            uint8_t any = 0, all = 1;
-            for (size_t i = 0; i < values.size(); ++i) {
-                const uint8_t b = values[i] >= iso;
-                inside[i] = b;
-                any |= b;
-                all &= b;
-            }
-            uniform = any == all;
+        const Coord lo = origin - Coord(1), hi = origin + Coord(kBlock + 1);
+        if (lo.x() >= 0 && lo.y() >= 0 && lo.z() >= 0 && hi.x() < dims.x() && hi.y() < dims.y() && hi.z() < dims.z()) {
             return;
         }
-        uniform = false;
         size_t i = 0;
         for (int x = lo.x(); x <= hi.x(); ++x)
             for (int y = lo.y(); y <= hi.y(); ++y)
                 for (int z = lo.z(); z <= hi.z(); ++z, ++i) {
-                    if (x < 0 || y < 0 || z < 0 || x >= dims.x() || y >= dims.y() || z >= dims.z()) {
-                        values[i] = background;
-                        inside[i] = 0;
-                    } else {
-                        inside[i] = values[i] >= iso;
-                    }
+                    if (x < 0 || y < 0 || z < 0 || x >= dims.x() || y >= dims.y() || z >= dims.z()) out[i] = background;
                 }
     }
 };
-
-/// Inside mask of the cell whose corner 0 is at window index i (bit c = x + 2y + 4z).
-inline uint8_t cornerMask(const uint8_t* in, int i, int n)
-{
-    const int nn = n * n;
-    return uint8_t(in[i] | in[i + nn] << 1 | in[i + n] << 2 | in[i + nn + n] << 3 | in[i + 1] << 4 |
-                   in[i + nn + 1] << 5 | in[i + n + 1] << 6 | in[i + nn + n + 1] << 7);
-}
 
 struct Block
 {
@@ -336,14 +396,17 @@ struct Block
 };
 
 /// Dense map over block positions (origin / 8) in the box [lo, lo + n - 1]:
-/// the index of the block there (-1: none) and the state of the leaf there
-/// (0: none or all outside, 1: all inside within the scan box, 2: mixed).
-/// Empty when the leaves are too scattered for a dense map.
+/// the index of the block there (-1: none), the state of the leaf there
+/// (0: none or all outside, 1: all inside within the scan box, 2: mixed) and
+/// its index. The box reaches 2 positions past the seeds, so it holds every
+/// leaf that a visited block's value window touches. Empty when the leaves
+/// are too scattered for a dense map.
 struct BlockMap
 {
     Coord lo, n;
     std::vector<int32_t> blockIndex;
     std::vector<uint8_t> leafState;
+    std::vector<int32_t> leafIndex; ///< index of the leaf there in the leaf list, -1: none
 
     size_t index(const Coord& b) const
     {
@@ -377,20 +440,24 @@ struct BlockMap
 /// that starts at origin - 1, the slot of the edge, the owner's group.
 struct UpperEdge
 {
-    int16_t i0, i1;
+    uint8_t row0, z0, row1, z1; ///< the ends: sign row (x * 9 + y) and bit z
     uint16_t slot;
     uint8_t group;
 };
 struct UpperEdges
 {
     std::vector<UpperEdge> edges[7];
+    uint8_t groupMask[7] = {}; ///< bit g: the owner's group g lies in this block's upper faces
     UpperEdges()
     {
-        constexpr int n = kBlock + 3, slotN = kBlock + 1;
+        constexpr int slotN = kBlock + 1;
         for (int offset = 1; offset < 7; ++offset) {
             const Coord d(offset & 1, offset >> 1 & 1, offset >> 2 & 1);
             bool wanted[kGroups];
-            for (int g = 0; g < kGroups; ++g) wanted[g] = g < 6 && (kGroupFixedAxes[g] & offset) == offset;
+            for (int g = 0; g < kGroups; ++g) {
+                wanted[g] = g < 6 && (kGroupFixedAxes[g] & offset) == offset;
+                groupMask[offset] |= uint8_t(wanted[g] ? 1 << g : 0);
+            }
             const int xEnd = d.x() ? 1 : kBlock, yEnd = d.y() ? 1 : kBlock, zEnd = d.z() ? 1 : kBlock;
             for (int x = 0; x < xEnd; ++x)
                 for (int y = 0; y < yEnd; ++y)
@@ -401,10 +468,15 @@ struct UpperEdges
                             if (!wanted[g]) continue;
                             Coord p0, p1;
                             edgeEnds(c, type, p0, p1);
-                            auto windowIndex = [&](const Coord& p) { return ((p.x() + 1) * n + p.y() + 1) * n + p.z() + 1; };
+                            for (const Coord& p : {p0, p1}) {
+                                assert(p.x() >= 0 && p.y() >= 0 && p.z() >= 0 && p.x() < kSignN && p.y() < kSignN &&
+                                       p.z() < kSignN);
+                                (void)p;
+                            }
                             const int slot = ((c.x() * slotN + c.y()) * slotN + c.z()) * kEdgeTypes + type;
-                            edges[offset].push_back(
-                                {int16_t(windowIndex(p0)), int16_t(windowIndex(p1)), uint16_t(slot), uint8_t(g)});
+                            edges[offset].push_back({uint8_t(p0.x() * kSignN + p0.y()), uint8_t(p0.z()),
+                                                     uint8_t(p1.x() * kSignN + p1.y()), uint8_t(p1.z()), uint16_t(slot),
+                                                     uint8_t(g)});
                         }
                     }
         }
@@ -441,6 +513,34 @@ inline glm::vec3 edgePoint(const Coord& p0, const Coord& p1, double t, const ope
         out[a] = float(origin[a] + spacing[a] * index);
     }
     return out;
+}
+
+/// Ask the kernel to back a freshly reserved output buffer with huge pages
+/// (Linux, THP in "madvise" mode): value-initialising the ~35 bytes per
+/// triangle of output then takes one page fault per 2 MiB instead of one per
+/// 4 KiB (that was ~40% of a 2-thread phantom extraction). Only a hint: the
+/// contents are the same whatever the kernel does.
+void adviseHugePages(const void* data, size_t bytes)
+{
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    constexpr size_t kMinBytes = size_t(4) << 20;
+    static const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE));
+    const uintptr_t begin = (uintptr_t(data) + page - 1) & ~(page - 1);
+    const uintptr_t end = (uintptr_t(data) + bytes) & ~(page - 1);
+    if (data && bytes >= kMinBytes && end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+    (void)data;
+    (void)bytes;
+#endif
+}
+
+/// v.resize(n) for an empty v, its pages advised as huge first.
+template <class T>
+void resizeOutput(std::vector<T>& v, size_t n)
+{
+    v.reserve(n);
+    adviseHugePages(v.data(), n * sizeof(T));
+    v.resize(n);
 }
 
 std::string coordText(const Coord& c)
@@ -557,6 +657,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     leaves.reserve(tree->leafCount());
     for (auto it = tree->cbeginLeaf(); it; ++it) leaves.push_back(&*it);
     std::vector<uint8_t> leafStates(leaves.size(), 0);
+    std::vector<LeafRows> leafRows(leaves.size());
     std::atomic<size_t> firstBad{leaves.size()};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -571,6 +672,21 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             const bool inBox = o.x() >= 0 && o.y() >= 0 && o.z() >= 0 && o.x() + kBlock <= dims.x() &&
                                o.y() + kBlock <= dims.y() && o.z() + kBlock <= dims.z();
             leafStates[i] = !any ? 0 : all && inBox ? 1 : 2;
+            LeafRows& rows = leafRows[i];
+            if (!any) {
+                rows = LeafRows{};
+            } else {
+                makeLeafRows(data, iso, rows);
+                if (!inBox) { // vertices outside the scan box are outside
+                    uint32_t zMask = 0;
+                    for (int z = 0; z < kBlock; ++z) zMask |= uint32_t(o.z() + z >= 0 && o.z() + z < dims.z()) << z;
+                    for (int x = 0; x < kBlock; ++x)
+                        for (int y = 0; y < kBlock; ++y) {
+                            const bool rowIn = o.x() + x >= 0 && o.x() + x < dims.x() && o.y() + y >= 0 && o.y() + y < dims.y();
+                            rows.row[x * 8 + y] &= uint8_t(rowIn ? zMask : 0);
+                        }
+                }
+            }
             if (bad) {
                 size_t cur = firstBad.load();
                 while (i < cur && !firstBad.compare_exchange_weak(cur, i)) {}
@@ -593,6 +709,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     // neighbours are found and uniform windows skipped without searching.
     std::vector<Block> blocks;
     BlockMap map;
+    std::vector<std::pair<Coord, int32_t>> sortedLeaves; // (origin / 8, leaf index) without a dense map
     {
         Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
         size_t nSeeds = 0;
@@ -606,24 +723,24 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
         const Coord extent = hi - lo + Coord(3);
         const double cells = nSeeds ? double(extent.x()) * extent.y() * extent.z() : 0.0;
         if (nSeeds && cells <= std::max(double(1 << 20), 64.0 * double(nSeeds))) {
-            map.lo = lo - Coord(1);
-            map.n = extent;
-            map.blockIndex.assign(size_t(cells), -1);
-            map.leafState.assign(size_t(cells), 0);
+            map.lo = lo - Coord(2);
+            map.n = hi - lo + Coord(5);
+            const size_t mapSize = size_t(map.n.x()) * size_t(map.n.y()) * size_t(map.n.z());
+            map.blockIndex.assign(mapSize, -1);
+            map.leafState.assign(mapSize, 0);
+            map.leafIndex.assign(mapSize, -1);
             for (size_t i = 0; i < leaves.size(); ++i) {
                 const Coord b = leaves[i]->origin() >> 3;
-                if (b.x() < map.lo.x() || b.y() < map.lo.y() || b.z() < map.lo.z() || b.x() >= map.lo.x() + extent.x() ||
-                    b.y() >= map.lo.y() + extent.y() || b.z() >= map.lo.z() + extent.z()) {
-                    continue; // far from every seed: not in any visited block's window
-                }
+                if (!map.contains(b)) continue; // far from every seed: not in any visited block's window
+                map.leafIndex[map.index(b)] = int32_t(i);
                 map.leafState[map.index(b)] = leafStates[i];
                 if (!leafStates[i]) continue;
                 for (int d = 0; d < 8; ++d) map.blockIndex[map.index(b - Coord(d & 1, d >> 1 & 1, d >> 2 & 1))] = 0;
             }
             size_t i = 0;
-            for (int x = 0; x < extent.x(); ++x)
-                for (int y = 0; y < extent.y(); ++y)
-                    for (int z = 0; z < extent.z(); ++z, ++i) {
+            for (int x = 0; x < map.n.x(); ++x)
+                for (int y = 0; y < map.n.y(); ++y)
+                    for (int z = 0; z < map.n.z(); ++z, ++i) {
                         if (map.blockIndex[i] < 0) continue;
                         map.blockIndex[i] = int32_t(blocks.size());
                         Block block;
@@ -644,8 +761,31 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
             blocks.resize(origins.size());
             for (size_t i = 0; i < origins.size(); ++i) blocks[i].origin = origins[i];
+            sortedLeaves.reserve(leaves.size());
+            for (size_t i = 0; i < leaves.size(); ++i) sortedLeaves.emplace_back(leaves[i]->origin() >> 3, int32_t(i));
+            std::sort(sortedLeaves.begin(), sortedLeaves.end());
         }
     }
+    // The leaf at block position b (origin / 8) as an index into leaves, -1: none.
+    auto findLeaf = [&](const Coord& b) -> int32_t {
+        if (!map.blockIndex.empty()) {
+            assert(map.contains(b));
+            return map.leafIndex[map.index(b)];
+        }
+        auto it = std::lower_bound(sortedLeaves.begin(), sortedLeaves.end(), std::make_pair(b, int32_t(-1)));
+        return it != sortedLeaves.end() && it->first == b ? it->second : -1;
+    };
+    static const LeafRows kOutsideRows{};
+    // Signs of block b's vertices from its 8 leaves (no leaf: outside, since
+    // tiles at or above the isovalue in the scan box were voxelised).
+    auto loadSigns = [&](const Coord& b, SignRows& rows) {
+        const LeafRows* rowsOf[8];
+        for (int d = 0; d < 8; ++d) {
+            const int32_t l = findLeaf(b + Coord(d >> 2 & 1, d >> 1 & 1, d & 1));
+            rowsOf[d] = l >= 0 ? &leafRows[size_t(l)] : &kOutsideRows;
+        }
+        makeSignRows(rowsOf, rows);
+    };
     const size_t nBlocks = blocks.size();
     std::atomic<size_t> done{0};
     auto progress = [&](size_t n, int from, int to) {
@@ -653,46 +793,50 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
         pollInterrupter(options.interrupter, from + int(double(to - from) * double(d) / double(std::max<size_t>(nBlocks, 1))));
     };
 
-    // Pass 1: per block, crossed owned edges per group and triangles.
+    // Pass 1: per block, crossed owned edges per group and triangles, from the
+    // leaves' sign rows alone. The group of an owned edge depends on whether
+    // its min corner has x, y, z == 0: by row (x == 0, y == 0), for z == 0 and z > 0.
+    uint8_t rowGroup[4][2][kEdgeTypes];
+    for (int f = 0; f < 4; ++f)
+        for (int type = 0; type < kEdgeTypes; ++type) {
+            rowGroup[f][0][type] = uint8_t(edgeGroup(f & 1 ? 0 : 1, f & 2 ? 0 : 1, 0, type));
+            rowGroup[f][1][type] = uint8_t(edgeGroup(f & 1 ? 0 : 1, f & 2 ? 0 : 1, 1, type));
+        }
     using Accessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree>;
-    tbb::enumerable_thread_specific<Window> windows1;
     const GroupTable& groups = groupTable();
-    const EdgeOffsets offsets1(kBlock + 1), offsets2(kBlock + 3);
+    const EdgeOffsets offsets2(kBlock + 3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nBlocks, 16), [&](const tbb::blocked_range<size_t>& r) {
-        Accessor acc(*tree);
-        Window& w = windows1.local();
+        SignRows rows;
         for (size_t b = r.begin(); b != r.end(); ++b) {
             Block& block = blocks[b];
             const Coord o = block.origin;
             if (map.uniformWindow(o >> 3)) continue; // no crossed edge, no triangle
-            w.load(acc, o, kBlock + 1, dims, background, iso);
+            loadSigns(o >> 3, rows);
             uint32_t counts[kGroups] = {};
             uint32_t triangles = 0;
-            const uint8_t* in = w.inside.data();
-            if (w.uniform) {
-                block.triangleCount = 0;
-                continue;
-            }
-            constexpr int n1 = kBlock + 1;
             for (int x = 0; x < kBlock; ++x)
-                for (int y = 0; y < kBlock; ++y)
-                    for (int z = 0; z < kBlock; ++z) {
-                        const int i = (x * n1 + y) * n1 + z;
-                        const int parity = (x + y + z) & 1; // block origins are even
-                        const auto& ends = offsets1.end[parity];
-                        if (x && y && z) { // interior cell: every owned edge is in group 6
-                            uint32_t crossed = 0;
-                            for (int type = 0; type < kEdgeTypes; ++type)
-                                crossed += in[i + ends[type][0]] != in[i + ends[type][1]];
-                            counts[kGroups - 1] += crossed;
-                        } else {
-                            const uint8_t* group = groups.g[x][y][z];
-                            for (int type = 0; type < kEdgeTypes; ++type) {
-                                if (in[i + ends[type][0]] != in[i + ends[type][1]]) ++counts[group[type]];
-                            }
+                for (int y = 0; y < kBlock; ++y) {
+                    const CellRow row(rows, x, y);
+                    uint32_t t[kEdgeTypes];
+                    row.crossed(x, y, t);
+                    if (x && y) { // interior row: group 6, but group 5 (face z = 0) for types 0, 1, 3 at z = 0
+                        const uint64_t all = t[0] | t[1] << 8 | t[2] << 16 | t[3] << 24 | uint64_t(t[4]) << 32 |
+                                             uint64_t(t[5]) << 40;
+                        const uint32_t z0 = (t[0] & 1) + (t[1] & 1) + (t[3] & 1);
+                        counts[5] += z0;
+                        counts[6] += uint32_t(popcount64(all)) - z0;
+                    } else {
+                        const auto& g = rowGroup[(x == 0) | (y == 0) << 1];
+                        for (int type = 0; type < kEdgeTypes; ++type) {
+                            counts[g[0][type]] += t[type] & 1;
+                            counts[g[1][type]] += uint32_t(popcount8(t[type] & 0xFEu));
                         }
-                        triangles += tab.cases[parity][cornerMask(in, i, n1)].triangleCount;
                     }
+                    for (uint32_t m = row.mixed(); m; m &= m - 1) {
+                        const int z = lowestBit(m);
+                        triangles += tab.cases[(x + y + z) & 1][row.cellMask(z)].triangleCount;
+                    }
+                }
             block.groupOffset[0] = 0;
             for (int g = 0; g < kGroups; ++g) block.groupOffset[g + 1] = block.groupOffset[g] + counts[g];
             block.triangleCount = triangles;
@@ -710,10 +854,12 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     if (nVertices > std::numeric_limits<uint32_t>::max()) {
         throw InputError("isosurface: more than 2^32 vertices; use a higher isovalue or a smaller volume");
     }
-    mesh.positions.resize(nVertices);
-    if (options.normals) mesh.normals.resize(nVertices);
-    mesh.indices.resize(nTriangles * 3);
-    mesh.triangleVoxels.resize(nTriangles);
+    // The four arrays are value-initialised concurrently (std::vector writes
+    // them once before pass 2 does; the page faults are most of that cost).
+    tbb::parallel_invoke([&] { resizeOutput(mesh.positions, nVertices); },
+                         [&] { resizeOutput(mesh.normals, options.normals ? nVertices : 0); },
+                         [&] { resizeOutput(mesh.indices, nTriangles * 3); },
+                         [&] { resizeOutput(mesh.triangleVoxels, nTriangles); });
 
     auto findBlock = [&](const Coord& origin) -> const Block* {
         if (!map.blockIndex.empty()) {
@@ -740,7 +886,8 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     // Pass 2: vertices of owned edges, indices of neighbours' edges, triangles.
     struct Scratch
     {
-        Window window;
+        ValueWindow window;
+        SignRows rows;
         std::vector<uint32_t> slots = std::vector<uint32_t>(size_t(kSlotN) * kSlotN * kSlotN * kEdgeTypes);
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
@@ -750,16 +897,28 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nBlocks, 16), [&](const tbb::blocked_range<size_t>& r) {
         Accessor acc(*tree);
         Scratch& s = scratch.local();
-        Window& w = s.window;
+        const SignRows& rows = s.rows;
         uint32_t* slots = s.slots.data();
         auto slotIndex = [&](int x, int y, int z, int type) { return ((x * kSlotN + y) * kSlotN + z) * kEdgeTypes + type; };
+        auto insideAt = [&](const Coord& local) { return rows[size_t(local.x() * kSignN + local.y())] >> local.z() & 1; };
         for (size_t b = r.begin(); b != r.end(); ++b) {
             const Block& block = blocks[b];
             if (block.groupOffset[kGroups] == 0 && block.triangleCount == 0) continue;
             const Coord o = block.origin;
-            w.load(acc, o - Coord(1), kBlock + 3, dims, background, iso);
-            const uint8_t* in = w.inside.data();
-            const float* val = w.values.data();
+            const Coord bc = o >> 3;
+            loadSigns(bc, s.rows);
+            {
+                const float* leaf[27];
+                float tile[27];
+                for (int l = 0; l < 27; ++l) {
+                    const Coord lb = bc + Coord(l / 9 - 1, l / 3 % 3 - 1, l % 3 - 1);
+                    const int32_t li = findLeaf(lb);
+                    leaf[l] = li >= 0 ? leaves[size_t(li)]->buffer().data() : nullptr;
+                    tile[l] = li >= 0 ? 0.0f : acc.getValue(Coord(lb.x() * 8, lb.y() * 8, lb.z() * 8));
+                }
+                s.window.load(leaf, tile, o, dims, background);
+            }
+            const float* val = s.window.values.data();
             constexpr int n2 = kBlock + 3;
             constexpr int nn = n2 * n2;
 
@@ -767,14 +926,21 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
             uint32_t next[kGroups];
             for (int g = 0; g < kGroups; ++g) next[g] = uint32_t(block.vertexBase) + block.groupOffset[g];
             for (int x = 0; x < kBlock; ++x)
-                for (int y = 0; y < kBlock; ++y)
-                    for (int z = 0; z < kBlock; ++z) {
+                for (int y = 0; y < kBlock; ++y) {
+                    uint32_t crossed[kEdgeTypes];
+                    CellRow(rows, x, y).crossed(x, y, crossed);
+                    uint32_t any = 0;
+                    for (int type = 0; type < kEdgeTypes; ++type) any |= crossed[type];
+                    for (; any; any &= any - 1) {
+                        const int z = lowestBit(any);
                         const int i = ((x + 1) * n2 + y + 1) * n2 + z + 1; // window starts at o - 1
                         const int parity = (x + y + z) & 1;
                         const auto& ends = offsets2.end[parity];
-                        for (int type = 0; type < kEdgeTypes; ++type) {
+                        uint32_t types = 0; // crossed edge types of cell z, bit per type
+                        for (int type = 0; type < kEdgeTypes; ++type) types |= (crossed[type] >> z & 1) << type;
+                        for (; types; types &= types - 1) {
+                            const int type = lowestBit(types);
                             const int i0 = i + ends[type][0], i1 = i + ends[type][1];
-                            if (in[i0] == in[i1]) continue;
                             Coord p0, p1;
                             edgeEnds(o + Coord(x, y, z), type, p0, p1);
                             const uint32_t v = next[groups.g[x][y][z][type]]++;
@@ -793,13 +959,14 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                             if (len > 0.0f && std::isfinite(len)) {
                                 g /= len;
                             } else { // flat field: from the inside end towards the outside end
-                                const float sign = in[i0] ? 1.0f : -1.0f;
+                                const float sign = insideAt(p0 - o) ? 1.0f : -1.0f;
                                 for (int a = 0; a < 3; ++a) g[a] = sign * float((p1[a] - p0[a]) * geom.spacing[a]);
                                 g /= std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
                             }
                             mesh.normals[v] = g;
                         }
                     }
+                }
 
             // Edges in the upper faces: owned by the +x/+y/+z neighbours, which
             // number them first in their lower lines and faces; rank them here
@@ -808,24 +975,30 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                 const Coord d(offset & 1, offset >> 1 & 1, offset >> 2 & 1);
                 const Block* owner = findBlock(o + Coord(d.x() * kBlock, d.y() * kBlock, d.z() * kBlock));
                 if (!owner) continue; // no crossed edge there (its owner would have been visited)
-                uint32_t rank[kGroups];
-                for (int g = 0; g < kGroups; ++g) rank[g] = uint32_t(owner->vertexBase) + owner->groupOffset[g];
-                for (const UpperEdge& e : upper.edges[offset]) {
-                    if (in[e.i0] != in[e.i1]) slots[e.slot] = rank[e.group]++;
+                uint32_t rank[kGroups], remaining = 0; // crossed edges of those groups, all in the list
+                for (int g = 0; g < kGroups; ++g) {
+                    rank[g] = uint32_t(owner->vertexBase) + owner->groupOffset[g];
+                    if (upper.groupMask[offset] >> g & 1) remaining += owner->groupOffset[g + 1] - owner->groupOffset[g];
+                }
+                for (auto e = upper.edges[offset].begin(); remaining; ++e) {
+                    assert(e != upper.edges[offset].end());
+                    if ((rows[e->row0] >> e->z0 ^ rows[e->row1] >> e->z1) & 1) {
+                        slots[e->slot] = rank[e->group]++;
+                        --remaining;
+                    }
                 }
             }
 
             // Triangles, cell by cell.
             uint64_t t = block.triangleBase;
             for (int x = 0; x < kBlock; ++x)
-                for (int y = 0; y < kBlock; ++y)
-                    for (int z = 0; z < kBlock; ++z) {
-                        const int i = ((x + 1) * n2 + y + 1) * n2 + z + 1;
-                        const uint8_t m = cornerMask(in, i, n2);
-                        if (m == 0 || m == 255) continue;
+                for (int y = 0; y < kBlock; ++y) {
+                    const CellRow row(rows, x, y);
+                    for (uint32_t mixed = row.mixed(); mixed; mixed &= mixed - 1) {
+                        const int z = lowestBit(mixed);
                         const Coord c = o + Coord(x, y, z);
-                        const int parity = cellParity(c.x(), c.y(), c.z());
-                        const CellCase& cc = tab.cases[parity][m];
+                        const int parity = (x + y + z) & 1;
+                        const CellCase& cc = tab.cases[parity][row.cellMask(z)];
                         const uint32_t* cellSlots = slots + slotIndex(x, y, z, 0);
                         for (int k = 0; k < cc.triangleCount; ++k, ++t) {
                             for (int j = 0; j < 3; ++j) {
@@ -834,6 +1007,7 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                             mesh.triangleVoxels[t] = glm::ivec3(c.x(), c.y(), c.z());
                         }
                     }
+                }
         }
         progress(r.size(), 30, 100);
     });
