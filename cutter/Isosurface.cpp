@@ -231,6 +231,7 @@ const GroupTable& groupTable()
 struct EdgeOffsets
 {
     int end[2][6][2];
+    Coord delta[2][6][2]; ///< the ends minus c (edgeEnds without its branches)
     explicit EdgeOffsets(int n)
     {
         for (int parity = 0; parity < 2; ++parity) {
@@ -238,6 +239,8 @@ struct EdgeOffsets
             for (int type = 0; type < 6; ++type) {
                 Coord p0, p1;
                 edgeEnds(c, type, p0, p1);
+                delta[parity][type][0] = p0 - c;
+                delta[parity][type][1] = p1 - c;
                 end[parity][type][0] = ((p0.x() - c.x()) * n + (p0.y() - c.y())) * n + (p0.z() - c.z());
                 end[parity][type][1] = ((p1.x() - c.x()) * n + (p1.y() - c.y())) * n + (p1.z() - c.z());
             }
@@ -934,15 +937,16 @@ Mesh extractIsosurface(const vdb::Volume& volume, float iso, const IsosurfaceOpt
                     for (; any; any &= any - 1) {
                         const int z = lowestBit(any);
                         const int i = ((x + 1) * n2 + y + 1) * n2 + z + 1; // window starts at o - 1
-                        const int parity = (x + y + z) & 1;
+                        const int parity = (x + y + z) & 1; // = the global parity: block origins are even
                         const auto& ends = offsets2.end[parity];
+                        const Coord cell = o + Coord(x, y, z);
                         uint32_t types = 0; // crossed edge types of cell z, bit per type
                         for (int type = 0; type < kEdgeTypes; ++type) types |= (crossed[type] >> z & 1) << type;
                         for (; types; types &= types - 1) {
                             const int type = lowestBit(types);
                             const int i0 = i + ends[type][0], i1 = i + ends[type][1];
-                            Coord p0, p1;
-                            edgeEnds(o + Coord(x, y, z), type, p0, p1);
+                            const Coord p0 = cell + offsets2.delta[parity][type][0];
+                            const Coord p1 = cell + offsets2.delta[parity][type][1];
                             const uint32_t v = next[groups.g[x][y][z][type]]++;
                             slots[slotIndex(x, y, z, type)] = v;
                             const double t = edgeCrossing(val[i0], val[i1], iso);
