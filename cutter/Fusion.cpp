@@ -218,31 +218,24 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
             for (size_t t = from; t < to; ++t) source->push_back(uint32_t(t));
         from = to;
     };
+    // A patched uncut triangle: its new corners, or nothing when it collapsed.
+    auto emitPatch = [&](const std::pair<uint32_t, std::array<uint32_t, 3>>& patch) {
+        copyTo(patch.first);
+        const auto& tri = patch.second;
+        if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
+            m.indices.insert(m.indices.end(), tri.begin(), tri.end());
+            m.triangleVoxels.push_back(mUncut.triangleVoxels[patch.first]);
+            if (source) source->push_back(patch.first);
+        }
+        from = size_t(patch.first) + 1;
+    };
     size_t p = 0;
     for (const auto& run : cutRuns) {
-        for (; p < patches.size() && patches[p].first < run.first; ++p) {
-            copyTo(patches[p].first);
-            const auto& tri = patches[p].second;
-            if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
-                m.indices.insert(m.indices.end(), tri.begin(), tri.end());
-                m.triangleVoxels.push_back(mUncut.triangleVoxels[patches[p].first]);
-                if (source) source->push_back(patches[p].first);
-            }
-            from = patches[p].first + 1;
-        }
+        for (; p < patches.size() && patches[p].first < run.first; ++p) emitPatch(patches[p]);
         copyTo(run.first);
         from = size_t(run.first) + run.second;
     }
-    for (; p < patches.size(); ++p) {
-        copyTo(patches[p].first);
-        const auto& tri = patches[p].second;
-        if (tri[0] != tri[1] && tri[1] != tri[2] && tri[0] != tri[2]) {
-            m.indices.insert(m.indices.end(), tri.begin(), tri.end());
-            m.triangleVoxels.push_back(mUncut.triangleVoxels[patches[p].first]);
-            if (source) source->push_back(patches[p].first);
-        }
-        from = patches[p].first + 1;
-    }
+    for (; p < patches.size(); ++p) emitPatch(patches[p]);
     copyTo(nt);
     // Then the cut cells' triangles, cells ascending.
     const size_t firstNew = m.triangleCount();
