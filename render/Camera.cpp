@@ -24,7 +24,10 @@ glm::mat4 Camera::view() const
 
 glm::mat4 Camera::projection(double aspect) const
 {
-    return glm::mat4(glm::perspective(glm::radians(fovYDegrees), aspect, nearMm, farMm));
+    const glm::dmat4 p = glm::perspective(glm::radians(fovYDegrees), aspect, nearMm, farMm);
+    if (lensShift == glm::dvec2(0.0)) return glm::mat4(p);
+    // Clip-space translation by shift * w: NDC moves by the shift.
+    return glm::mat4(glm::translate(glm::dmat4(1.0), glm::dvec3(lensShift, 0.0)) * p);
 }
 
 namespace {
@@ -79,8 +82,8 @@ glm::dvec3 Camera::worldPointAt(double x, double y, int width, int height, doubl
     const glm::dvec3 trueUp = glm::cross(right, forward);
     const double tanHalf = std::tan(glm::radians(fovYDegrees) / 2.0);
     const double aspect = double(width) / double(std::max(height, 1));
-    const double ndcX = 2.0 * x / double(std::max(width, 1)) - 1.0;
-    const double ndcY = 1.0 - 2.0 * y / double(std::max(height, 1));
+    const double ndcX = 2.0 * x / double(std::max(width, 1)) - 1.0 - lensShift.x;
+    const double ndcY = 1.0 - 2.0 * y / double(std::max(height, 1)) - lensShift.y;
     return eye + viewDepth * (forward + ndcX * tanHalf * aspect * right + ndcY * tanHalf * trueUp);
 }
 

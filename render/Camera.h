@@ -3,6 +3,7 @@
 #pragma once
 
 #include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include <string>
@@ -25,6 +26,11 @@ struct Camera
     glm::dvec3 up{0.0, 0.0, 1.0};
     double fovYDegrees = 30.0; ///< vertical field of view
     double nearMm = 0.1, farMm = 1000.0;
+    /// Where the view direction meets the image, in normalised device
+    /// coordinates (x right, y up; 0 = the image centre): an off-centre
+    /// frustum, so the viewer can centre the scene right of its panel while
+    /// orbiting about the scene's centre. 0 for `mtcut render`.
+    glm::dvec2 lensShift{0.0};
 
     glm::mat4 view() const;
     glm::mat4 projection(double aspect) const; ///< aspect = width / height

@@ -87,6 +87,9 @@ public:
     /// The off-screen framebuffer (colour in attachment 0), e.g. to blit
     /// the last frame to a window.
     GLuint framebuffer() const { return mFbo.id(); }
+    /// The last frame's depth buffer (GL_DEPTH_COMPONENT32F, window-space
+    /// depth, bottom-up), e.g. for BladeOverlay to test against.
+    GLuint depthTexture() const { return mDepth.id(); }
 
     /// The cut mask on the GPU (null before setCutCells).
     const MaskAtlas* maskAtlas() const { return mAtlas.get(); }

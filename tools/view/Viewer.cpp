@@ -2,6 +2,7 @@
 
 #include "cutter/PathFile.h"
 #include "cutter/PoseStream.h"
+#include "render/BladeOverlay.h"
 #include "render/Camera.h"
 #include "render/Context.h"
 #include "render/Frame.h"
@@ -162,9 +163,7 @@ private:
 
     // GL
     std::unique_ptr<render::SurfaceRenderer> mRenderer;
-    render::Program mFlat;
-    render::VertexArray mBladeVao;
-    render::Buffer mBladeBuffer;
+    std::unique_ptr<render::BladeOverlay> mBlade;
     std::unique_ptr<render::GpuTimer> mTimer;
 
     // scene
@@ -233,12 +232,7 @@ Viewer::Viewer(const ViewerOptions& options)
             viewer->mSession.open(paths[0], std::numeric_limits<float>::quiet_NaN());
         }
     });
-    mFlat = render::buildProgram(std::vector<std::string>{"flat.vert", "flat.frag"});
-    mBladeBuffer.setData(16 * sizeof(glm::vec3), nullptr, GL_DYNAMIC_DRAW);
-    glVertexArrayVertexBuffer(mBladeVao.id(), 0, mBladeBuffer.id(), 0, GLsizei(sizeof(glm::vec3)));
-    glEnableVertexArrayAttrib(mBladeVao.id(), 0);
-    glVertexArrayAttribFormat(mBladeVao.id(), 0, 3, GL_FLOAT, GL_FALSE, 0);
-    glVertexArrayAttribBinding(mBladeVao.id(), 0, 0);
+    mBlade = std::make_unique<render::BladeOverlay>();
     mTimer = std::make_unique<render::GpuTimer>();
 
     std::snprintf(mOpenPath, sizeof mOpenPath, "%s", options.input.c_str());
@@ -308,18 +302,12 @@ void Viewer::updateCamera()
     const double free = double(mWidth) - mPanelRight;
     if (!mPreset.empty() && mOptions.script.empty() && mPanelRight > 0.0 && free >= 0.3 * mWidth) {
         // Interactive window: frame the preset in the area right of the panel
-        // (its aspect), then move eye and target sideways so the target lies
-        // at that area's centre. Screenshots use presetCamera() (the whole
-        // image, as `mtcut render`); a script never gets here.
+        // (its aspect), with the lens shifted so the scene's centre, still the
+        // target an orbit turns about, is seen at that area's centre.
+        // Screenshots use presetCamera() (the whole image, as `mtcut
+        // render`); a script never gets here.
         mCamera = render::cameraFor(mPreset, sceneBounds(), free / mHeight);
-        const glm::dvec3 forward = glm::normalize(mCamera.target - mCamera.eye);
-        const glm::dvec3 right = glm::normalize(glm::cross(forward, mCamera.up));
-        const double distance = glm::length(mCamera.target - mCamera.eye);
-        const double mmPerPixel = 2.0 * distance * std::tan(glm::radians(mCamera.fovYDegrees) / 2.0) / mHeight;
-        const glm::dvec3 shift = -0.5 * mPanelRight * mmPerPixel * right;
-        mCamera.eye += shift;
-        mCamera.target += shift;
-        render::fitDepth(mCamera, sceneBounds());
+        mCamera.lensShift = glm::dvec2(mPanelRight / mWidth, 0.0);
     } else if (!mPreset.empty()) {
         mCamera = presetCamera();
     } else {
@@ -819,31 +807,12 @@ void Viewer::renderFrame()
     if (cutting || streamed || mHaveHover) {
         auto pass = mTimer->scope("blade");
         cutter::Pose p = streamed ? mShown->blade : cutting ? bladeAt(mLastX, mLastY, 0.0) : mHover;
-        // The blade as a thin strip facing the viewer, from its base to its tip.
+        // Faded where the bone is in front of it (BladeOverlay).
         const glm::dvec3 tip = p.base + p.length * glm::normalize(p.direction);
-        const glm::dvec3 toEye = glm::normalize(mCamera.eye - p.base);
-        glm::dvec3 side = glm::cross(p.direction, toEye);
-        side = glm::length(side) > 1e-9 ? glm::normalize(side) : glm::dvec3(1, 0, 0);
-        const double w = 0.004 * glm::length(mCamera.eye - mCamera.target);
-        const glm::vec3 quad[4] = {glm::vec3(p.base - w * side), glm::vec3(p.base + w * side),
-                                   glm::vec3(tip - w * side), glm::vec3(tip + w * side)};
-        glNamedBufferSubData(mBladeBuffer.id(), 0, sizeof quad, quad);
-        const glm::mat4 vp = mCamera.projection(double(mWidth) / mHeight) * mCamera.view();
-        glBindFramebuffer(GL_FRAMEBUFFER, 0);
-        glViewport(0, 0, mWidth, mHeight);
-        glDisable(GL_DEPTH_TEST);
-        glDisable(GL_CULL_FACE);
-        glEnable(GL_BLEND);
-        glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-        mFlat.use();
-        glProgramUniformMatrix4fv(mFlat.id(), mFlat.uniform("uViewProjection"), 1, GL_FALSE, glm::value_ptr(vp));
+        const double w = 0.008 * glm::length(mCamera.eye - mCamera.target);
         const glm::vec4 colour = cutting || streamed ? glm::vec4(0.30f, 0.75f, 1.0f, 0.85f) : glm::vec4(0.30f, 0.75f, 1.0f, 0.35f);
-        glProgramUniform4fv(mFlat.id(), mFlat.uniform("uColour"), 1, glm::value_ptr(colour));
-        glBindVertexArray(mBladeVao.id());
-        glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
-        glBindVertexArray(0);
-        glUseProgram(0);
-        glDisable(GL_BLEND);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        mBlade->draw(mCamera, mWidth, mHeight, p.base, tip, w, colour, 0.3f, mRenderer->depthTexture());
     }
     {
         auto pass = mTimer->scope("ui");
