@@ -1,19 +1,20 @@
-// Cuts of a given size for the benchmarks: straight zero-kerf strokes through
-// bone whose cut-cell counts are close to a target (the paper's Table 1 uses
-// 419, 3,638 and 11,716 cut voxels). The stroke construction of bench_cut.cpp
-// (its file comment explains it), made reusable: bench_render uses it now;
-// bench_cut keeps its own copy until it moves to this header.
+// Cuts of a given size for the benchmarks: straight strokes (of the caller's
+// kerf) through bone whose cut-cell counts are close to a target (the paper's
+// Table 1 uses 419, 3,638 and 11,716 cut voxels). bench_cut and bench_render
+// both take their strokes from here, so they cut the same strokes.
 //
 // The stroke: in a horizontal plane (half a voxel off the grid planes), the
 // base sweeping along +x in front of the face (3 mm in front of the first
 // bone at the centre), the blade pointing posterior (+y) with length B, the
-// sweep 1.5 B long; B binary-searched for the target count. Poses every 0.25
-// voxel at 1 kHz -> filterStroke -> quads, as mtcut cut does. When the
-// re-mesher refuses a stroke, variants are tried in order: shifted and turned
-// ("tip"), ones whose tip line holds no bone surface ("air"), then
-// through-cuts.
+// sweep 1.5 B long; B binary-searched for the target count (cut cells = the
+// mask's cells, air included). Poses every 0.25 voxel at 1 kHz ->
+// filterStroke -> quads, as mtcut cut does. When the re-mesher refuses a
+// stroke (it throws for some configurations), variants are tried in order
+// (see StrokeKind): shifted and turned ("tip"), ones whose tip line holds no
+// bone surface ("air"), then through-cuts.
 #pragma once
 
+#include "benchmarks/BenchUtil.h"
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 #include "cutter/Mesh.h"
@@ -23,7 +24,6 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -80,7 +80,17 @@ inline void locateCutPlane(CutScene& sc, double planeIndexZ)
     sc.yFront = f.toWorld(glm::dvec3(0, double(yFirst), 0)).y;
 }
 
-/// Stroke variants (as bench_cut): 0..3 tip, 4..7 air, 8..11 through.
+/// Stroke variants, tried in order while the re-mesher refuses them:
+///   0..3   "tip": the blade's tip stops inside the head (a partial-depth
+///          cut); blade length s and sweep 1.5 s, s binary-searched;
+///   4..7   "air": the axis-aligned stroke with the blade length moved off the
+///          searched one until no cell along its tip line holds bone surface
+///          (the re-mesher refuses tips inside bone often, see RESULTS.md),
+///          sweep length chosen to keep the cut's area;
+///   8..11  "through": the tip beyond the scan box, sweep length searched.
+/// Within a kind, variant v' > 0 shifts the stroke (base, plane height) and,
+/// for tip and through, turns it: blade pitched down 2v' degrees, sweep
+/// yawed 1.5v' degrees.
 enum class StrokeKind { Tip, Air, Through };
 constexpr int kStrokesPerKind = 4;
 constexpr int kStrokeVariants = 3 * kStrokesPerKind;
@@ -145,7 +155,8 @@ inline size_t cutCellsOf(const CutScene& sc, const std::vector<cutter::Quad>& qu
     return mask.cutCellCount();
 }
 
-/// Size parameter whose stroke cuts closest to `target` cells (*cells: that count).
+/// Size parameter (blade length, or sweep length for through-cuts) whose
+/// stroke cuts closest to `target` cells (*cells: that count).
 inline double searchStrokeSize(const CutScene& sc, size_t target, int variant, double kerf, size_t* cells)
 {
     double lo = 2.0 * sc.frame.spacing.y, hi = 400.0;
@@ -191,8 +202,9 @@ inline size_t tipSurfaceCells(const CutScene& sc, double B, double L)
     return n;
 }
 
-/// The k-th "air" stroke: blade length moved off `bestB` in half-voxel steps
-/// until the tip line holds no bone surface; the sweep keeps the area.
+/// The k-th "air" stroke: blade length moved off `bestB` (the tip search's)
+/// in half-voxel steps, alternately longer and shorter, up to 35%, until the
+/// tip line holds no bone surface; the sweep keeps the area (1.5 bestB^2).
 inline bool airStrokeSize(const CutScene& sc, double bestB, int k, double* B, double* L)
 {
     const double h = 0.5 * sc.frame.spacing.y;
@@ -209,6 +221,49 @@ inline bool airStrokeSize(const CutScene& sc, double bestB, int k, double* B, do
                 return true;
             }
         }
+    return false;
+}
+
+/// One stroke variant near a target cut-cell count, ready for a re-mesher.
+struct CandidateStroke
+{
+    int variant = 0;
+    double blade = 0.0; ///< blade length, mm
+    std::vector<cutter::Pose> poses;
+    std::vector<cutter::Quad> quads;       ///< filterStroke of the poses
+    std::unique_ptr<cutter::CutMask> mask; ///< the quads, as one stroke
+    /// The base's travel from the first pose to the last, mm.
+    double sweep() const { return glm::length(poses.back().base - poses.front().base); }
+};
+
+/// Builds the stroke variants near `target` cut cells in order (see
+/// StrokeKind; an air variant is skipped when no blade length clears its tip
+/// line) and hands each to `tryStroke` until it returns true: it accepted the
+/// stroke (it may move what it keeps out of the candidate) or gives up.
+/// Returns false when no call returned true.
+inline bool forEachCutStroke(const CutScene& sc, size_t target, double kerf,
+                             const std::function<bool(CandidateStroke&)>& tryStroke)
+{
+    double tipBlade = 0.0; // variant 0's blade length
+    for (int variant = 0; variant < kStrokeVariants; ++variant) {
+        size_t cells = 0;
+        double B = 0.0, L = 0.0;
+        if (strokeKindOf(variant) == StrokeKind::Air) {
+            if (!airStrokeSize(sc, tipBlade, variant - kStrokesPerKind, &B, &L)) continue;
+        } else {
+            std::tie(B, L) = strokeSize(sc, searchStrokeSize(sc, target, variant, kerf, &cells), variant);
+            if (variant == 0) tipBlade = B;
+        }
+        CandidateStroke c;
+        c.variant = variant;
+        c.blade = B;
+        c.poses = makeCutStroke(sc, B, L, variant);
+        c.quads = cutter::filterStroke(c.poses, sc.frame);
+        c.mask = std::make_unique<cutter::CutMask>(sc.frame, kerf);
+        c.mask->beginStroke();
+        for (const cutter::Quad& q : c.quads) c.mask->addQuad(q);
+        if (tryStroke(c)) return true;
+    }
     return false;
 }
 
@@ -236,42 +291,29 @@ inline SizedCut chooseCut(const CutScene& sc, size_t target, double kerf,
 {
     SizedCut cut;
     cut.target = target;
-    double tipBlade = 0.0;
-    for (int variant = 0; variant < kStrokeVariants; ++variant) {
-        size_t cells = 0;
-        double B = 0.0, L = 0.0;
-        if (strokeKindOf(variant) == StrokeKind::Air) {
-            if (!airStrokeSize(sc, tipBlade, variant - kStrokesPerKind, &B, &L)) continue;
-        } else {
-            std::tie(B, L) = strokeSize(sc, searchStrokeSize(sc, target, variant, kerf, &cells), variant);
-            if (variant == 0) tipBlade = B;
-        }
-        std::vector<cutter::Pose> poses = makeCutStroke(sc, B, L, variant);
-        std::vector<cutter::Quad> quads = cutter::filterStroke(poses, sc.frame);
-        auto mask = std::make_unique<cutter::CutMask>(sc.frame, kerf);
-        mask->beginStroke();
-        for (const cutter::Quad& q : quads) mask->addQuad(q);
+    const bool ok = forEachCutStroke(sc, target, kerf, [&](CandidateStroke& c) {
         try {
             auto remesher = std::make_unique<cutter::CutRemesher>(*sc.vol, sc.iso, *sc.uncut);
-            const auto t0 = std::chrono::steady_clock::now();
-            remesher->update(*mask);
-            cut.remeshMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+            const auto t0 = Clock::now();
+            remesher->update(*c.mask);
+            cut.remeshMs = msSince(t0);
             cut.ok = true;
-            cut.variant = variant;
-            cut.cells = mask->cutCellCount();
-            cut.blade = B;
-            cut.sweep = glm::length(poses.back().base - poses.front().base);
-            cut.poses = std::move(poses);
-            cut.quads = std::move(quads);
-            cut.mask = std::move(mask);
+            cut.variant = c.variant;
+            cut.cells = c.mask->cutCellCount();
+            cut.blade = c.blade;
+            cut.sweep = c.sweep();
+            cut.poses = std::move(c.poses);
+            cut.quads = std::move(c.quads);
+            cut.mask = std::move(c.mask);
             cut.remesher = std::move(remesher);
-            return cut;
+            return true;
         } catch (const std::exception& e) {
             ++cut.refused;
-            if (onRefused) onRefused(variant, e.what());
+            if (onRefused) onRefused(c.variant, e.what());
+            return false;
         }
-    }
-    cut.note = "every stroke refused";
+    });
+    if (!ok) cut.note = "every stroke refused";
     return cut;
 }
 

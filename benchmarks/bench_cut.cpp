@@ -30,17 +30,16 @@
 //   kernel: remeshCell() over every cut cell, from outside (kernel alone).
 // Times are medians of --runs repeats (steps: runs x kSteps samples).
 //
-// The stroke: in a horizontal plane at the LeFort I level (phantom: its
-// leFortZ landmark; head: 0.32 of the box height), half a voxel off the grid
-// planes, the base sweeping along +x in front of the face (3 mm in front of
-// the first bone at the centre), the blade pointing posterior (+y) with length
-// B and the sweep 1.5 B long; B is binary-searched for each target cell
-// count (cut cells = the mask's cells, air included; "surface cells" are
-// those with new geometry). Poses every 0.25 voxel at 1 kHz -> PathFilter ->
-// quads, as mtcut cut does. When the remesher refuses a stroke (it throws for
-// some configurations) other strokes are tried in order (see kindOf): shifted
-// and turned ones, then ones whose tip line holds no bone surface ("air"),
-// then through-cuts; the count of refused strokes is printed.
+// The stroke (benchmarks/BenchCuts.h, shared with bench_render): in a
+// horizontal plane at the LeFort I level (phantom: its leFortZ landmark;
+// head: 0.32 of the box height), half a voxel off the grid planes, the base
+// sweeping along +x in front of the face, the blade pointing posterior; its
+// length binary-searched for each target cell count (cut cells = the mask's
+// cells, air included; "surface cells" are those with new geometry). When
+// the remesher refuses a stroke (it throws for some configurations) the other
+// variants of BenchCuts.h are tried in order (see StrokeKind): shifted and
+// turned ones, then ones whose tip line holds no bone surface ("air"), then
+// through-cuts; the count of refused strokes is printed.
 //
 // Usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only]
 //                  [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]
@@ -53,6 +52,8 @@
 //          fusedMesh, chained), so a speed-up can be checked bit-identical:
 //          run before and after with the same arguments and diff the
 //          "case=hash" lines.
+#include "benchmarks/BenchCuts.h"
+#include "benchmarks/BenchUtil.h"
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
@@ -70,8 +71,6 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -80,17 +79,17 @@
 #include <memory>
 #include <sstream>
 #include <string>
-#include <tuple>
 #include <vector>
 
 using namespace mtcut;
 using namespace mtcut::cutter;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
+using bench::median;
+using bench::msSince;
 using openvdb::Coord;
 
 namespace {
 
-constexpr double kAspect = 1.5; // sweep length / blade length
 constexpr int kSteps = 8;       // haptic steps per run
 bool gBaselines = true;         // --no-baselines: ours only (for profiling)
 std::string gDumpDir;           // --dump DIR: write refused strokes there as path files
@@ -135,218 +134,43 @@ uint64_t cellsHash(const CutRemesher& r)
     return h;
 }
 
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v)
-{
-    if (v.empty()) return std::nan("");
-    std::sort(v.begin(), v.end());
-    const size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
+/// A volume with its isosurface; `scene` (the strokes' plane, BenchCuts.h)
+/// points at them, so a VolumeCase is not copied.
 struct VolumeCase
 {
-    std::string name;
     vdb::Volume vol;
-    float iso = 400.0f;
     Mesh uncut;
-    IndexFrame frame;
-    double planeZ = 0.0;  // world z of the cut plane (half a voxel off the grid planes)
-    double xCentre = 0.0; // world x of the centre of the bone in that plane
-    double yFront = 0.0;  // world y of the first bone in front, near xCentre
+    bench::CutScene scene; ///< name, iso, frame and cut plane
     // Baseline (b): the bone as a level set, built once.
     openvdb::FloatGrid::Ptr boneLs;
     double lsVoxel = 1.0;
     double lsBuildS = 0.0;
     size_t vdbBoneTris = 0;
+
+    VolumeCase() = default;
+    VolumeCase(const VolumeCase&) = delete;
+    VolumeCase& operator=(const VolumeCase&) = delete;
 };
-
-/// Locates the cut plane and the face in the volume (see the file comment).
-void locateStroke(VolumeCase& vc, double planeIndexZ)
-{
-    const IndexFrame& f = vc.frame;
-    const int kz = int(std::floor(planeIndexZ));
-    vc.planeZ = f.toWorld(glm::dvec3(0, 0, double(kz) + 0.5)).z;
-    auto acc = vc.vol.grid->getConstAccessor();
-    int xMin = f.dims.x, xMax = -1;
-    for (int j = 0; j < f.dims.y; ++j)
-        for (int i = 0; i < f.dims.x; ++i)
-            if (acc.getValue(Coord(i, j, kz)) >= vc.iso) {
-                xMin = std::min(xMin, i);
-                xMax = std::max(xMax, i);
-            }
-    if (xMax < 0) throw std::runtime_error(vc.name + ": no bone in the cut plane");
-    const double xc = 0.5 * (xMin + xMax);
-    vc.xCentre = f.toWorld(glm::dvec3(xc, 0, 0)).x;
-    const int half = int(std::ceil(20.0 / f.spacing.x));
-    int yFirst = f.dims.y;
-    for (int i = std::max(0, int(xc) - half); i <= std::min(f.dims.x - 1, int(xc) + half); ++i)
-        for (int j = 0; j < yFirst; ++j)
-            if (acc.getValue(Coord(i, j, kz)) >= vc.iso) {
-                yFirst = j;
-                break;
-            }
-    vc.yFront = f.toWorld(glm::dvec3(0, double(yFirst), 0)).y;
-}
-
-/// Stroke variants, tried in order while the remesher refuses them:
-///   0..3   "tip": the blade's tip stops inside the head (a partial-depth
-///          cut); blade length s and sweep 1.5 s, s binary-searched;
-///   4..7   "air": the axis-aligned stroke with the blade length moved off the
-///          searched one until no cell along its tip line holds bone surface
-///          (the remesher refuses tips inside bone often, see RESULTS.md),
-///          sweep length chosen to keep the cut's area;
-///   8..11  "through": the tip beyond the scan box, sweep length searched.
-/// Within a kind, variant v' > 0 shifts the stroke (base, plane height) and,
-/// for tip and through, turns it: blade pitched down 2v' degrees, sweep
-/// yawed 1.5v' degrees.
-enum class Kind { Tip, Air, Through };
-constexpr int kPerKind = 4;
-constexpr int kVariants = 3 * kPerKind;
-Kind kindOf(int variant) { return variant < kPerKind ? Kind::Tip : variant < 2 * kPerKind ? Kind::Air : Kind::Through; }
-const char* kindName(int variant)
-{
-    const Kind k = kindOf(variant);
-    return k == Kind::Tip ? "tip" : k == Kind::Air ? "air" : "through";
-}
-
-double frontY(const VolumeCase& vc, int v) { return vc.yFront - 3.0 - 0.37 * v; }
-double throughBlade(const VolumeCase& vc)
-{
-    const double yBox = vc.frame.toWorld(glm::dvec3(vc.frame.dims) - 1.0).y;
-    return (yBox - frontY(vc, 0)) * 1.2 + 10.0;
-}
-
-/// The straight stroke of blade length B and sweep length L (world mm).
-std::vector<Pose> makeCutStroke(const VolumeCase& vc, double B, double L, int variant)
-{
-    const IndexFrame& f = vc.frame;
-    const Kind kind = kindOf(variant);
-    const int v = kind == Kind::Air ? 0 : variant % kPerKind;
-    const double y0 = frontY(vc, v);
-    const double deg = M_PI / 180.0;
-    const double pitch = 2.0 * v * deg, yaw = 1.5 * v * deg;
-    const glm::dvec3 dir(0.0, std::cos(pitch), -std::sin(pitch));
-    const glm::dvec3 sweep(std::cos(yaw), std::sin(yaw), 0.0);
-    const glm::dvec3 centre(vc.xCentre + 0.37 * v * f.spacing.x, y0,
-                            vc.planeZ + 0.07 * v * f.spacing.z + (kind == Kind::Tip ? 0.5 * B * std::sin(pitch) : 0.0));
-    const int steps = std::max(1, int(std::ceil(L / (0.25 * f.spacing.x))));
-    std::vector<Pose> poses;
-    for (int i = 0; i <= steps; ++i) {
-        Pose p;
-        p.time = 0.001 * i;
-        p.base = centre + (L * (double(i) / steps - 0.5) + 0.37 * f.spacing.x) * sweep;
-        p.direction = dir;
-        p.length = B;
-        poses.push_back(p);
-    }
-    return poses;
-}
-
-/// Blade and sweep length for size parameter s of a tip or through variant.
-std::pair<double, double> strokeSize(const VolumeCase& vc, double s, int variant)
-{
-    return kindOf(variant) == Kind::Through ? std::make_pair(throughBlade(vc), s) : std::make_pair(s, kAspect * s);
-}
-
-size_t cutCellsOf(const VolumeCase& vc, const std::vector<Quad>& quads, double kerf)
-{
-    CutMask mask(vc.frame, kerf);
-    mask.beginStroke();
-    for (const Quad& q : quads) mask.addQuad(q);
-    return mask.cutCellCount();
-}
-
-/// Size parameter (blade length, or sweep length for through-cuts) whose
-/// stroke cuts closest to `target` cells.
-double searchSize(const VolumeCase& vc, size_t target, int variant, double kerf, size_t* cells)
-{
-    double lo = 2.0 * vc.frame.spacing.y, hi = 400.0;
-    double best = lo;
-    size_t bestCells = 0;
-    auto consider = [&](double s) {
-        const auto [B, L] = strokeSize(vc, s, variant);
-        const size_t n = cutCellsOf(vc, filterStroke(makeCutStroke(vc, B, L, variant), vc.frame), kerf);
-        const auto dist = [&](size_t c) { return c > target ? c - target : target - c; };
-        if (bestCells == 0 || dist(n) < dist(bestCells)) {
-            best = s;
-            bestCells = n;
-        }
-        return n;
-    };
-    for (int it = 0; it < 40 && hi - lo > 1e-3; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (consider(mid) < target ? lo : hi) = mid;
-    }
-    *cells = bestCells;
-    return best;
-}
-
-/// Cells along the tip line of the axis-aligned stroke (B, L) (and the cell
-/// rows either side of it) whose corners straddle the isovalue.
-size_t tipSurfaceCells(const VolumeCase& vc, double B, double L)
-{
-    const IndexFrame& f = vc.frame;
-    const double y0 = frontY(vc, 0);
-    const double x0 = vc.xCentre - 0.5 * L + 0.37 * f.spacing.x;
-    const glm::dvec3 a = f.toIndex(glm::dvec3(x0, y0 + B, vc.planeZ));
-    const glm::dvec3 b = f.toIndex(glm::dvec3(x0 + L, y0 + B, vc.planeZ));
-    auto acc = vc.vol.grid->getConstAccessor();
-    const openvdb::CoordBBox box = vc.vol.indexBox();
-    size_t n = 0;
-    const int cz = int(std::floor(a.z)), cy0 = int(std::floor(a.y));
-    for (int cx = int(std::floor(a.x)) - 1; cx <= int(std::floor(b.x)) + 1; ++cx)
-        for (int cy = cy0 - 1; cy <= cy0 + 1; ++cy) {
-            int inside = 0;
-            for (int c = 0; c < 8; ++c) {
-                const Coord g(cx + (c & 1), cy + ((c >> 1) & 1), cz + ((c >> 2) & 1));
-                inside += box.isInside(g) && acc.getValue(g) >= vc.iso;
-            }
-            n += inside != 0 && inside != 8;
-        }
-    return n;
-}
-
-/// The k-th "air" stroke: blade length moved off `bestB` (the tip search's)
-/// in half-voxel steps, alternately longer and shorter, up to 35%, until the
-/// tip line holds no bone surface; the sweep keeps the area (1.5 bestB^2).
-bool airSize(const VolumeCase& vc, double bestB, int k, double* B, double* L)
-{
-    const double h = 0.5 * vc.frame.spacing.y;
-    int found = 0;
-    for (int i = 0; i * h <= 0.35 * bestB; ++i)
-        for (int sign : {1, -1}) {
-            if (i == 0 && sign < 0) continue;
-            const double b = bestB + sign * i * h;
-            const double l = kAspect * bestB * bestB / b;
-            if (tipSurfaceCells(vc, b, l) != 0) continue;
-            if (found++ == k) {
-                *B = b;
-                *L = l;
-                return true;
-            }
-        }
-    return false;
-}
 
 // -- baseline (b) -------------------------------------------------------------
 
 openvdb::math::Transform::Ptr lsTransform(const VolumeCase& vc)
 {
+    const IndexFrame& f = vc.scene.frame;
     auto xform = openvdb::math::Transform::createLinearTransform(vc.lsVoxel);
-    xform->postTranslate(openvdb::Vec3d(vc.frame.origin.x, vc.frame.origin.y, vc.frame.origin.z));
+    xform->postTranslate(openvdb::Vec3d(f.origin.x, f.origin.y, f.origin.z));
     return xform;
 }
 
 void buildBoneLevelSet(VolumeCase& vc)
 {
-    vc.lsVoxel = std::min({vc.frame.spacing.x, vc.frame.spacing.y, vc.frame.spacing.z});
+    const IndexFrame& f = vc.scene.frame;
+    vc.lsVoxel = std::min({f.spacing.x, f.spacing.y, f.spacing.z});
     const auto t0 = Clock::now();
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> tris;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(*vc.vol.grid, points, tris, quads, double(vc.iso), 0.0);
+    openvdb::tools::volumeToMesh(*vc.vol.grid, points, tris, quads, double(vc.scene.iso), 0.0);
     vc.boneLs = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*lsTransform(vc), points, tris, quads, 3.0f);
     vc.lsBuildS = msSince(t0) * 1e-3;
 }
@@ -451,7 +275,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
 {
     Row row;
     row.kerf = kerf;
-    row.volume = vc.name;
+    row.volume = vc.scene.name;
     row.target = target;
     std::vector<Quad> quads;
     std::unique_ptr<CutMask> mask;
@@ -461,28 +285,13 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
     Mesh fused;
     {
         tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
-        double tipBlade = 0.0; // variant 0's blade length
         std::vector<Pose> chosen;
-        for (int variant = 0; variant < kVariants && !row.ok; ++variant) {
-            size_t cells = 0;
-            double B = 0.0, L = 0.0;
-            if (kindOf(variant) == Kind::Air) {
-                if (!airSize(vc, tipBlade, variant - kPerKind, &B, &L)) continue;
-                cells = cutCellsOf(vc, filterStroke(makeCutStroke(vc, B, L, variant), vc.frame), kerf);
-            } else {
-                std::tie(B, L) = strokeSize(vc, searchSize(vc, target, variant, kerf, &cells), variant);
-                if (variant == 0) tipBlade = B;
-            }
-            const std::vector<Pose> poses = makeCutStroke(vc, B, L, variant);
-            row.blade = poses.front().length;
-            row.sweep = glm::length(poses.back().base - poses.front().base);
-            row.variant = variant;
-            row.from = poses.front().base;
-            row.to = poses.back().base;
-            quads = filterStroke(poses, vc.frame);
-            mask = std::make_unique<CutMask>(vc.frame, kerf);
-            mask->beginStroke();
-            for (const Quad& q : quads) mask->addQuad(q);
+        bench::forEachCutStroke(vc.scene, target, kerf, [&](bench::CandidateStroke& c) {
+            row.blade = c.blade;
+            row.sweep = c.sweep();
+            row.variant = c.variant;
+            row.from = c.poses.front().base;
+            row.to = c.poses.back().base;
             try {
                 wholeUpdate.clear();
                 wholeFused.clear();
@@ -490,39 +299,43 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                 for (int r = 0; r < runs; ++r) {
                     remesher.reset();
                     auto t0 = Clock::now();
-                    remesher = std::make_unique<CutRemesher>(vc.vol, vc.iso, vc.uncut);
+                    remesher = std::make_unique<CutRemesher>(vc.vol, vc.scene.iso, vc.uncut);
                     setup.push_back(msSince(t0));
                     t0 = Clock::now();
-                    row.remeshedWhole = remesher->update(*mask);
+                    row.remeshedWhole = remesher->update(*c.mask);
                     wholeUpdate.push_back(msSince(t0));
                     fused = remesher->fusedMesh();
                     wholeFused.push_back(msSince(t0));
                 }
                 row.ok = true;
-                chosen = poses;
+                chosen = std::move(c.poses);
+                quads = std::move(c.quads);
+                mask = std::move(c.mask);
+                return true;
             } catch (const InputError& e) { // kerf > 0 not implemented: no other stroke will do
                 row.note = e.what();
-                return row;
+                return true; // stop: row.ok stays false
             } catch (const std::exception& e) {
                 ++row.refused;
                 std::printf("  %s kerf %g target %zu: stroke variant %d (%s, blade %.3f mm, %zu cells, base (%.3f, %.3f, %.3f) "
                             "-> (%.3f, %.3f, %.3f)) refused: %s\n",
-                            vc.name.c_str(), kerf, target, variant, kindName(variant), row.blade, cells, row.from.x, row.from.y,
-                            row.from.z, row.to.x, row.to.y, row.to.z, e.what());
+                            vc.scene.name.c_str(), kerf, target, c.variant, bench::strokeKindName(c.variant), row.blade,
+                            c.mask->cutCellCount(), row.from.x, row.from.y, row.from.z, row.to.x, row.to.y, row.to.z, e.what());
                 if (!gDumpDir.empty()) {
-                    const std::string file = gDumpDir + "/refused_" + vc.name + "_" + std::to_string(target) + "_v" +
-                                             std::to_string(variant) + ".csv";
+                    const std::string file = gDumpDir + "/refused_" + vc.scene.name + "_" + std::to_string(target) + "_v" +
+                                             std::to_string(c.variant) + ".csv";
                     std::ofstream out(file);
-                    out << "# bench_cut: stroke refused by the remesher on " << vc.name << " at iso " << vc.iso
+                    out << "# bench_cut: stroke refused by the remesher on " << vc.scene.name << " at iso " << vc.scene.iso
                         << ": " << e.what() << "\nt,x,y,z,dx,dy,dz,length\n";
-                    for (const Pose& p : poses) out << formatPoseLine(p) << "\n";
+                    for (const Pose& p : c.poses) out << formatPoseLine(p) << "\n";
                     std::printf("    wrote %s\n", file.c_str());
                 }
                 std::fflush(stdout);
+                return false;
             }
-        }
+        });
         if (!row.ok) {
-            row.note = "every stroke refused";
+            if (row.note.empty()) row.note = "every stroke refused";
             return row;
         }
         row.cells = mask->cutCellCount();
@@ -552,7 +365,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         CutCellGeometry scratch;
         for (int r = 0; r < runs; ++r) {
             const auto t0 = Clock::now();
-            for (const Coord& c : cutCells) remeshCell(vc.vol, vc.iso, *mask, c, scratch);
+            for (const Coord& c : cutCells) remeshCell(vc.vol, vc.scene.iso, *mask, c, scratch);
             kernel.push_back(msSince(t0));
         }
         row.kernelMs = median(kernel);
@@ -588,7 +401,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                         if (it == remesher->cells().end()) continue;
                         const uint32_t base = uint32_t(viewPositions.size());
                         for (const glm::dvec3& p : it->second.indexPositions)
-                            viewPositions.push_back(glm::vec3(vc.frame.toWorld(p)));
+                            viewPositions.push_back(glm::vec3(vc.scene.frame.toWorld(p)));
                         for (uint32_t k : it->second.indices) viewIndices.push_back(base + k);
                     }
                     view.push_back(1e3 * msSince(t0));
@@ -600,11 +413,11 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
             }
         } catch (const std::exception& e) {
             row.note = std::string("step refused: ") + e.what();
-            std::printf("  %s target %zu: %s\n", vc.name.c_str(), target, row.note.c_str());
+            std::printf("  %s target %zu: %s\n", vc.scene.name.c_str(), target, row.note.c_str());
             if (!gDumpDir.empty()) {
-                const std::string file = gDumpDir + "/refused_step_" + vc.name + "_" + std::to_string(target) + ".csv";
+                const std::string file = gDumpDir + "/refused_step_" + vc.scene.name + "_" + std::to_string(target) + ".csv";
                 std::ofstream out(file);
-                out << "# bench_cut: this stroke re-meshes cleanly from scratch on " << vc.name << " at iso " << vc.iso
+                out << "# bench_cut: this stroke re-meshes cleanly from scratch on " << vc.scene.name << " at iso " << vc.scene.iso
                     << ", but after CutMask::undoToQuad(quads - " << steps
                     << ") + update, re-adding the quads one by one with update() after each throws: " << e.what()
                     << "\nt,x,y,z,dx,dy,dz,length\n";
@@ -634,7 +447,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
             const auto t0 = Clock::now();
             vdb::Volume carved = vc.vol;
             carved.grid = vdb::carveVolume(vc.vol, removed);
-            const Mesh m = extractIsosurface(carved, vc.iso);
+            const Mesh m = extractIsosurface(carved, vc.scene.iso);
             a.push_back(msSince(t0));
             if (m.empty()) std::printf("?\n");
         }
@@ -701,7 +514,7 @@ void printRow(const Row& r)
                 r.wholeUpdateMs, r.wholeFusedMs, r.noopMs, r.kernelMs, 1e3 * r.wholeUpdateMs / double(r.remeshedWhole),
                 r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs, r.bMeshMs, r.bWholeMs, r.aMs / (stepUs * 1e-3),
                 r.bStepMs / (stepUs * 1e-3), r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs,
-                r.bWholeMs / r.wholeUpdateMs, r.oursTris, r.bTris, r.oursDefects, r.bDefects, r.variant, kindName(r.variant), r.from.x,
+                r.bWholeMs / r.wholeUpdateMs, r.oursTris, r.bTris, r.oursDefects, r.bDefects, r.variant, bench::strokeKindName(r.variant), r.from.x,
                 r.from.y, r.from.z, r.to.x, r.to.y, r.to.z, r.note.empty() ? "" : " note=", r.note.c_str());
     if (r.bDefects) std::printf("  OpenVDB route defects: %s\n", r.bDefectText.c_str());
     if (gHash)
@@ -742,7 +555,7 @@ void printTables(const std::vector<Row>& rows)
         if (!r.ok) continue;
         std::printf("| %s | %zu | %zu | %.1f x %.1f, %zu (%s %d) | %.1f | %.1f | %.0f | %.2f | %.1f | %.0f | %.0f | %.0f | %.2fx | "
                     "%.2fx | %.2fx | %zu / %zu | %d |\n",
-                    label(r).c_str(), r.cells, r.remeshedWhole, r.blade, r.sweep, r.quads, kindName(r.variant), r.variant, r.wholeUpdateMs, r.wholeFusedMs,
+                    label(r).c_str(), r.cells, r.remeshedWhole, r.blade, r.sweep, r.quads, bench::strokeKindName(r.variant), r.variant, r.wholeUpdateMs, r.wholeFusedMs,
                     1e3 * r.wholeUpdateMs / double(r.remeshedWhole), r.noopMs, r.kernelMs, r.setupMs, r.aMs, r.bWholeMs,
                     r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs, r.bWholeMs / r.wholeUpdateMs, r.oursDefects,
                     r.bDefects, r.refused);
@@ -752,21 +565,23 @@ void printTables(const std::vector<Row>& rows)
 void runVolume(VolumeCase& vc, double planeIndexZ, const std::vector<size_t>& targets, int runs,
                std::vector<Row>& rows)
 {
-    vc.frame = frameOf(vc.vol);
+    vc.scene.vol = &vc.vol;
+    vc.scene.uncut = &vc.uncut;
     {
         tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
         const auto t0 = Clock::now();
-        vc.uncut = extractIsosurface(vc.vol, vc.iso);
+        vc.uncut = extractIsosurface(vc.vol, vc.scene.iso);
         const double extractMs = msSince(t0);
-        locateStroke(vc, planeIndexZ);
+        bench::locateCutPlane(vc.scene, planeIndexZ);
         if (gBaselines) buildBoneLevelSet(vc);
         else vc.boneLs = openvdb::FloatGrid::create();
+        const bench::CutScene& sc = vc.scene;
         std::printf("volume=%s dims=%dx%dx%d spacing=%.4g,%.4g,%.4g iso=%g uncut_tris=%zu extract_ms=%.0f "
                     "plane_z_mm=%.2f x_centre_mm=%.1f y_front_mm=%.1f bone_ls_voxel_mm=%.4g bone_ls_build_s=%.2f "
                     "bone_ls_active=%llu\n",
-                    vc.name.c_str(), vc.frame.dims.x, vc.frame.dims.y, vc.frame.dims.z, vc.frame.spacing.x,
-                    vc.frame.spacing.y, vc.frame.spacing.z, double(vc.iso), vc.uncut.triangleCount(), extractMs,
-                    vc.planeZ, vc.xCentre, vc.yFront, vc.lsVoxel, vc.lsBuildS,
+                    sc.name.c_str(), sc.frame.dims.x, sc.frame.dims.y, sc.frame.dims.z, sc.frame.spacing.x,
+                    sc.frame.spacing.y, sc.frame.spacing.z, double(sc.iso), vc.uncut.triangleCount(), extractMs, sc.planeZ,
+                    sc.xCentre, sc.yFront, vc.lsVoxel, vc.lsBuildS,
                     static_cast<unsigned long long>(vc.boneLs->activeVoxelCount()));
         std::fflush(stdout);
     }
@@ -827,7 +642,7 @@ int main(int argc, char** argv)
             vdb::PhantomOptions options;
             options.dims = quick ? Coord(256, 256, 128) : Coord(512, 512, 256);
             vc.vol = vdb::makePhantom(options);
-            vc.name = "phantom-" + std::to_string(options.dims.x()) + "x" + std::to_string(options.dims.y()) + "x" +
+            vc.scene.name = "phantom-" + std::to_string(options.dims.x()) + "x" + std::to_string(options.dims.y()) + "x" +
                       std::to_string(options.dims.z());
             const IndexFrame f = frameOf(vc.vol);
             runVolume(vc, f.toIndex(glm::dvec3(0, 0, vdb::phantomLandmarks().leFortZ)).z, targets, runs, rows);
@@ -837,7 +652,7 @@ int main(int argc, char** argv)
             if (std::filesystem::exists(path)) {
                 VolumeCase vc;
                 vc.vol = vdb::readVolume(path);
-                vc.name = quick ? "vhm-head-4mm" : "vhm-head-dicom";
+                vc.scene.name = quick ? "vhm-head-4mm" : "vhm-head-dicom";
                 runVolume(vc, 0.32 * double(vc.vol.dims.z() - 1), targets, runs, rows);
             } else {
                 std::printf("case=vhm-head skipped: %s not found\n", path.c_str());

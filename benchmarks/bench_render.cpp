@@ -55,6 +55,7 @@
 //            256x256x196, head.
 // One parseable line per case ("case=render ..."), then a Markdown table.
 #include "benchmarks/BenchCuts.h"
+#include "benchmarks/BenchUtil.h"
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/Remesh.h"
@@ -83,20 +84,12 @@
 #include <vector>
 
 using namespace mtcut;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
+using bench::median;
+using bench::msSince;
 using openvdb::Coord;
 
 namespace {
-
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
-double median(std::vector<double> v)
-{
-    if (v.empty()) return std::nan("");
-    std::sort(v.begin(), v.end());
-    const size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 struct Options
 {

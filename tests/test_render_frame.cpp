@@ -43,7 +43,6 @@ using namespace mtcut;
 using namespace mtcut::render;
 using mtcut::test::straightStroke;
 using openvdb::Coord;
-using openvdb::Vec3d;
 
 namespace {
 
@@ -159,14 +158,10 @@ std::vector<Frame> checkOracle(const vdb::Volume& vol, float iso, const cutter::
 TEST(RenderFrame, DiscardDropsExactlyTheCutCellsTriangles)
 {
     MTCUT_REQUIRE_GL();
-    const double R = 15.0;
-    const vdb::Volume vol = test::fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const vdb::Volume vol = test::sphereVolume();
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
     cutter::CutMask mask(cutter::frameOf(vol), 0.0);
-    const auto quads = cutter::filterStroke(
-        straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, glm::normalize(glm::dvec3(0, 0.4, -1)), 45.0, 200), mask.frame());
-    mask.beginStroke();
-    for (const auto& q : quads) mask.addQuad(q);
+    test::addStroke(mask, test::slantedStroke(45.0));
     const MaskTiling tiling = tileMask(cutCellGrid(mask)->tree());
 
     // The expected survivors: uncut triangles whose cell is not cut.
@@ -218,14 +213,10 @@ TEST(RenderFrame, DiscardDropsExactlyTheCutCellsTriangles)
 TEST(RenderFrame, DiscardPlusCutGeometryMatchesFusedMeshOnASphere)
 {
     MTCUT_REQUIRE_GL();
-    const double R = 15.0;
-    const vdb::Volume vol = test::fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const vdb::Volume vol = test::sphereVolume();
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
     cutter::CutMask mask(cutter::frameOf(vol), 0.0);
-    const auto quads = cutter::filterStroke(
-        straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, glm::normalize(glm::dvec3(0, 0.4, -1)), 45.0, 200), mask.frame());
-    mask.beginStroke();
-    for (const auto& q : quads) mask.addQuad(q);
+    test::addStroke(mask, test::slantedStroke(45.0));
     const std::vector<Frame> frames =
         checkOracle(vol, 0.0f, uncut, mask, {"front", "side", "top", "iso", "-30,-35,10:0,0,0:0,0,1:40"}, 192,
                     "sphere 40^3", 2);
@@ -238,24 +229,18 @@ TEST(RenderFrame, DiscardPlusCutGeometryMatchesFusedMeshOnASphere)
 TEST(RenderFrame, DiscardPlusCutGeometryMatchesFusedMeshOnPartialAndCrossingCuts)
 {
     MTCUT_REQUIRE_GL();
-    const double R = 15.0;
-    const vdb::Volume vol = test::fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const vdb::Volume vol = test::sphereVolume();
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
     {
         cutter::CutMask mask(cutter::frameOf(vol), 0.0);
-        const auto quads = cutter::filterStroke(
-            straightStroke({-25, 0.37, 22}, {0.3, 0.37, 22}, glm::dvec3(0, 0, -1), 45.0, 100), mask.frame());
-        mask.beginStroke();
-        for (const auto& q : quads) mask.addQuad(q);
+        test::addStroke(mask, straightStroke({-25, 0.37, 22}, {0.3, 0.37, 22}, glm::dvec3(0, 0, -1), 45.0, 100));
         checkOracle(vol, 0.0f, uncut, mask, {"front", "iso"}, 160, "sphere, blade stops inside", 1);
     }
     {
         cutter::CutMask mask(cutter::frameOf(vol), 0.0);
         for (const auto& stroke : {straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, glm::dvec3(0, 0, -1), 45.0, 200),
                                    straightStroke({3.3, -25, 22}, {3.3, 25, 22}, glm::dvec3(0, 0, -1), 45.0, 200)}) {
-            const auto quads = cutter::filterStroke(stroke, mask.frame());
-            mask.beginStroke();
-            for (const auto& q : quads) mask.addQuad(q);
+            test::addStroke(mask, stroke);
         }
         checkOracle(vol, 0.0f, uncut, mask, {"top", "iso"}, 160, "sphere, crossing strokes", 4);
     }
@@ -279,12 +264,8 @@ TEST(RenderFrame, DiscardPlusCutGeometryMatchesFusedMeshOnTheHead)
     cutter::CutMask mask(frame, 0.0);
     // From the patient's right to left, 40% up the scan, the blade pointing posterior.
     const double z = lo.z + 0.4 * (hi.z - lo.z) + 0.37;
-    const auto quads = cutter::filterStroke(
-        straightStroke({lo.x - 10, lo.y - 10, z}, {hi.x + 10, lo.y - 10, z}, glm::normalize(glm::dvec3(0, 1, 0.05)),
-                       hi.y - lo.y + 20, 300),
-        frame);
-    mask.beginStroke();
-    for (const auto& q : quads) mask.addQuad(q);
+    test::addStroke(mask, straightStroke({lo.x - 10, lo.y - 10, z}, {hi.x + 10, lo.y - 10, z},
+                                         glm::normalize(glm::dvec3(0, 1, 0.05)), hi.y - lo.y + 20, 300));
     (void)mid;
     try {
         checkOracle(vol, iso, uncut, mask, {"front", "side", "iso"}, 256, "head 4 mm", 0 /* printed */);

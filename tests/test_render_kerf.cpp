@@ -21,8 +21,6 @@
 #include "cutter/Remesh.h"
 #include "render/CutGeometry.h"
 #include "render/SurfaceRenderer.h"
-#include "tests/TestStrokes.h"
-#include "tests/TestVolumes.h"
 #include "tests/test_render_util.h"
 
 #include <glm/geometric.hpp>
@@ -34,9 +32,6 @@
 
 using namespace mtcut;
 using namespace mtcut::render;
-using mtcut::test::straightStroke;
-using openvdb::Coord;
-using openvdb::Vec3d;
 
 namespace {
 
@@ -55,16 +50,11 @@ struct Counts
 
 void runCase(const KerfCase& kc)
 {
-    const double R = 15.0;
-    const vdb::Volume vol =
-        test::fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const vdb::Volume vol = test::sphereVolume();
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
     cutter::CutMask mask(cutter::frameOf(vol), kc.kerf);
-    const glm::dvec3 from(-25, 0.37, 22), to(25, 0.37, 22);
-    const glm::dvec3 dir = glm::normalize(glm::dvec3(0, 0.4, -1));
-    const auto quads = cutter::filterStroke(straightStroke(from, to, dir, kc.blade, 200), mask.frame());
-    mask.beginStroke();
-    for (const auto& q : quads) mask.addQuad(q);
+    const glm::dvec3 from = test::kSlantFrom, to = test::kSlantTo, dir = test::kSlantDir;
+    test::addStroke(mask, test::slantedStroke(kc.blade));
     cutter::CutRemesher remesher(vol, 0.0f, uncut);
     try {
         remesher.update(mask);
