@@ -14,6 +14,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -1740,6 +1741,20 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     }
 
     // Corners: a node is kept when it is a corner of some loop of the tet.
+    // A point of a quad's rim on the tet's boundary (zero kerf) is always
+    // kept: where the rim lies in a tet face (a blade edge exactly on a grid
+    // plane), the tet on the quad's side ends its slit there while the tet on
+    // the other side sees a straight boundary through it; both must keep it.
+    auto onOwnRim = [&](const CutVertexId& k) {
+        if (mPrism || k.dim == 3) return false;
+        for (int i = 0; i < k.planeCount; ++i) {
+            const uint64_t p = k.planes[size_t(i)];
+            const uint64_t kind = p & 15;
+            if (p < (uint64_t(1) << 36) || kind < 1 || kind > 4) continue;
+            if (std::binary_search(k.planes.begin(), k.planes.begin() + k.planeCount, p & ~uint64_t(15))) return true;
+        }
+        return false;
+    };
     std::vector<char> corner(nodes.size(), 0);
     for (const Region& r : regions) {
         for (const Loop& l : r.loops) {
@@ -1753,7 +1768,8 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     const dvec3& d = mVerts[size_t(nodes[size_t(l.nodes[(i + 1) % n])].vert)].pos;
                     c = glm::dot(b - a, d - b) < 0;
                 }
-                if (c || mVerts[size_t(nodes[size_t(l.nodes[i])].vert)].steiner) corner[size_t(l.nodes[i])] = 1;
+                const Vert& vx = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)];
+                if (c || vx.steiner || onOwnRim(vx.key)) corner[size_t(l.nodes[i])] = 1;
             }
         }
     }
@@ -1824,7 +1840,9 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             for (size_t i = 0; i < poly.size() && convex; ++i) {
                 const Vec2 &a = pts[size_t(poly[(i + poly.size() - 1) % poly.size()])], &b = pts[size_t(poly[i])],
                            &c = pts[size_t(poly[(i + 1) % poly.size()])];
-                convex = cross2(a, b, c) >= 0;
+                // Straight within rounding counts as convex: the corners of a slit
+                // chord's Steiner midpoint are collinear only up to rounding.
+                convex = cross2(a, b, c) >= -1e-9 * std::hypot(b.x - a.x, b.y - a.y) * std::hypot(c.x - b.x, c.y - b.y);
             }
             if (convex) {
                 // A cap region: fan from a tagged centre, so no chord joins two rim
@@ -2310,6 +2328,40 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                     cell = c;
                     break;
                 }
+            }
+        }
+        if (std::getenv("MTCUT_REMESH_DEBUG")) {
+            auto desc = [&](uint32_t v) {
+                const CutVertexId& id = ids[v];
+                std::fprintf(stderr, "  v%u dim %d feat", v, id.dim);
+                for (int i = 0; i <= (id.dim == 3 ? 1 : id.dim); ++i) {
+                    if (id.dim == 3 && i == 1) { std::fprintf(stderr, " tet %llu", (unsigned long long)id.feature[1]); continue; }
+                    const Coord g = gridVertexCoord(id.feature[size_t(i)]);
+                    std::fprintf(stderr, " (%d,%d,%d)", g.x(), g.y(), g.z());
+                }
+                std::fprintf(stderr, " planes");
+                for (int i = 0; i < id.planeCount; ++i) {
+                    const uint64_t p = id.planes[size_t(i)];
+                    if (p < 16) std::fprintf(stderr, " %llu", (unsigned long long)p);
+                    else std::fprintf(stderr, " s%llu:q%llu:k%llu", (unsigned long long)(p >> 36), (unsigned long long)((p >> 4) & 0xffffffff), (unsigned long long)(p & 15));
+                }
+                std::fprintf(stderr, " tags");
+                for (int i = 0; i < id.tagCount; ++i) std::fprintf(stderr, " q%llu%c", (unsigned long long)((id.tags[size_t(i)] >> 5) & 0xffffffff), id.tags[size_t(i)] & 1 ? '-' : '+');
+                std::fprintf(stderr, " world %.6f %.6f %.6f\n", world[v].x, world[v].y, world[v].z);
+            };
+            std::fprintf(stderr, "open edge, triangle cell (%d,%d,%d):\n", tris[u.second].cell.x(), tris[u.second].cell.y(), tris[u.second].cell.z());
+            desc(uint32_t(key >> 32));
+            desc(uint32_t(key));
+            for (const Tri& tr : tris) {
+                int hits = 0;
+                for (uint32_t v : tr.v) hits += v == uint32_t(key >> 32) || v == uint32_t(key);
+                if (hits >= 1) std::fprintf(stderr, "   tri cell (%d,%d,%d): %u %u %u\n", tr.cell.x(), tr.cell.y(), tr.cell.z(), tr.v[0], tr.v[1], tr.v[2]);
+            }
+            std::set<uint32_t> seen;
+            for (const Tri& tr : tris) {
+                int hits = 0;
+                for (uint32_t v : tr.v) hits += v == uint32_t(key >> 32) || v == uint32_t(key);
+                if (hits >= 1) for (uint32_t v : tr.v) if (seen.insert(v).second) desc(v);
             }
         }
         std::ostringstream os;

@@ -166,6 +166,9 @@ public:
     /// remesher is left exactly as before the call (strong guarantee), so
     /// fusedMesh() still returns the last good mesh; the caller should undo
     /// the stroke in the mask (the next update then has nothing to do).
+    /// With the environment variable MTCUT_REMESH_DEBUG set, an open edge is
+    /// also described on stderr (both vertices' names and float positions,
+    /// and the triangles around it), to find which rule of the kernel broke.
     size_t update(const CutMask& mask);
 
     /// For tests only: called on each cell's new geometry right after the
