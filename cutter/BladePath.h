@@ -107,6 +107,10 @@ struct PathFilterOptions
     /// Relative planarity tolerance: a quad counts as planar when each corner
     /// lies within planarTolerance * (quad extent + 1 mm) of the fitted plane.
     double planarTolerance = 1e-9;
+    /// Retracing (rule 2b): a stick whose base and tip lie within this many
+    /// voxels of one of the last kRetraceQuads quads of the stroke (of its
+    /// plane, and inside its outline) is dropped. Negative: never dropped.
+    double retraceTolerance = 0.25;
 };
 
 /// The paper's path filter, for one stroke at a time (section 3), exactly:
@@ -122,6 +126,15 @@ struct PathFilterOptions
 ///    pivots about its base without the base leaving the cell cuts nothing new,
 ///    and the stroke ends at its last kept stick (base within one cell
 ///    diagonal of the last pose's base).
+/// 2b. Retracing: a pose whose stick lies within retraceTolerance voxels of
+///    one of the stroke's last kRetraceQuads quads (of its plane, and inside
+///    its outline) cuts nothing new, so it is dropped. A hand's tremor moving
+///    the base back into the cell it just left, or a saw stroke going back
+///    over its cut, would otherwise fold the strip onto itself: quads
+///    overlapping in one plane, which the re-mesher refuses. Bound: the swept
+///    surface misses only poses within that tolerance of it. Sawing back
+///    over more than kRetraceQuads quads still folds the strip (refused by
+///    the re-mesher, never silent).
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
@@ -142,6 +155,9 @@ struct PathFilterOptions
 class PathFilter
 {
 public:
+    /// How many of the stroke's last quads rule 2b looks at (O(1) per pose).
+    static constexpr size_t kRetraceQuads = 64;
+
     explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
 
     /// Feeds the next pose of the current stroke; appends the quads it makes
@@ -161,6 +177,7 @@ private:
     IndexFrame mFrame;
     PathFilterOptions mOptions;
     std::vector<Stick> mSticks;
+    std::vector<Quad> mRecentQuads; ///< the stroke's last kRetraceQuads quads (rule 2b)
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;
     bool mHaveTime = false;

@@ -415,7 +415,7 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
     const IndexFrame f = testFrame();
     std::mt19937_64 rng(2024);
     const PathFilterOptions opt;
-    size_t kept = 0, dropped = 0, adjusted = 0, split = 0, quadsTotal = 0;
+    size_t kept = 0, dropped = 0, retraced = 0, adjusted = 0, split = 0, quadsTotal = 0;
     double maxAdjust = 0;
     for (int s = 0; s < 60; ++s) {
         const double twist = s % 3 == 0 ? 0.001 : (s % 3 == 1 ? 0.02 : 0.2);
@@ -429,10 +429,34 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
             ASSERT_EQ(filter.sticks().size(), before + (k ? 1 : 0));
             if (!k) {
                 ++dropped;
-                // Dropped only when in the same cell as the last kept stick.
-                ASSERT_EQ(f.cellOf(f.toIndex(poses[i].base)),
-                          f.cellOf(f.toIndex(filter.sticks().back().base)));
                 ASSERT_EQ(quads.size(), quadsBefore);
+                // Dropped only when in the same cell as the last kept stick, or
+                // (retracing, rule 2b) when base and tip lie within the tolerance
+                // of one of the last quads (checked here by the plane distance
+                // and the outline's bounding box grown by the tolerance).
+                if (f.cellOf(f.toIndex(poses[i].base)) == f.cellOf(f.toIndex(filter.sticks().back().base))) continue;
+                ++retraced;
+                const double tol = opt.retraceTolerance;
+                const dvec3 b = f.toIndex(poses[i].base);
+                const dvec3 tip = f.toIndex(poses[i].base + poses[i].length * glm::normalize(poses[i].direction));
+                bool near = false;
+                for (size_t q = quads.size() > PathFilter::kRetraceQuads ? quads.size() - PathFilter::kRetraceQuads : 0;
+                     q < quads.size() && !near; ++q) {
+                    dvec3 c[4], nrm(0.0), lo(1e300), hi(-1e300);
+                    for (uint32_t j = 0; j < quads[q].cornerCount; ++j) c[j] = f.toIndex(quads[q].corners[j]);
+                    for (uint32_t j = 0; j < quads[q].cornerCount; ++j) {
+                        nrm += glm::cross(c[j], c[(j + 1) % quads[q].cornerCount]);
+                        lo = glm::min(lo, c[j] - tol);
+                        hi = glm::max(hi, c[j] + tol);
+                    }
+                    nrm = glm::normalize(nrm);
+                    auto ok = [&](const dvec3& x) {
+                        return std::abs(glm::dot(nrm, x - c[0])) <= tol + 1e-9 && glm::all(glm::greaterThanEqual(x, lo)) &&
+                               glm::all(glm::lessThanEqual(x, hi));
+                    };
+                    near = ok(b) && ok(tip);
+                }
+                ASSERT_TRUE(near) << "pose " << i << " dropped but neither in the last stick's cell nor retracing";
                 continue;
             }
             ++kept;
@@ -491,12 +515,67 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
         }
         quadsTotal += quads.size();
     }
+    std::printf("kept %zu, dropped %zu (%zu retracing), adjusted %zu, split %zu\n", kept, dropped, retraced, adjusted, split);
     EXPECT_GT(kept, 10000u);
     EXPECT_GT(dropped, 1000u);
     EXPECT_GT(adjusted, 100u); // case (b) exercised
     EXPECT_GT(split, 100u);    // case (c) exercised
     EXPECT_LE(maxAdjust, opt.maxTwist);
     EXPECT_GT(quadsTotal, kept - 60);
+}
+
+// Rule 2b: a saw going back over its cut (in its plane, or within the
+// tolerance of it) makes no quad, so the strip never folds onto itself; going
+// on past the cut, or back off the plane by more than the tolerance, cuts
+// again; a negative tolerance keeps every stick (the old behaviour).
+TEST(PathFilter, RetracingTheLastQuadsCutsNothingNew)
+{
+    const IndexFrame f = testFrame();
+    // Index x: 2 -> 12 -> 5 -> 18 at y = 4.25, z = 6.5; blade along +y, 6 mm (12 voxels).
+    auto stroke = [&](double offPlaneVoxels) {
+        std::vector<Pose> poses;
+        double t = 0.0;
+        auto go = [&](double x0, double x1, double z) {
+            const int n = int(std::abs(x1 - x0) * 4);
+            for (int i = 0; i <= n; ++i) {
+                Pose p;
+                p.time = (t += 0.001);
+                p.base = f.toWorld(dvec3(x0 + (x1 - x0) * i / n, 4.25, z));
+                p.direction = dvec3(0, 1, 0);
+                p.length = 6.0;
+                poses.push_back(p);
+            }
+        };
+        go(2.0, 12.0, 6.5);
+        go(12.0, 5.0, 6.5 + offPlaneVoxels);
+        go(5.0, 18.0, 6.5);
+        return poses;
+    };
+    auto maxX = [&](const Quad& q) {
+        double m = -1e300;
+        for (uint32_t i = 0; i < q.cornerCount; ++i) m = std::max(m, f.toIndex(q.corners[i]).x);
+        return m;
+    };
+    for (double off : {0.0, 0.2}) {
+        const std::vector<Quad> quads = filterStroke(stroke(off), f);
+        // Forward only: every quad starts where the cut so far ends.
+        double reach = -1e300;
+        for (const Quad& q : quads) {
+            double lo = 1e300;
+            for (uint32_t i = 0; i < q.cornerCount; ++i) lo = std::min(lo, f.toIndex(q.corners[i]).x);
+            EXPECT_GE(lo, reach - 1e-9) << "off " << off << ": the strip folds back";
+            reach = std::max(reach, maxX(q));
+        }
+        EXPECT_NEAR(reach, 18.0, 1e-9) << off;
+        EXPECT_EQ(quads.size(), 16u) << off; // one stick per cell: x 2, 3, ..., 18
+    }
+    // 0.3 voxel off the plane (beyond the tolerance): the way back cuts.
+    const std::vector<Quad> off = filterStroke(stroke(0.3), f);
+    EXPECT_GT(off.size(), 16u);
+    // Rule 2b off: the way back makes quads too.
+    PathFilterOptions opt;
+    opt.retraceTolerance = -1.0;
+    EXPECT_GT(filterStroke(stroke(0.0), f, opt).size(), 16u);
 }
 
 TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
