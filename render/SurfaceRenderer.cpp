@@ -308,4 +308,13 @@ float SurfaceRenderer::viewDepthAt(int x, int y) const
     return depth;
 }
 
+uint32_t SurfaceRenderer::fragmentIdAt(int x, int y) const
+{
+    if (x < 0 || y < 0 || x >= mWidth || y >= mHeight) return 0;
+    uint32_t id = 0;
+    glGetTextureSubImage(mFragment.id(), 0, x, mHeight - 1 - y, 0, 1, 1, 1, GL_RED_INTEGER, GL_UNSIGNED_INT, sizeof id, &id);
+    checkGlError("SurfaceRenderer::fragmentIdAt");
+    return id;
+}
+
 } // namespace mtcut::render

@@ -84,6 +84,10 @@ public:
     /// +infinity where there is no surface or outside the image. Reads one
     /// texel (waits for the frame): for picking, not per pixel.
     float viewDepthAt(int x, int y) const;
+    /// The last frame's fragment id at pixel (x, y), top-left origin (1 =
+    /// fragment_000, as Frame::fragments); 0 where there is no surface or
+    /// outside the image. Reads one texel: for picking.
+    uint32_t fragmentIdAt(int x, int y) const;
     /// The off-screen framebuffer (colour in attachment 0), e.g. to blit
     /// the last frame to a window.
     GLuint framebuffer() const { return mFbo.id(); }

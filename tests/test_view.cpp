@@ -19,6 +19,11 @@
 
 #include <gtest/gtest.h>
 
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+
 #include <glm/geometric.hpp>
 
 #include <chrono>
@@ -263,6 +268,68 @@ TEST_F(ViewScript, AMouseStrokeCutsAndUndoes)
     ASSERT_NE(at, std::string::npos) << summary;
     EXPECT_GT(std::stoul(summary.substr(at + 13)), 100u) << summary;
     EXPECT_NE(summary.find("\"defects\": 0"), std::string::npos) << summary;
+}
+
+// Ctrl+click (`pick`) selects the fragment under the cursor: the one whose
+// id `mtcut render`'s EXR has at that pixel. "Save selected" (`export-selected`)
+// then writes that fragment alone; a pick on the background selects nothing.
+TEST_F(ViewScript, PickSelectsTheFragmentUnderTheCursorAndSavesIt)
+{
+    test::TempDir dir;
+    // The fragment ids of the front view, from the command line's EXR.
+    const std::string exr = dir.file("front.exr");
+    const test::RunResult rr = test::runMtcut("render " + mHead + " --iso 400 --width 640 --height 480 --view front -o " + exr);
+    ASSERT_EQ(rr.exitCode, 0) << rr.output;
+    Imf::InputFile in(exr.c_str());
+    const Imath::Box2i dw = in.header().dataWindow();
+    const int w = dw.max.x - dw.min.x + 1, h = dw.max.y - dw.min.y + 1;
+    ASSERT_EQ(w, 640);
+    ASSERT_EQ(h, 480);
+    std::vector<uint32_t> ids(size_t(w) * size_t(h));
+    Imf::FrameBuffer fb;
+    fb.insert("fragment", Imf::Slice(Imf::UINT, reinterpret_cast<char*>(ids.data()), sizeof(uint32_t), sizeof(uint32_t) * size_t(w)));
+    in.setFrameBuffer(fb);
+    in.readPixels(dw.min.y, dw.max.y);
+    auto idAt = [&](int x, int y) { return ids[size_t(y) * size_t(w) + size_t(x)]; };
+    // A pixel of a fragment other than the largest, inside it (its 4
+    // neighbours agree), whose mirror images in x and y show something else:
+    // a pick that reads the wrong pixel selects another fragment or none.
+    int px = -1, py = -1;
+    for (int y = 1; y + 1 < h && px < 0; ++y)
+        for (int x = 1; x + 1 < w && px < 0; ++x) {
+            const uint32_t id = idAt(x, y);
+            if (id <= 1 || idAt(x - 1, y) != id || idAt(x + 1, y) != id || idAt(x, y - 1) != id || idAt(x, y + 1) != id) continue;
+            if (idAt(x, h - 1 - y) == id || idAt(w - 1 - x, y) == id) continue;
+            px = x;
+            py = y;
+        }
+    ASSERT_GE(px, 0) << "no small fragment in the front view";
+    const uint32_t id = idAt(px, py);
+
+    writeText(dir.file("s.txt"), "iso 400\nview front\npick 3 3\npick " + std::to_string(px) + " " +
+                                     std::to_string(py) + "\nexport-selected " + dir.file("out") + "\nquit\n");
+    const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file("s.txt"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(r.output.find("error"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("pick: no fragment at pixel (3, 3)"), std::string::npos) << r.output;
+    char name[32], said[48];
+    std::snprintf(name, sizeof name, "fragment_%03u.stl", id - 1);
+    std::snprintf(said, sizeof said, "fragment %03u selected", id - 1);
+    EXPECT_NE(r.output.find(said), std::string::npos) << "picked at (" << px << ", " << py << ")\n" << r.output;
+    size_t files = 0;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir.file("out"))) {
+        const std::string f = e.path().filename().string();
+        if (f.rfind("fragment_", 0) != 0) continue;
+        ++files;
+        EXPECT_EQ(f, name);
+    }
+    EXPECT_EQ(files, 1u) << r.output;
+    EXPECT_TRUE(cutter::checkMesh(cutter::readMesh(dir.file(std::string("out/") + name))).ok());
+
+    writeText(dir.file("bad.txt"), "pick 3\n");
+    const test::RunResult bad = runView(mHead + " --script " + dir.file("bad.txt"));
+    EXPECT_NE(bad.exitCode, 0);
+    EXPECT_NE(bad.output.find(":1: pick: expected X Y (pixels), got '3'"), std::string::npos) << bad.output;
 }
 
 TEST_F(ViewScript, UnknownActionStopsWithItsLineNumber)

@@ -45,10 +45,10 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
     static const Spec kSpecs[] = {
         {"iso", ScriptAction::Kind::Iso, true},       {"view", ScriptAction::Kind::View, true},
         {"kerf", ScriptAction::Kind::Kerf, true},     {"path", ScriptAction::Kind::Path, true},
-        {"drag", ScriptAction::Kind::Drag, true},
+        {"drag", ScriptAction::Kind::Drag, true},     {"pick", ScriptAction::Kind::Pick, true},
         {"undo", ScriptAction::Kind::Undo, false},    {"redo", ScriptAction::Kind::Redo, false},
         {"screenshot", ScriptAction::Kind::Screenshot, true}, {"window", ScriptAction::Kind::Window, true},
-        {"export", ScriptAction::Kind::Export, true},
+        {"export", ScriptAction::Kind::Export, true}, {"export-selected", ScriptAction::Kind::ExportSelected, true},
         {"quit", ScriptAction::Kind::Quit, false},
     };
     std::vector<ScriptAction> actions;
@@ -67,7 +67,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         }
         if (!spec) {
             throw InputError(where + ": unknown action '" + word +
-                             "' (expected iso, view, kerf, path, drag, undo, redo, screenshot, window, export or quit)");
+                             "' (expected iso, view, kerf, path, drag, pick, undo, redo, screenshot, window, export, export-selected or quit)");
         }
         if (spec->takesArgument && rest.empty()) throw InputError(where + ": " + word + " needs an argument");
         if (!spec->takesArgument && !rest.empty()) {
@@ -85,6 +85,14 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
             std::string extra;
             if (!(words >> v[0] >> v[1] >> v[2] >> v[3]) || (words >> extra)) {
                 throw InputError(where + ": drag: expected X0 Y0 X1 Y1 (pixels), got '" + rest + "'");
+            }
+        }
+        if (a.kind == ScriptAction::Kind::Pick) {
+            std::istringstream words(rest);
+            double v[2];
+            std::string extra;
+            if (!(words >> v[0] >> v[1]) || (words >> extra)) {
+                throw InputError(where + ": pick: expected X Y (pixels), got '" + rest + "'");
             }
         }
         actions.push_back(std::move(a));

@@ -9,9 +9,11 @@
 //   drag X0 Y0 X1 Y1      a mouse stroke from pixel (X0, Y0) to (X1, Y1) (top-left origin),
 //                         with the blade of the panel (length, tilt), as the left button does
 //   undo | redo           the last stroke (as Ctrl+Z / Ctrl+Shift+Z)
+//   pick X Y              selects or unselects the fragment seen at pixel (X, Y), as Ctrl+click
 //   screenshot FILE       the 3D view (no panel) as .png or .exr, as `mtcut render` writes it
 //   window FILE           the whole window, panel and overlay included, as .png
 //   export DIR            fragments, cut.vdb, slices.exr, summary.json (as `mtcut cut -o DIR`)
+//   export-selected DIR   the same with the selected fragments only (as "Save selected")
 //   quit                  closes the viewer (exit 0)
 //   # ...                 comment; blank lines are skipped
 //
@@ -26,7 +28,7 @@ namespace mtcut::view {
 
 struct ScriptAction
 {
-    enum class Kind { Iso, View, Kerf, Path, Drag, Undo, Redo, Screenshot, Window, Export, Quit };
+    enum class Kind { Iso, View, Kerf, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Quit };
     Kind kind = Kind::Quit;
     std::string argument; ///< the rest of the line, trimmed (file names may hold spaces)
     double number = 0.0;  ///< iso, kerf

@@ -152,6 +152,11 @@ private:
     /// Script `drag`: a mouse stroke from pixel a to b, through the same path as the mouse.
     void scriptDrag(const std::string& argument);
     void screenshot(const std::string& path);
+    /// Toggles the selection of the fragment seen at window pixel (x, y) (the
+    /// last frame's fragment ids) and scrolls the list to it.
+    void pick(double x, double y);
+    /// Saves the selected fragments (with cut.vdb, slices.exr, summary.json) into `dir`.
+    void saveSelected(const std::string& dir, const std::string& format);
     void saveWindow(const std::string& path);
     render::RenderStyle style(bool forScreenshot) const;
 
@@ -181,6 +186,7 @@ private:
     float mIso = 0.0f;
     float mKerf = 0.0f;
     float mBladeLength = 60.0f;   ///< mm
+    int mScrollTo = -1;           ///< fragment list row to scroll to (-1: none)
     float mBladeAngle = 0.0f;     ///< degrees, blade tilted from the view direction towards the screen's bottom
     bool mHighlight = false;
     bool mShowOverlay = true;
@@ -442,7 +448,9 @@ void Viewer::handleInput()
         updateCamera();
     }
 
-    if (mDrag == Drag::None && (ImGui::IsMouseClicked(0) || ImGui::IsMouseClicked(1) || ImGui::IsMouseClicked(2))) {
+    if (mDrag == Drag::None && ImGui::IsMouseClicked(0) && io.KeyCtrl) {
+        pick(x, y); // Ctrl+click: select a fragment, no drag
+    } else if (mDrag == Drag::None && (ImGui::IsMouseClicked(0) || ImGui::IsMouseClicked(1) || ImGui::IsMouseClicked(2))) {
         const float depth = mRenderer->viewDepthAt(int(x), int(y));
         if (ImGui::IsMouseClicked(0) && !io.KeyShift && !io.KeyAlt && std::isfinite(depth) && mShown &&
             mShown->surface) {
@@ -498,6 +506,32 @@ void Viewer::handleInput()
             mHaveHover = true;
         }
     }
+}
+
+void Viewer::pick(double x, double y)
+{
+    if (!mRenderer || !mShown) return;
+    const uint32_t id = mRenderer->fragmentIdAt(int(x), int(y));
+    if (id == 0 || id > mFragments.size() || id > mShown->fragments.size()) {
+        post(false, "pick: no fragment at pixel (" + std::to_string(int(x)) + ", " + std::to_string(int(y)) + ")");
+        return;
+    }
+    FragmentStyle& f = mFragments[id - 1];
+    f.selected = !f.selected;
+    mScrollTo = int(id - 1);
+    char text[160];
+    std::snprintf(text, sizeof text, "fragment %03u %s (%.0f mm^3, %.0f mm^2)", id - 1,
+                  f.selected ? "selected" : "unselected", mShown->fragments[id - 1].volumeMm3,
+                  mShown->fragments[id - 1].areaMm2);
+    post(false, text);
+}
+
+void Viewer::saveSelected(const std::string& dir, const std::string& format)
+{
+    if (!mShown) return;
+    std::vector<bool> selected(mShown->fragments.size(), false);
+    for (size_t i = 0; i < selected.size() && i < mFragments.size(); ++i) selected[i] = mFragments[i].selected;
+    mSession.save({dir, format, selected});
 }
 
 void Viewer::screenshot(const std::string& path)
@@ -580,6 +614,14 @@ void Viewer::stepScript()
             mWindowShot = a.argument;
             break;
         case ScriptAction::Kind::Export: mSession.save({a.argument, "stl", {}}); break;
+        case ScriptAction::Kind::ExportSelected: saveSelected(a.argument, "stl"); break;
+        case ScriptAction::Kind::Pick: {
+            std::istringstream words(a.argument);
+            double x = 0, y = 0;
+            words >> x >> y;
+            pick(x, y);
+            break;
+        }
         case ScriptAction::Kind::Quit: mQuit = true; break;
         }
     } catch (const std::exception& e) {
@@ -596,7 +638,7 @@ void Viewer::panel()
     mPanelRight = ImGui::IsWindowCollapsed()
                       ? 0.0
                       : double(ImGui::GetWindowPos().x + ImGui::GetWindowSize().x) * ImGui::GetIO().DisplayFramebufferScale.x;
-    ImGui::TextWrapped("LMB on bone: cut | LMB elsewhere / RMB: orbit | MMB or Shift+LMB: pan | wheel: zoom | "
+    ImGui::TextWrapped("LMB on bone: cut | Ctrl+LMB: select fragment | LMB elsewhere / RMB: orbit | MMB or Shift+LMB: pan | wheel: zoom | "
                        "1-4: front/side/top/iso, R: reset | Ctrl+Z / Ctrl+Shift+Z: undo/redo | H: highlight | "
                        "drop a file or folder to open it");
     ImGui::Separator();
@@ -687,6 +729,7 @@ void Viewer::panel()
             ImGuiListClipper clipper;
             const int count = int(std::min(s->fragments.size(), mFragments.size()));
             clipper.Begin(count);
+            if (mScrollTo >= 0 && mScrollTo < count) clipper.ForceDisplayRangeByIndices(mScrollTo, mScrollTo + 1);
             while (clipper.Step()) {
                 for (int i = clipper.DisplayStart; i < clipper.DisplayEnd; ++i) {
                     FragmentStyle& f = mFragments[size_t(i)];
@@ -698,6 +741,10 @@ void Viewer::panel()
                     ImGui::Checkbox("##show", &f.visible);
                     ImGui::TableNextColumn();
                     ImGui::Checkbox("##sel", &f.selected);
+                    if (i == mScrollTo) {
+                        ImGui::SetScrollHereY();
+                        mScrollTo = -1;
+                    }
                     ImGui::TableNextColumn();
                     if (ImGui::ColorEdit3("##colour", glm::value_ptr(f.colour), ImGuiColorEditFlags_NoInputs)) {
                         f.customColour = true;
@@ -728,9 +775,7 @@ void Viewer::panel()
         if (ImGui::Button("Save all")) mSession.save({mSaveDir, formats[mFormat], {}});
         ImGui::SameLine();
         if (ImGui::Button("Save selected")) {
-            std::vector<bool> selected(s->fragments.size(), false);
-            for (size_t i = 0; i < selected.size() && i < mFragments.size(); ++i) selected[i] = mFragments[i].selected;
-            mSession.save({mSaveDir, formats[mFormat], selected});
+            saveSelected(mSaveDir, formats[mFormat]);
         }
         ImGui::InputText("image", mShotPath, sizeof mShotPath);
         if (ImGui::Button("Screenshot (.png / .exr)")) {
