@@ -330,6 +330,10 @@ TEST_F(ViewScript, PickSelectsTheFragmentUnderTheCursorAndSavesIt)
     const test::RunResult bad = runView(mHead + " --script " + dir.file("bad.txt"));
     EXPECT_NE(bad.exitCode, 0);
     EXPECT_NE(bad.output.find(":1: pick: expected X Y (pixels), got '3'"), std::string::npos) << bad.output;
+    writeText(dir.file("bad2.txt"), "wait 0.1\nwait -2\n");
+    const test::RunResult bad2 = runView(mHead + " --script " + dir.file("bad2.txt"));
+    EXPECT_NE(bad2.exitCode, 0);
+    EXPECT_NE(bad2.output.find(":2: wait"), std::string::npos) << bad2.output;
 }
 
 TEST_F(ViewScript, UnknownActionStopsWithItsLineNumber)

@@ -49,7 +49,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         {"undo", ScriptAction::Kind::Undo, false},    {"redo", ScriptAction::Kind::Redo, false},
         {"screenshot", ScriptAction::Kind::Screenshot, true}, {"window", ScriptAction::Kind::Window, true},
         {"export", ScriptAction::Kind::Export, true}, {"export-selected", ScriptAction::Kind::ExportSelected, true},
-        {"quit", ScriptAction::Kind::Quit, false},
+        {"wait", ScriptAction::Kind::Wait, true},     {"quit", ScriptAction::Kind::Quit, false},
     };
     std::vector<ScriptAction> actions;
     std::istringstream in(text);
@@ -67,7 +67,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         }
         if (!spec) {
             throw InputError(where + ": unknown action '" + word +
-                             "' (expected iso, view, kerf, path, drag, pick, undo, redo, screenshot, window, export, export-selected or quit)");
+                             "' (expected iso, view, kerf, path, drag, pick, undo, redo, screenshot, window, export, export-selected, wait or quit)");
         }
         if (spec->takesArgument && rest.empty()) throw InputError(where + ": " + word + " needs an argument");
         if (!spec->takesArgument && !rest.empty()) {
@@ -79,6 +79,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         a.line = lineNo;
         if (a.kind == ScriptAction::Kind::Iso) a.number = numberOf(rest, where + ": iso", false);
         if (a.kind == ScriptAction::Kind::Kerf) a.number = numberOf(rest, where + ": kerf", true);
+        if (a.kind == ScriptAction::Kind::Wait) a.number = numberOf(rest, where + ": wait", true);
         if (a.kind == ScriptAction::Kind::Drag) {
             std::istringstream words(rest);
             double v[4];

@@ -14,6 +14,7 @@
 //   window FILE           the whole window, panel and overlay included, as .png
 //   export DIR            fragments, cut.vdb, slices.exr, summary.json (as `mtcut cut -o DIR`)
 //   export-selected DIR   the same with the selected fragments only (as "Save selected")
+//   wait S                waits S seconds, drawing (e.g. for poses streamed with --poses)
 //   quit                  closes the viewer (exit 0)
 //   # ...                 comment; blank lines are skipped
 //
@@ -28,7 +29,7 @@ namespace mtcut::view {
 
 struct ScriptAction
 {
-    enum class Kind { Iso, View, Kerf, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Quit };
+    enum class Kind { Iso, View, Kerf, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Wait, Quit };
     Kind kind = Kind::Quit;
     std::string argument; ///< the rest of the line, trimmed (file names may hold spaces)
     double number = 0.0;  ///< iso, kerf

@@ -186,6 +186,7 @@ private:
     float mIso = 0.0f;
     float mKerf = 0.0f;
     float mBladeLength = 60.0f;   ///< mm
+    double mScriptWaitUntil = 0.0; ///< glfwGetTime() before which the script waits (`wait`)
     int mScrollTo = -1;           ///< fragment list row to scroll to (-1: none)
     float mBladeAngle = 0.0f;     ///< degrees, blade tilted from the view direction towards the screen's bottom
     bool mHighlight = false;
@@ -597,6 +598,7 @@ void Viewer::stepScript()
     if (mScriptNext >= mOptions.script.size()) return;
     // The action before has finished and its result is on screen.
     if (!mSession.idle() || mSession.snapshot() != mShown || !mRenderer) return;
+    if (glfwGetTime() < mScriptWaitUntil) return;
     const ScriptAction& a = mOptions.script[mScriptNext++];
     const std::string where = mOptions.scriptName + ":" + std::to_string(a.line) + ": ";
     try {
@@ -622,6 +624,7 @@ void Viewer::stepScript()
             pick(x, y);
             break;
         }
+        case ScriptAction::Kind::Wait: mScriptWaitUntil = glfwGetTime() + a.number; break;
         case ScriptAction::Kind::Quit: mQuit = true; break;
         }
     } catch (const std::exception& e) {
