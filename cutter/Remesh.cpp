@@ -2276,6 +2276,34 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
         }
         tris.swap(kept);
     }
+    // MTCUT_REMESH_DEBUG (Remesh.h): a vertex's name and float position on
+    // stderr, planes as s<stroke>:q<quad>:k<kind>, tags as q<quad>+/-.
+    const bool debug = std::getenv("MTCUT_REMESH_DEBUG") != nullptr;
+    auto desc = [&](uint32_t v) {
+        using ull = unsigned long long;
+        const CutVertexId& id = ids[v];
+        std::fprintf(stderr, "  v%u dim %d at", v, id.dim);
+        for (int i = 0; i <= std::min<int>(id.dim, 2); ++i) {
+            if (id.dim == 3 && i == 1) {
+                std::fprintf(stderr, " tet %llu", ull(id.feature[1]));
+                break;
+            }
+            const Coord g = gridVertexCoord(id.feature[size_t(i)]);
+            std::fprintf(stderr, " (%d,%d,%d)", g.x(), g.y(), g.z());
+        }
+        std::fprintf(stderr, " planes");
+        for (int i = 0; i < id.planeCount; ++i) {
+            const uint64_t p = id.planes[size_t(i)];
+            if (p < 16) std::fprintf(stderr, " %llu", ull(p));
+            else std::fprintf(stderr, " s%llu:q%llu:k%llu", ull(p >> 36), ull((p >> 4) & 0xffffffff), ull(p & 15));
+        }
+        std::fprintf(stderr, " tags");
+        for (int i = 0; i < id.tagCount; ++i) {
+            const uint64_t t = id.tags[size_t(i)];
+            std::fprintf(stderr, " q%llu%c", ull((t >> 5) & 0xffffffff), t & 1 ? '-' : '+');
+        }
+        std::fprintf(stderr, " world %.6f %.6f %.6f\n", world[v].x, world[v].y, world[v].z);
+    };
     // Directed edge uses; an edge matters when a changed cell's closed box holds it
     // (then every triangle that can use it is in the region).
     auto matters = [&](uint32_t a, uint32_t b, const Coord& cell) {
@@ -2330,25 +2358,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                 }
             }
         }
-        if (std::getenv("MTCUT_REMESH_DEBUG")) {
-            auto desc = [&](uint32_t v) {
-                const CutVertexId& id = ids[v];
-                std::fprintf(stderr, "  v%u dim %d feat", v, id.dim);
-                for (int i = 0; i <= (id.dim == 3 ? 1 : id.dim); ++i) {
-                    if (id.dim == 3 && i == 1) { std::fprintf(stderr, " tet %llu", (unsigned long long)id.feature[1]); continue; }
-                    const Coord g = gridVertexCoord(id.feature[size_t(i)]);
-                    std::fprintf(stderr, " (%d,%d,%d)", g.x(), g.y(), g.z());
-                }
-                std::fprintf(stderr, " planes");
-                for (int i = 0; i < id.planeCount; ++i) {
-                    const uint64_t p = id.planes[size_t(i)];
-                    if (p < 16) std::fprintf(stderr, " %llu", (unsigned long long)p);
-                    else std::fprintf(stderr, " s%llu:q%llu:k%llu", (unsigned long long)(p >> 36), (unsigned long long)((p >> 4) & 0xffffffff), (unsigned long long)(p & 15));
-                }
-                std::fprintf(stderr, " tags");
-                for (int i = 0; i < id.tagCount; ++i) std::fprintf(stderr, " q%llu%c", (unsigned long long)((id.tags[size_t(i)] >> 5) & 0xffffffff), id.tags[size_t(i)] & 1 ? '-' : '+');
-                std::fprintf(stderr, " world %.6f %.6f %.6f\n", world[v].x, world[v].y, world[v].z);
-            };
+        if (debug) {
             std::fprintf(stderr, "open edge, triangle cell (%d,%d,%d):\n", tris[u.second].cell.x(), tris[u.second].cell.y(), tris[u.second].cell.z());
             desc(uint32_t(key >> 32));
             desc(uint32_t(key));
@@ -2399,6 +2409,16 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                 cell = c;
                 break;
             }
+        if (debug) {
+            std::fprintf(stderr, "pinch at:\n");
+            desc(v);
+            std::set<uint32_t> seen;
+            for (const auto& e : link) {
+                std::fprintf(stderr, "   link edge %u -> %u\n", e.first, e.second);
+                for (uint32_t u : {e.first, e.second})
+                    if (seen.insert(u).second) desc(u);
+            }
+        }
         fail("a vertex where the surface pinches: not a 2-manifold", cell);
     }
     // No triangle of a changed cell is degenerate in float world mm.
