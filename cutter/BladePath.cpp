@@ -55,43 +55,6 @@ double extent(const Quad& q)
     return maxAbs(hi - lo);
 }
 
-/// Does point p (index space) lie within `tol` voxels of the planar convex
-/// polygon with corners c[0..n) (index space): within `tol` of its plane, and
-/// its projection within `tol` of the polygon?
-bool nearInsideQuad(const glm::dvec3& p, const glm::dvec3* c, uint32_t n, double tol)
-{
-    glm::dvec3 lo(1e300), hi(-1e300);
-    for (uint32_t i = 0; i < n; ++i) {
-        lo = glm::min(lo, c[i]);
-        hi = glm::max(hi, c[i]);
-    }
-    if (glm::any(glm::lessThan(p, lo - tol)) || glm::any(glm::greaterThan(p, hi + tol))) return false;
-    glm::dvec3 nrm(0.0), centre(0.0);
-    for (uint32_t i = 0; i < n; ++i) {
-        nrm += glm::cross(c[i], c[(i + 1) % n]);
-        centre += c[i] / double(n);
-    }
-    const double len = glm::length(nrm);
-    if (!(len > 1e-12)) return false;
-    nrm /= len;
-    if (!(std::abs(glm::dot(nrm, p - centre)) <= tol)) return false;
-    const glm::dvec3 q = p - glm::dot(nrm, p - centre) * nrm; // projection
-    const std::vector<int> hull = convexHullOrder(c, n, nrm);
-    bool inside = true;
-    double nearest = 1e300; // distance to the outline
-    for (size_t i = 0; i < hull.size(); ++i) {
-        const glm::dvec3& a = c[size_t(hull[i])];
-        const glm::dvec3& b = c[size_t(hull[(i + 1) % hull.size()])];
-        const glm::dvec3 e = b - a;
-        const double ee = glm::dot(e, e);
-        if (!(ee > 0.0)) continue;
-        inside = inside && glm::dot(glm::cross(e, q - a), nrm) >= 0.0;
-        const double t = std::clamp(glm::dot(q - a, e) / ee, 0.0, 1.0);
-        nearest = std::min(nearest, glm::length(q - (a + t * e)));
-    }
-    return inside || nearest <= tol;
-}
-
 } // namespace
 
 Quad makeQuad(const glm::dvec3* corners, uint32_t count, uint32_t stick)
@@ -185,72 +148,109 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base)))
         return false;
     // (2b) retracing the last quads cuts nothing new.
-    if (mOptions.retraceTolerance >= 0.0) {
-        const glm::dvec3 base = mFrame.toIndex(s1.base), tip = mFrame.toIndex(s1.tip());
-        for (const Quad& rq : mRecentQuads) {
-            if (rq.degenerate) continue;
-            glm::dvec3 c[4];
-            for (uint32_t i = 0; i < rq.cornerCount; ++i) c[i] = mFrame.toIndex(rq.corners[i]);
-            if (nearInsideQuad(base, c, rq.cornerCount, mOptions.retraceTolerance) &&
-                nearInsideQuad(tip, c, rq.cornerCount, mOptions.retraceTolerance))
-                return false;
-        }
-    }
+    if (mOptions.retraceTolerance >= 0.0 && retraces(s1)) return false;
     const size_t quadsBefore = quads.size();
-    const bool kept = [&] {
-        const uint32_t stickIndex = uint32_t(mSticks.size() - 1);
-        auto quadOf = [&](const Stick& a, const Stick& b) {
-            const glm::dvec3 c[4] = {a.base, a.tip(), b.tip(), b.base};
-            return makeQuad(c, 4, stickIndex);
-        };
-        auto planar = [&](const Quad& q) {
-            return planarityError(q) <= mOptions.planarTolerance * (extent(q) + 1.0);
-        };
-
-        // (a) already coplanar (includes collinear motion)
-        Quad q = quadOf(s0, s1);
-        if (planar(q)) {
-            mSticks.push_back(s1);
-            quads.push_back(q);
-            return true;
+    appendQuads(s1, quads);
+    for (size_t i = quadsBefore; i < quads.size(); ++i) {
+        const Quad& q = quads[i];
+        if (q.degenerate) continue;
+        RecentQuad r;
+        r.count = q.cornerCount;
+        r.lo = glm::dvec3(1e300);
+        r.hi = glm::dvec3(-1e300);
+        for (uint32_t c = 0; c < r.count; ++c) {
+            r.corners[c] = mFrame.toIndex(q.corners[c]);
+            r.lo = glm::min(r.lo, r.corners[c]);
+            r.hi = glm::max(r.hi, r.corners[c]);
         }
-        // (b) rotate the new stick into span(dir0, m)
-        const glm::dvec3 m = s1.base - s0.base;
-        const glm::dvec3 nu = glm::cross(s0.direction, m);
-        const double nuLen = glm::length(nu);
-        if (nuLen > 0.0) {
-            const glm::dvec3 nuHat = nu / nuLen;
-            const glm::dvec3 projected = s1.direction - glm::dot(s1.direction, nuHat) * nuHat;
-            const double pLen = glm::length(projected);
-            if (pLen > 0.5) { // rotation below 60 degrees; the angle test below decides
-                Stick s1r = s1;
-                s1r.direction = projected / pLen;
-                const double angle =
-                    std::asin(std::min(1.0, std::abs(glm::dot(s1.direction, nuHat))));
-                s1r.adjustAngle = angle;
-                if (angle <= mOptions.maxTwist) {
-                    const Quad qr = quadOf(s0, s1r);
-                    if (planar(qr)) {
-                        mSticks.push_back(s1r);
-                        quads.push_back(qr);
-                        return true;
-                    }
+        r.normal = glm::normalize(q.normal * mFrame.spacing); // the plane in index space
+        r.hull = convexHullOrder(r.corners.data(), r.count, r.normal);
+        mRecentQuads.push_back(std::move(r));
+    }
+    if (mRecentQuads.size() > kRetraceQuads)
+        mRecentQuads.erase(mRecentQuads.begin(), mRecentQuads.end() - long(kRetraceQuads));
+    return true;
+}
+
+bool PathFilter::retraces(const Stick& s) const
+{
+    const double tol = mOptions.retraceTolerance;
+    const glm::dvec3 base = mFrame.toIndex(s.base), tip = mFrame.toIndex(s.tip());
+    // Within tol of the quad's plane, and its projection within tol of the quad.
+    auto near = [&](const RecentQuad& r, const glm::dvec3& p) {
+        const double h = glm::dot(r.normal, p - r.corners[0]);
+        if (!(std::abs(h) <= tol)) return false;
+        const glm::dvec3 q = p - h * r.normal;
+        bool inside = true;
+        double nearest = 1e300; // distance to the outline
+        for (size_t i = 0; i < r.hull.size(); ++i) {
+            const glm::dvec3& a = r.corners[size_t(r.hull[i])];
+            const glm::dvec3 e = r.corners[size_t(r.hull[(i + 1) % r.hull.size()])] - a;
+            const double ee = glm::dot(e, e);
+            if (!(ee > 0.0)) continue;
+            inside = inside && glm::dot(glm::cross(e, q - a), r.normal) >= 0.0;
+            const double t = std::clamp(glm::dot(q - a, e) / ee, 0.0, 1.0);
+            nearest = std::min(nearest, glm::length(q - (a + t * e)));
+        }
+        return inside || nearest <= tol;
+    };
+    auto inBox = [&](const RecentQuad& r, const glm::dvec3& p) {
+        return !glm::any(glm::lessThan(p, r.lo - tol)) && !glm::any(glm::greaterThan(p, r.hi + tol));
+    };
+    for (const RecentQuad& r : mRecentQuads)
+        if (inBox(r, base) && inBox(r, tip) && near(r, base) && near(r, tip)) return true;
+    return false;
+}
+
+void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)
+{
+    const Stick& s0 = mSticks.back();
+    const uint32_t stickIndex = uint32_t(mSticks.size() - 1);
+    auto quadOf = [&](const Stick& a, const Stick& b) {
+        const glm::dvec3 c[4] = {a.base, a.tip(), b.tip(), b.base};
+        return makeQuad(c, 4, stickIndex);
+    };
+    auto planar = [&](const Quad& q) {
+        return planarityError(q) <= mOptions.planarTolerance * (extent(q) + 1.0);
+    };
+
+    // (a) already coplanar (includes collinear motion)
+    Quad q = quadOf(s0, s1);
+    if (planar(q)) {
+        mSticks.push_back(s1);
+        quads.push_back(q);
+        return;
+    }
+    // (b) rotate the new stick into span(dir0, m)
+    const glm::dvec3 m = s1.base - s0.base;
+    const glm::dvec3 nu = glm::cross(s0.direction, m);
+    const double nuLen = glm::length(nu);
+    if (nuLen > 0.0) {
+        const glm::dvec3 nuHat = nu / nuLen;
+        const glm::dvec3 projected = s1.direction - glm::dot(s1.direction, nuHat) * nuHat;
+        const double pLen = glm::length(projected);
+        if (pLen > 0.5) { // rotation below 60 degrees; the angle test below decides
+            Stick s1r = s1;
+            s1r.direction = projected / pLen;
+            const double angle =
+                std::asin(std::min(1.0, std::abs(glm::dot(s1.direction, nuHat))));
+            s1r.adjustAngle = angle;
+            if (angle <= mOptions.maxTwist) {
+                const Quad qr = quadOf(s0, s1r);
+                if (planar(qr)) {
+                    mSticks.push_back(s1r);
+                    quads.push_back(qr);
+                    return;
                 }
             }
         }
-        // (c) split into two planar triangles
-        const glm::dvec3 t0[3] = {s0.base, s0.tip(), s1.tip()};
-        const glm::dvec3 t1[3] = {s0.base, s1.tip(), s1.base};
-        quads.push_back(makeQuad(t0, 3, stickIndex));
-        quads.push_back(makeQuad(t1, 3, stickIndex));
-        mSticks.push_back(s1);
-        return true;
-    }();
-    // The quads just made join the last ones rule 2b looks at.
-    mRecentQuads.insert(mRecentQuads.end(), quads.begin() + long(quadsBefore), quads.end());
-    if (mRecentQuads.size() > kRetraceQuads)
-        mRecentQuads.erase(mRecentQuads.begin(), mRecentQuads.end() - long(kRetraceQuads));
-    return kept;
+    }
+    // (c) split into two planar triangles
+    const glm::dvec3 t0[3] = {s0.base, s0.tip(), s1.tip()};
+    const glm::dvec3 t1[3] = {s0.base, s1.tip(), s1.base};
+    quads.push_back(makeQuad(t0, 3, stickIndex));
+    quads.push_back(makeQuad(t1, 3, stickIndex));
+    mSticks.push_back(s1);
 }
 
 std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame& frame,

@@ -174,10 +174,25 @@ public:
     const IndexFrame& frame() const { return mFrame; }
 
 private:
+    /// A quad of the stroke as rule 2b tests sticks against it (index space,
+    /// made once when the quad is emitted).
+    struct RecentQuad
+    {
+        std::array<glm::dvec3, 4> corners{};
+        uint32_t count = 0;
+        glm::dvec3 normal{0.0}; ///< unit
+        glm::dvec3 lo{0.0}, hi{0.0};
+        std::vector<int> hull; ///< convexHullOrder of the corners
+    };
+    /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps s1.
+    void appendQuads(const Stick& s1, std::vector<Quad>& quads);
+    /// Rule 2b: do the base and tip of s lie within the tolerance of one recent quad?
+    bool retraces(const Stick& s) const;
+
     IndexFrame mFrame;
     PathFilterOptions mOptions;
     std::vector<Stick> mSticks;
-    std::vector<Quad> mRecentQuads; ///< the stroke's last kRetraceQuads quads (rule 2b)
+    std::vector<RecentQuad> mRecentQuads; ///< the stroke's last kRetraceQuads non-degenerate quads, oldest first
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;
     bool mHaveTime = false;
