@@ -233,6 +233,20 @@ void runVolume(const std::string& name, const vdb::Volume& vol, double planeInde
     ours.setSurface(uncut);
     const render::Camera camera = render::cameraFor("iso", ours.bounds(), double(o.width) / o.height);
     const render::RenderStyle style;
+    // The baseline: upload the whole (fused) mesh every frame, then draw it.
+    auto timeBaseline = [&](const cutter::Mesh& mesh, Row& r) {
+        const LoopTimes b = timeLoop(o, [&](render::GpuTimer& timer) {
+            {
+                auto s = timer.scope("upload");
+                base.setSurface(mesh);
+            }
+            auto s = timer.scope("draw");
+            base.render(camera, style);
+        });
+        r.baseUploadMs = b.pass("upload");
+        r.baseDrawMs = b.pass("draw");
+        r.baseFrameMs = b.frameMs;
+    };
 
     // -- uncut ------------------------------------------------------------------
     {
@@ -247,17 +261,7 @@ void runVolume(const std::string& name, const vdb::Volume& vol, double planeInde
         r.drawMs = r.discardMs = t.pass("draw");
         r.frameMs = t.frameMs;
         r.gpuTimed = t.gpuTimed;
-        const LoopTimes b = timeLoop(o, [&](render::GpuTimer& timer) {
-            {
-                auto s = timer.scope("upload");
-                base.setSurface(uncut);
-            }
-            auto s = timer.scope("draw");
-            base.render(camera, style);
-        });
-        r.baseUploadMs = b.pass("upload");
-        r.baseDrawMs = b.pass("draw");
-        r.baseFrameMs = b.frameMs;
+        timeBaseline(uncut, r);
         printRow(r, o);
         rows.push_back(r);
     }
@@ -336,17 +340,7 @@ void runVolume(const std::string& name, const vdb::Volume& vol, double planeInde
         });
         r.discardMs = split.pass("discard");
         ours.clearCut();
-        const LoopTimes b = timeLoop(o, [&](render::GpuTimer& timer) {
-            {
-                auto s = timer.scope("upload");
-                base.setSurface(fused);
-            }
-            auto s = timer.scope("draw");
-            base.render(camera, style);
-        });
-        r.baseUploadMs = b.pass("upload");
-        r.baseDrawMs = b.pass("draw");
-        r.baseFrameMs = b.frameMs;
+        timeBaseline(fused, r);
         printRow(r, o);
         rows.push_back(r);
     }
