@@ -2362,17 +2362,15 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
             std::fprintf(stderr, "open edge, triangle cell (%d,%d,%d):\n", tris[u.second].cell.x(), tris[u.second].cell.y(), tris[u.second].cell.z());
             desc(uint32_t(key >> 32));
             desc(uint32_t(key));
+            std::set<uint32_t> around; // the vertices of the triangles at either end
             for (const Tri& tr : tris) {
-                int hits = 0;
-                for (uint32_t v : tr.v) hits += v == uint32_t(key >> 32) || v == uint32_t(key);
-                if (hits >= 1) std::fprintf(stderr, "   tri cell (%d,%d,%d): %u %u %u\n", tr.cell.x(), tr.cell.y(), tr.cell.z(), tr.v[0], tr.v[1], tr.v[2]);
+                if (std::none_of(tr.v, tr.v + 3, [&](uint32_t v) { return v == uint32_t(key >> 32) || v == uint32_t(key); }))
+                    continue;
+                std::fprintf(stderr, "   tri cell (%d,%d,%d): %u %u %u\n", tr.cell.x(), tr.cell.y(), tr.cell.z(), tr.v[0],
+                             tr.v[1], tr.v[2]);
+                around.insert(tr.v, tr.v + 3);
             }
-            std::set<uint32_t> seen;
-            for (const Tri& tr : tris) {
-                int hits = 0;
-                for (uint32_t v : tr.v) hits += v == uint32_t(key >> 32) || v == uint32_t(key);
-                if (hits >= 1) for (uint32_t v : tr.v) if (seen.insert(v).second) desc(v);
-            }
+            for (uint32_t v : around) desc(v);
         }
         std::ostringstream os;
         os << "an edge used " << u.first << " time(s) one way and " << back << " the other";
