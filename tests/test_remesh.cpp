@@ -545,11 +545,17 @@ TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
             if (corruption == 2) g.indices[1] = g.indices[0];
         });
         std::string message;
+        // With MTCUT_REMESH_DEBUG the open edge (corruption 0) is described on stderr.
+        if (corruption == 0) setenv("MTCUT_REMESH_DEBUG", "1", 1);
+        testing::internal::CaptureStderr();
         try {
             remesher.update(mask);
         } catch (const std::runtime_error& e) {
             message = e.what();
         }
+        const std::string described = testing::internal::GetCapturedStderr();
+        unsetenv("MTCUT_REMESH_DEBUG");
+        EXPECT_EQ(described.find("open edge, triangle cell"), corruption == 0 ? 0u : std::string::npos) << described;
         ASSERT_TRUE(done);
         const std::string where = "cell (" + std::to_string(victim.x()) + ", " + std::to_string(victim.y()) + ", " +
                                   std::to_string(victim.z()) + ")";
