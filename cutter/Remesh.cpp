@@ -2018,6 +2018,81 @@ std::array<double, 36> quadSignature(const CutMask& mask, const QuadRef& r)
     return s;
 }
 
+/// What the kernel's output for `cell` depends on besides the volume, hashed
+/// (two independent 64-bit hashes): the kind of cut, and per quad of the
+/// cell (in the kernel's order) its plane and id, and each side in full
+/// unless the cell's closed box lies strictly on one side of it (every
+/// corner more than kFar voxel inside, or outside). Such a side decides
+/// nothing in the cell: no point there lies on it (the kernel's tie is
+/// 1e-13 (1 + |x|)), every side test gives the same answer for all points,
+/// so its id, partner and corner sides are never read; only inside/outside
+/// remains (a quad outside one of its sides reaches none of the cell's
+/// tets). When a stroke neighbour of a quad comes or goes, the quad's far
+/// side changes (rim <-> junction); the cells that side does not reach keep
+/// this digest, and update() keeps their geometry instead of re-meshing it.
+std::array<uint64_t, 2> kernelInputDigest(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism)
+{
+    constexpr double kFar = 1e-6;
+    std::array<uint64_t, 2> h{0x9e3779b97f4a7c15ull, 0xc2b2ae3d27d4eb4full};
+    auto mix = [](uint64_t x) {
+        x ^= x >> 30;
+        x *= 0xbf58476d1ce4e5b9ull;
+        x ^= x >> 27;
+        x *= 0x94d049bb133111ebull;
+        return x ^ (x >> 31);
+    };
+    auto put = [&](uint64_t w) {
+        h[0] = mix(h[0] ^ w) + 0x632be59bd9b4e019ull;
+        h[1] = mix((h[1] + w) * 0xff51afd7ed558ccdull) ^ (h[1] >> 17);
+    };
+    auto putD = [&](double d) {
+        uint64_t w;
+        std::memcpy(&w, &d, sizeof w);
+        put(w);
+    };
+    auto putPlane = [&](const Plane& p) {
+        putD(p.n.x);
+        putD(p.n.y);
+        putD(p.n.z);
+        putD(p.d);
+    };
+    put(prism ? 2 : 1);
+    put(quads.size());
+    for (const QuadGeom& q : quads) {
+        put(q.id);
+        putPlane(q.pi);
+        put(q.sides.size());
+        for (const auto& s : q.sides) {
+            double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+            for (int k = 0; k < 8; ++k) {
+                const dvec3 x(cell.x() + (k & 1), cell.y() + ((k >> 1) & 1), cell.z() + ((k >> 2) & 1));
+                const double v = s.orient * s.plane.h(x);
+                lo = std::min(lo, v);
+                hi = std::max(hi, v);
+            }
+            if (lo > kFar) {
+                put(1); // strictly inside over the whole cell
+                continue;
+            }
+            if (hi < -kFar) {
+                put(2); // strictly outside
+                continue;
+            }
+            put(3);
+            put(s.id);
+            putPlane(s.plane);
+            putD(s.orient);
+            put(uint64_t(int64_t(s.partner)));
+            put(s.partnerId);
+            for (const auto& cs : s.cornerSides) {
+                put(cs.first);
+                put(cs.second);
+            }
+        }
+    }
+    return h;
+}
+
 } // namespace
 
 openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
@@ -2558,7 +2633,10 @@ size_t CutRemesher::update(const CutMask& mask)
         saved.push_back(std::move(sv));
         changedCells.push_back(c);
     };
+    // Cells kept as they are (same kernel input) with their old signatures.
+    std::vector<std::pair<Coord, std::vector<std::array<double, 36>>>> resigned;
     auto restore = [&] {
+        for (auto& [cell, signatures] : resigned) mRecords[cell].quadCorners = std::move(signatures);
         for (auto it = saved.rbegin(); it != saved.rend(); ++it) {
             if (it->had) {
                 mRecords[it->cell] = std::move(it->record);
@@ -2588,26 +2666,46 @@ size_t CutRemesher::update(const CutMask& mask)
         mCells.erase(dirty[i]);
         mRecords.erase(it);
     }
-    size_t count = 0;
+    size_t count = 0, keptCells = 0;
     try {
         for (size_t i = 0; i < dirty.size(); ++i) {
             if (!lists[i]) continue;
             const Coord& c = dirty[i];
             const std::vector<QuadRef>& list = *lists[i];
             auto it = mRecords.find(c);
-            bool changed = it == mRecords.end() || !(it->second.quads == list);
-            if (!changed) {
-                for (size_t k = 0; k < list.size() && !changed; ++k)
-                    changed = it->second.quadCorners[k] != quadSignature(mask, list[k]);
+            const bool newList = it == mRecords.end() || !(it->second.quads == list);
+            std::vector<std::array<double, 36>> signatures;
+            signatures.reserve(list.size());
+            for (const QuadRef& r : list) signatures.push_back(quadSignature(mask, r));
+            if (!newList && it->second.quadCorners == signatures) continue;
+            const bool prism = mask.kerf() > 0;
+            std::vector<QuadGeom> quads = cellQuads(mask, list, *mPrismCache, mQuadCache.get());
+            const std::array<uint64_t, 2> input = kernelInputDigest(c, quads, prism);
+            if (!newList && it->second.input == input) {
+                // A neighbour quad's side changed where this cell does not
+                // reach (kernelInputDigest): the kernel would make the same
+                // geometry. Keep it; remember the new signatures.
+                if (mVerifySkips) {
+                    CutCellGeometry again;
+                    mKernel->remesh(c, quads, prism, again);
+                    const CutCellGeometry& kept = mCells[c];
+                    if (!(again.vertexIds == kept.vertexIds && again.indexPositions == kept.indexPositions &&
+                          again.indices == kept.indices))
+                        throw std::logic_error("remesh: kept geometry differs from a re-mesh in cell " + cellText(c));
+                }
+                resigned.emplace_back(c, std::move(it->second.quadCorners));
+                it->second.quadCorners = std::move(signatures);
+                ++keptCells;
+                continue;
             }
-            if (!changed) continue;
             CellRecord rec;
             rec.quads = list;
-            for (const QuadRef& r : rec.quads) rec.quadCorners.push_back(quadSignature(mask, r));
+            rec.quadCorners = std::move(signatures);
+            rec.input = input;
             save(c);
             CutCellGeometry& geometry = mCells[c];
-            CellRecord& stored = mRecords[c] = std::move(rec);
-            mKernel->remesh(c, cellQuads(mask, stored.quads, *mPrismCache, mQuadCache.get()), mask.kerf() > 0, geometry);
+            mRecords[c] = std::move(rec);
+            mKernel->remesh(c, quads, prism, geometry);
             if (mCellHook) mCellHook(c, geometry);
             ++count;
         }
@@ -2638,6 +2736,7 @@ size_t CutRemesher::update(const CutMask& mask)
         }
     }
     mLastChanged = std::move(changedCells);
+    mLastKept = keptCells;
     return count;
 }
 

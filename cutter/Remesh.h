@@ -128,8 +128,9 @@ struct QuadGeomCache; // zero kerf: each quad's index-space geometry, built once
 ///
 /// Incremental: update() re-meshes only the cells whose (stroke, quad) list
 /// or quads changed since the last update (new cells, cells of a new or undone
-/// quad, and cells of a quad whose stroke neighbour came or went: its junction
-/// side changes) and forgets cells that are no longer cut, so after undo the fused
+/// quad, and those cells of a quad whose stroke neighbour came or went that its
+/// changed junction side reaches: elsewhere the kernel's input is unchanged
+/// and the cell is kept) and forgets cells that are no longer cut, so after undo the fused
 /// mesh equals the earlier one exactly (same vertices, same triangles, same
 /// order). Cost per update: O(quads of the mask) to find the changed quads
 /// (each compared with what the last update saw), O(cells of the changed
@@ -171,6 +172,16 @@ public:
     /// and the triangles around it), to find which rule of the kernel broke.
     size_t update(const CutMask& mask);
 
+    /// The cells the last successful update() kept without re-meshing: cells
+    /// of a quad whose stroke neighbour came or went, where the neighbour's
+    /// junction does not reach (the kernel's input there is unchanged). Not
+    /// counted in update()'s result.
+    size_t lastKeptCells() const { return mLastKept; }
+
+    /// For tests only: re-mesh every kept cell anyway and throw
+    /// std::logic_error when the result differs from the kept geometry.
+    void setVerifyKeptCellsForTesting(bool on) { mVerifySkips = on; }
+
     /// For tests only: called on each cell's new geometry right after the
     /// kernel made it (e.g. to corrupt it and see the check fire). Empty: none.
     void setCellHookForTesting(std::function<void(const openvdb::Coord&, CutCellGeometry&)> hook)
@@ -204,7 +215,8 @@ private:
     struct CellRecord
     {
         std::vector<QuadRef> quads;
-        std::vector<std::array<double, 36>> quadCorners; ///< the quads' (and their stroke neighbours') corners when meshed
+        std::vector<std::array<double, 36>> quadCorners; ///< the quads' (and their stroke neighbours') corners now
+        std::array<uint64_t, 2> input{}; ///< digest of the kernel's input when meshed (Remesh.cpp kernelInputDigest)
     };
     /// A quad of the mask as the last successful update() saw it.
     struct SeenQuad
@@ -222,6 +234,8 @@ private:
     double mSeenKerf = -1.0;                  ///< the mask's kerf and frame at the last update (-1: none yet)
     IndexFrame mSeenFrame;
     std::vector<openvdb::Coord> mLastChanged;
+    size_t mLastKept = 0;
+    bool mVerifySkips = false;
     const vdb::Volume* mVolume;
     float mIso;
     Mesh mUncut;

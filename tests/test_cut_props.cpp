@@ -74,6 +74,7 @@ struct UpdateResult
     Outcome outcome = Outcome::Ok;
     std::string message;
     size_t cells = 0;
+    size_t kept = 0; ///< remesher.lastKeptCells() after a done update
 };
 
 /// remesher.update(mask), telling apart: done; kerf > 0 not implemented yet
@@ -85,6 +86,7 @@ UpdateResult tryUpdate(CutRemesher& remesher, const CutMask& mask)
     UpdateResult r;
     try {
         r.cells = remesher.update(mask);
+        r.kept = remesher.lastKeptCells();
     } catch (const InputError& e) {
         r.message = e.what();
         if (mask.kerf() > 0 && r.message.find(kKerfTodo) != std::string::npos) {
@@ -864,6 +866,7 @@ namespace {
 struct HeadStats
 {
     size_t strokes = 0, refused = 0, cells = 0, defects = 0, undoChecks = 0;
+    size_t kept = 0; ///< cells kept (not re-meshed) by updates, each checked against a re-mesh
     size_t historyDiffs = 0; ///< redo in one update gave rotated triangles (known defect)
     StateStats state;
     std::vector<std::string> refusals;
@@ -875,6 +878,7 @@ struct HeadRun
     HeadRun(const vdb::Volume& vol, const Mesh& uncutMesh, float iso, double kerf)
         : uncut(uncutMesh), mask(frameOf(vol), kerf), remesher(vol, iso, uncutMesh), current(uncutMesh)
     {
+        remesher.setVerifyKeptCellsForTesting(true);
     }
     const Mesh& uncut;
     CutMask mask;
@@ -921,6 +925,7 @@ Outcome cutStroke(HeadRun& run, const std::vector<Pose>& poses, const std::strin
             refused(u);
             return Outcome::Ok;
         }
+        st.kept += u.kept;
         mid = run.remesher.fusedMesh();
         midDone = true;
     }
@@ -931,6 +936,7 @@ Outcome cutStroke(HeadRun& run, const std::vector<Pose>& poses, const std::strin
         return Outcome::Ok;
     }
     st.cells += u.cells;
+    st.kept += u.kept;
     Mesh fused = run.remesher.fusedMesh();
     const MeshCheck check = checkMesh(fused);
     st.defects += check.defects();
@@ -939,6 +945,7 @@ Outcome cutStroke(HeadRun& run, const std::vector<Pose>& poses, const std::strin
 
     auto expectBack = [&](const Mesh& want, const char* step) {
         const UpdateResult r = tryUpdate(run.remesher, run.mask);
+        st.kept += r.kept;
         EXPECT_EQ(r.outcome, Outcome::Ok) << what << ", " << step << ": " << r.message;
         EXPECT_TRUE(sameMesh(run.remesher.fusedMesh(), want)) << what << ", " << step << ": not the earlier mesh";
         ++st.undoChecks;
@@ -1064,9 +1071,9 @@ std::vector<std::vector<Pose>> randomStrokes(const IndexFrame& f, uint32_t seed,
 
 void printHead(const std::string& what, const HeadStats& st, double seconds)
 {
-    std::printf("%s: %zu strokes, %zu refused, %zu cells re-meshed, %zu defects, %zu exact undo/redo checks (%zu redo "
+    std::printf("%s: %zu strokes, %zu refused, %zu cells re-meshed, %zu kept, %zu defects, %zu exact undo/redo checks (%zu redo "
                 "meshes with rotated triangles), %.1f s\n",
-                what.c_str(), st.strokes, st.refused, st.cells, st.defects, st.undoChecks, st.historyDiffs, seconds);
+                what.c_str(), st.strokes, st.refused, st.cells, st.kept, st.defects, st.undoChecks, st.historyDiffs, seconds);
     printState(what.c_str(), st.state);
 }
 
@@ -1116,6 +1123,8 @@ TEST_P(CutProps, RandomStrokesOnThe4mmHead)
     EXPECT_EQ(st.defects, 0u);
     EXPECT_LE(st.refused, kerfRefusalBound(w, st.strokes));
     EXPECT_LE(st.state.kerfIntersecting, w > 0 ? kKerfIntersectingRandom : 0u);
+    // Updates kept cells (each verified against a re-mesh by the remesher).
+    EXPECT_GT(st.kept, 0u);
 }
 
 // Hand-made strokes on the 4 mm and 2 mm heads (straight, curved, a figure
@@ -1197,6 +1206,7 @@ std::pair<Mesh, Mesh> liveAndBatch(const vdb::Volume& vol, const Mesh& uncut, fl
 {
     CutMask mask(frameOf(vol), kerf);
     CutRemesher live(vol, iso, uncut);
+    live.setVerifyKeptCellsForTesting(true);
     mask.beginStroke();
     skip = false;
     for (const Quad& q : filterStroke(poses, mask.frame())) {
@@ -1245,6 +1255,70 @@ TEST(CutProps, LiveUpdatesGiveTheBatchMeshExactly)
     bool skip = false;
     const auto [live, batch] = liveAndBatch(vol, uncut, 0.0f, bentStroke(), 0.0, skip);
     EXPECT_TRUE(sameMesh(live, batch));
+}
+
+// A quad's stroke neighbour arriving changes the quad's far side (rim ->
+// junction). update() keeps the quad's cells that this side does not reach
+// instead of re-meshing them (the kernel's input there is unchanged); with
+// verification on, the remesher re-meshes each kept cell anyway and throws
+// when the geometry differs. Updating after every quad of a bent stroke, at
+// kerf 0 and 0.5: cells are kept at most steps, every kept cell is verified,
+// and the result is the batch mesh exactly.
+TEST(CutProps, CellsKeptWhenANeighbourQuadArrivesAreThoseARemeshMakes)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(vol), kerf);
+        CutRemesher live(vol, 0.0f, uncut);
+        live.setVerifyKeptCellsForTesting(true);
+        mask.beginStroke();
+        size_t steps = 0, stepsKeeping = 0, kept = 0, remeshed = 0;
+        for (const Quad& q : filterStroke(bentStroke(), mask.frame())) {
+            mask.addQuad(q);
+            remeshed += live.update(mask); // throws std::logic_error on a kept cell a re-mesh changes
+            kept += live.lastKeptCells();
+            stepsKeeping += live.lastKeptCells() > 0;
+            ++steps;
+        }
+        std::printf("kerf %g: %zu steps, %zu keep cells; %zu cells kept, %zu re-meshed\n", kerf, steps, stepsKeeping,
+                    kept, remeshed);
+        EXPECT_GT(stepsKeeping, steps / 2) << "kerf " << kerf;
+        CutRemesher batch(vol, 0.0f, uncut);
+        batch.update(mask);
+        EXPECT_EQ(batch.lastKeptCells(), 0u);
+        EXPECT_TRUE(sameMesh(live.fusedMesh(), batch.fusedMesh())) << "kerf " << kerf;
+    }
+}
+
+// The verification can fail: a kept cell whose stored geometry is not what
+// the kernel makes (here nudged by the test hook when it was first meshed)
+// is reported, and the update leaves the remesher as it was.
+TEST(CutProps, VerifyingKeptCellsCatchesAStoredCellThatDiffers)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher live(vol, 0.0f, uncut);
+    live.setVerifyKeptCellsForTesting(true);
+    live.setCellHookForTesting([](const openvdb::Coord&, CutCellGeometry& g) {
+        for (glm::dvec3& p : g.indexPositions) p.x += 1e-12; // no float or topology change: only the verifier sees it
+    });
+    mask.beginStroke();
+    bool caught = false;
+    for (const Quad& q : filterStroke(bentStroke(), mask.frame())) {
+        mask.addQuad(q);
+        const Mesh before = live.fusedMesh();
+        try {
+            live.update(mask);
+        } catch (const std::logic_error& e) {
+            EXPECT_NE(std::string(e.what()).find("kept geometry differs"), std::string::npos) << e.what();
+            EXPECT_TRUE(sameMesh(live.fusedMesh(), before));
+            caught = true;
+            break;
+        }
+    }
+    EXPECT_TRUE(caught);
 }
 
 // A stroke whose end retraces its start (the blade comes back over the same
