@@ -87,11 +87,12 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     // (extractIsosurface writes each cell's triangles together).
     std::vector<std::pair<uint32_t, uint32_t>> cutRuns;
     size_t cutTriangles = 0;
+    UncutAccessor uncutAcc(mUncutFirst);
     for (const auto& entry : mCells) {
-        auto it = mUncutCells.find(entry.first);
-        if (it == mUncutCells.end()) continue;
-        cutRuns.push_back(it->second);
-        cutTriangles += it->second.second;
+        const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, entry.first);
+        if (run.second == 0) continue;
+        cutRuns.push_back(run);
+        cutTriangles += run.second;
     }
     std::sort(cutRuns.begin(), cutRuns.end());
     // The cut cells' triangles over fused vertex indices: all uncut vertices,
@@ -109,12 +110,10 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
-        auto range = mUncutCells.find(cell);
-        if (range != mUncutCells.end()) {
-            uncutCornerEdges(cell, corners);
-            for (size_t k = 0; k < corners.size(); ++k)
-                edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(range->second.first) + k]});
-        }
+        const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, cell);
+        uncutCornerEdges(cell, run, corners);
+        for (size_t k = 0; k < corners.size(); ++k)
+            edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(run.first) + k]});
         index.resize(geom.vertexIds.size());
         for (size_t v = 0; v < geom.vertexIds.size(); ++v) {
             const CutVertexId& id = geom.vertexIds[v];
@@ -188,9 +187,9 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
                 for (int y = lo.y(); y <= hi.y(); ++y)
                     for (int z = lo.z(); z <= hi.z(); ++z) {
                         const openvdb::Coord c(x, y, z);
-                        auto run = mUncutCells.find(c);
-                        if (run == mUncutCells.end() || mCells.count(c)) continue;
-                        for (uint32_t t = run->second.first; t < run->second.first + run->second.second; ++t)
+                        const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, c);
+                        if (run.second == 0 || mCells.count(c)) continue;
+                        for (uint32_t t = run.first; t < run.first + run.second; ++t)
                             for (int k = 0; k < 3; ++k)
                                 if (mUncut.indices[3 * size_t(t) + size_t(k)] == v) candidates.push_back(t);
                     }

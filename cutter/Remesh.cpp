@@ -1951,20 +1951,24 @@ std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& 
 
 /// makePrismGeom(mask, ref, cache), reusing the quad's last build when it was
 /// made from the same data and the same build of the previous quad's rim entry.
-QuadGeom cachedPrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
+const QuadGeom& cachedPrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
 {
     const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
+    auto rebuilt = [&]() -> const QuadGeom& {
+        makePrismGeom(mask, ref, cache); // stores it in cache.geoms
+        return cache.geoms.at(key).geom;
+    };
     auto it = cache.geoms.find(key);
-    if (it == cache.geoms.end() || !(it->second.key == prismGeomKey(mask, ref))) return makePrismGeom(mask, ref, cache);
+    if (it == cache.geoms.end() || !(it->second.key == prismGeomKey(mask, ref))) return rebuilt();
     uint64_t previousSerial = 0;
     if (ref.quad > 0 && !mask.quad(ref).degenerate) {
         // The entry makePrismGeom would take (it rebuilds a missing or stale one).
         auto p = cache.entries.find(key - 1);
         if (p == cache.entries.end() || p->second.signature != cornerSignature(mask.quad(QuadRef{ref.stroke, ref.quad - 1})))
-            return makePrismGeom(mask, ref, cache);
+            return rebuilt();
         previousSerial = p->second.serial;
     }
-    if (previousSerial != it->second.previousSerial) return makePrismGeom(mask, ref, cache);
+    if (previousSerial != it->second.previousSerial) return rebuilt();
     return it->second.geom;
 }
 
@@ -1981,16 +1985,24 @@ const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCa
 
 /// quadCache: optional; when given, each quad's geometry is built once
 /// (zero kerf: in quadCache; kerf > 0: in `cache`) instead of once per cell.
-std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache,
-                                QuadGeomCache* quadCache = nullptr)
+/// Into `quads` (its elements' storage is reused: no allocation per cell
+/// once it has grown).
+void cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache, QuadGeomCache* quadCache,
+               std::vector<QuadGeom>& quads)
 {
-    std::vector<QuadGeom> quads;
+    size_t n = 0;
+    auto put = [&](const QuadGeom& g) {
+        if (n < quads.size()) quads[n] = g;
+        else quads.push_back(g);
+        ++n;
+    };
     for (const QuadRef& r : refs) {
         if (mask.quad(r).degenerate) continue; // zero area: removes nothing (the mask gives it no kerf either)
-        if (mask.kerf() > 0) quads.push_back(quadCache ? cachedPrismGeom(mask, r, cache) : makePrismGeom(mask, r, cache));
-        else if (quadCache) quads.push_back(cachedQuadGeom(mask, r, *quadCache));
-        else quads.push_back(makeQuadGeom(mask, r));
+        if (mask.kerf() > 0) put(quadCache ? cachedPrismGeom(mask, r, cache) : makePrismGeom(mask, r, cache));
+        else if (quadCache) put(cachedQuadGeom(mask, r, *quadCache));
+        else put(makeQuadGeom(mask, r));
     }
+    quads.resize(n);
     for (QuadGeom& q : quads)
         for (auto& s : q.sides) {
             if (s.partnerId == 0) continue;
@@ -1998,7 +2010,6 @@ std::vector<QuadGeom> cellQuads(const CutMask& mask, const std::vector<QuadRef>&
                 if (quads[i].id == s.partnerId) s.partner = int(i);
             if (s.partner < 0) s.partner = int(quads.size()); // partner exists, not in this cell
         }
-    return quads;
 }
 
 /// What a cell's geometry depends on per quad: its corners and those of the
@@ -2101,8 +2112,9 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
     if (!(mask.kerf() > 0)) return removed;
     auto acc = removed->getAccessor();
     PrismCache cache;
+    std::vector<QuadGeom> quads;
     mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
-        const std::vector<QuadGeom> quads = cellQuads(mask, list, cache);
+        cellQuads(mask, list, cache, nullptr, quads);
         for (int k = 0; k < 8; ++k) {
             const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
             if (acc.isValueOn(g)) continue;
@@ -2128,7 +2140,9 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
     if (!refs) return;
     RemeshKernel kernel(volume, isovalue);
     PrismCache cache;
-    kernel.remesh(cell, cellQuads(mask, *refs, cache), mask.kerf() > 0, out);
+    std::vector<QuadGeom> quads;
+    cellQuads(mask, *refs, cache, nullptr, quads);
+    kernel.remesh(cell, quads, mask.kerf() > 0, out);
 }
 
 CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
@@ -2136,12 +2150,17 @@ CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& 
       mQuadCache(std::make_unique<QuadGeomCache>()), mVolume(&volume), mIso(isovalue), mUncut(uncut)
 {
     const size_t nt = mUncut.triangleCount();
-    for (size_t t = 0; t < nt;) {
-        const glm::ivec3 c = mUncut.triangleVoxels[t];
-        size_t e = t + 1;
-        while (e < nt && mUncut.triangleVoxels[e] == c) ++e;
-        mUncutCells[Coord(c.x, c.y, c.z)] = {uint32_t(t), uint32_t(e - t)};
-        t = e;
+    if (nt > size_t(std::numeric_limits<int32_t>::max()))
+        throw std::length_error("remesh: more than 2^31 - 1 triangles in the uncut mesh");
+    {
+        openvdb::tree::ValueAccessor<openvdb::Int32Tree, false> acc(mUncutFirst);
+        for (size_t t = 0; t < nt;) {
+            const glm::ivec3 c = mUncut.triangleVoxels[t];
+            size_t e = t + 1;
+            while (e < nt && mUncut.triangleVoxels[e] == c) ++e;
+            acc.setValueOn(Coord(c.x, c.y, c.z), int32_t(t));
+            t = e;
+        }
     }
     // Snap rounding candidates (fusedMesh): the ends of zero-length uncut edges, and their triangles.
     std::vector<char> snapVertex;
@@ -2160,12 +2179,22 @@ CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& 
 
 CutRemesher::~CutRemesher() = default;
 
-void CutRemesher::uncutCornerEdges(const Coord& cell, std::vector<std::pair<uint64_t, uint64_t>>& out) const
+std::pair<uint32_t, uint32_t> CutRemesher::uncutRun(UncutAccessor& acc, const Coord& cell) const
+{
+    const int32_t first = acc.getValue(cell);
+    if (first < 0) return {0u, 0u};
+    const glm::ivec3 c(cell.x(), cell.y(), cell.z());
+    size_t e = size_t(first) + 1;
+    while (e < mUncut.triangleVoxels.size() && mUncut.triangleVoxels[e] == c) ++e;
+    return {uint32_t(first), uint32_t(e - size_t(first))};
+}
+
+void CutRemesher::uncutCornerEdges(const Coord& cell, std::pair<uint32_t, uint32_t> run,
+                                   std::vector<std::pair<uint64_t, uint64_t>>& out) const
 {
     out.clear();
-    auto range = mUncutCells.find(cell);
-    if (range == mUncutCells.end()) return;
-    auto acc = mVolume->grid->getConstAccessor();
+    if (run.second == 0) return;
+    openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(mVolume->grid->tree());
     uint8_t inside = 0;
     for (int c = 0; c < 8; ++c) {
         const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
@@ -2175,7 +2204,7 @@ void CutRemesher::uncutCornerEdges(const Coord& cell, std::vector<std::pair<uint
     const int parity = cellParity(cell.x(), cell.y(), cell.z());
     const CellCase& cc = cellCase(parity, inside);
     const auto& edges = cellEdges(parity);
-    if (cc.triangleCount != range->second.second)
+    if (cc.triangleCount != run.second)
         throw std::logic_error("fusion: the uncut mesh does not match the volume at a cut cell");
     for (int k = 0; k < 3 * cc.triangleCount; ++k) {
         const CellEdge e = edges[cc.edges[size_t(k)]];
@@ -2250,18 +2279,68 @@ glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& p)
                      float(origin[2] + spacing[2] * p.z));
 }
 
+namespace {
+
+/// The cells within one cell (26-neighbourhood) of `cells`, and `cells`,
+/// ascending. Marks a bitmap over their box when it is compact (a haptic
+/// step's cells), else sorts (the 27 copies sorted as Coord were a quarter
+/// of a step).
+std::vector<Coord> dilatedCells(const std::vector<Coord>& cells)
+{
+    std::vector<Coord> out;
+    if (cells.empty()) return out;
+    Coord lo = cells.front(), hi = cells.front();
+    for (const Coord& c : cells) {
+        lo.minComponent(c);
+        hi.maxComponent(c);
+    }
+    lo -= Coord(1);
+    hi += Coord(1);
+    const uint64_t nx = uint64_t(hi.x() - lo.x() + 1), ny = uint64_t(hi.y() - lo.y() + 1), nz = uint64_t(hi.z() - lo.z() + 1);
+    const uint64_t boxCells = nx * ny * nz;
+    if (boxCells <= 256 * uint64_t(cells.size())) {
+        std::vector<char> in(boxCells, 0);
+        for (const Coord& c : cells) {
+            const Coord b = c - lo;
+            for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy) {
+                    char* row = &in[(uint64_t(b.x() + dx) * ny + uint64_t(b.y() + dy)) * nz + uint64_t(b.z() - 1)];
+                    row[0] = row[1] = row[2] = 1;
+                }
+        }
+        for (uint64_t x = 0; x < nx; ++x)
+            for (uint64_t y = 0; y < ny; ++y) {
+                const char* row = &in[(x * ny + y) * nz];
+                for (uint64_t z = 0; z < nz; ++z)
+                    if (row[z]) out.push_back(lo + Coord(int(x), int(y), int(z)));
+            }
+        return out;
+    }
+    // Sorted as packed integers (offsets in the box, x major as Coord's order).
+    std::vector<uint64_t> keys;
+    keys.reserve(27 * cells.size());
+    for (const Coord& c : cells) {
+        const Coord b = c - lo;
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz)
+                    keys.push_back((uint64_t(b.x() + dx) * ny + uint64_t(b.y() + dy)) * nz + uint64_t(b.z() + dz));
+    }
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    out.reserve(keys.size());
+    for (uint64_t k : keys) out.push_back(lo + Coord(int(k / (ny * nz)), int(k / nz % ny), int(k % nz)));
+    return out;
+}
+
+} // namespace
+
 void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
 {
     if (changed.empty()) return;
     // The triangles of the changed cells and of their 26 neighbours, over
     // vertex names (the fused mesh's identity: iso edge vertices by edge).
-    std::vector<Coord> region;
-    for (const Coord& c : changed)
-        for (int dx = -1; dx <= 1; ++dx)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dz = -1; dz <= 1; ++dz) region.push_back(c + Coord(dx, dy, dz));
-    std::sort(region.begin(), region.end());
-    region.erase(std::unique(region.begin(), region.end()), region.end());
+    const std::vector<Coord> region = dilatedCells(changed);
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> names;
     std::vector<CutVertexId> ids;
     auto nameOf = [&](const CutVertexId& id) {
@@ -2275,20 +2354,36 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
         Coord cell;
     };
     std::vector<Tri> tris;
-    std::vector<std::pair<uint64_t, uint64_t>> corners;
-    for (const Coord& c : region) {
-        auto cut = mCells.find(c);
-        if (cut != mCells.end()) {
-            const CutCellGeometry& g = cut->second;
+    // Per region cell: its cut geometry (or null), its uncut triangles' run
+    // and their corners' grid edges (cornerStart[i] .. cornerStart[i + 1]).
+    std::vector<const CutCellGeometry*> cutOf(region.size(), nullptr);
+    std::vector<std::pair<uint32_t, uint32_t>> runOf(region.size());
+    std::vector<size_t> cornerStart(region.size() + 1, 0);
+    std::vector<std::pair<uint64_t, uint64_t>> corners, cellCorners;
+    {
+        UncutAccessor uncutAcc(mUncutFirst);
+        for (size_t i = 0; i < region.size(); ++i) {
+            const Coord& c = region[i];
+            auto cut = mCells.find(c);
+            if (cut != mCells.end()) cutOf[i] = &cut->second;
+            runOf[i] = uncutRun(uncutAcc, c);
+            uncutCornerEdges(c, runOf[i], cellCorners);
+            corners.insert(corners.end(), cellCorners.begin(), cellCorners.end());
+            cornerStart[i + 1] = corners.size();
+        }
+    }
+    for (size_t i = 0; i < region.size(); ++i) {
+        const Coord& c = region[i];
+        if (cutOf[i]) {
+            const CutCellGeometry& g = *cutOf[i];
             std::vector<uint32_t> local(g.vertexIds.size());
             for (size_t v = 0; v < local.size(); ++v) local[v] = nameOf(g.vertexIds[v]);
-            for (size_t i = 0; i + 2 < g.indices.size(); i += 3)
-                tris.push_back({{local[g.indices[i]], local[g.indices[i + 1]], local[g.indices[i + 2]]}, c});
+            for (size_t k = 0; k + 2 < g.indices.size(); k += 3)
+                tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c});
         } else {
-            uncutCornerEdges(c, corners);
-            for (size_t i = 0; i + 2 < corners.size(); i += 3)
-                tris.push_back({{nameOf(isoEdgeVertex(corners[i])), nameOf(isoEdgeVertex(corners[i + 1])),
-                                 nameOf(isoEdgeVertex(corners[i + 2]))},
+            for (size_t k = cornerStart[i]; k + 2 < cornerStart[i + 1]; k += 3)
+                tris.push_back({{nameOf(isoEdgeVertex(corners[k])), nameOf(isoEdgeVertex(corners[k + 1])),
+                                 nameOf(isoEdgeVertex(corners[k + 2]))},
                                 c});
         }
     }
@@ -2309,22 +2404,17 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     // and let two float-degenerate triangles through (seed 1021).
     std::vector<glm::vec3> world(ids.size(), glm::vec3(std::numeric_limits<float>::quiet_NaN()));
     std::vector<char> known(ids.size(), 0);
-    for (const Coord& c : region) {
-        auto cut = mCells.find(c);
-        auto range = mUncutCells.find(c);
-        if (range != mUncutCells.end()) {
-            uncutCornerEdges(c, corners);
-            for (size_t k = 0; k < corners.size(); ++k) {
-                const uint32_t vertex = mUncut.indices[3 * size_t(range->second.first) + k];
-                auto it = names.find(isoEdgeVertex(corners[k]));
-                if (it != names.end() && !known[it->second]) {
-                    world[it->second] = mUncut.positions[vertex];
-                    known[it->second] = 1;
-                }
+    for (size_t i = 0; i < region.size(); ++i) {
+        for (size_t k = cornerStart[i]; k < cornerStart[i + 1]; ++k) {
+            const uint32_t vertex = mUncut.indices[3 * size_t(runOf[i].first) + (k - cornerStart[i])];
+            auto it = names.find(isoEdgeVertex(corners[k]));
+            if (it != names.end() && !known[it->second]) {
+                world[it->second] = mUncut.positions[vertex];
+                known[it->second] = 1;
             }
         }
-        if (cut == mCells.end()) continue;
-        const CutCellGeometry& g = cut->second;
+        if (!cutOf[i]) continue;
+        const CutCellGeometry& g = *cutOf[i];
         for (size_t v = 0; v < g.vertexIds.size(); ++v) {
             const uint32_t name = names.at(g.vertexIds[v]);
             if (known[name] || g.vertexIds[v].isIsoEdgeVertex()) continue;
@@ -2667,6 +2757,7 @@ size_t CutRemesher::update(const CutMask& mask)
         mRecords.erase(it);
     }
     size_t count = 0, keptCells = 0;
+    std::vector<QuadGeom> quads; // the cell's quads for the kernel (storage reused)
     try {
         for (size_t i = 0; i < dirty.size(); ++i) {
             if (!lists[i]) continue;
@@ -2679,7 +2770,7 @@ size_t CutRemesher::update(const CutMask& mask)
             for (const QuadRef& r : list) signatures.push_back(quadSignature(mask, r));
             if (!newList && it->second.quadCorners == signatures) continue;
             const bool prism = mask.kerf() > 0;
-            std::vector<QuadGeom> quads = cellQuads(mask, list, *mPrismCache, mQuadCache.get());
+            cellQuads(mask, list, *mPrismCache, mQuadCache.get(), quads);
             const std::array<uint64_t, 2> input = kernelInputDigest(c, quads, prism);
             if (!newList && it->second.input == input) {
                 // A neighbour quad's side changed where this cell does not
