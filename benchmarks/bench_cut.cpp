@@ -42,7 +42,10 @@
 // through-cuts; the count of refused strokes is printed.
 //
 // Usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only]
-//                  [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]
+//                  [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash] [--threads N]
+//   --threads N: run ours (the remesher) on N threads instead of one core
+//          (CutRemesher::update re-meshes the cells in parallel; the goals
+//          and the tables are one core; results are identical: --hash).
 //   --quick: 256x256x128 phantom and the 4 mm head, targets 100,419,1000, 1 run.
 //   --no-baselines: ours only (to profile the remesher, e.g. under perf).
 //   --dump DIR: write every refused stroke to DIR as a path file (mtcut cut --path).
@@ -94,6 +97,7 @@ constexpr int kSteps = 8;       // haptic steps per run
 bool gBaselines = true;         // --no-baselines: ours only (for profiling)
 std::string gDumpDir;           // --dump DIR: write refused strokes there as path files
 bool gHash = false;             // --hash: print hashes of the results
+int gOursThreads = 1;           // --threads N: ours on N threads (the goals are one core)
 
 /// FNV-1a over raw bytes, chained through `h`.
 uint64_t fnv(uint64_t h, const void* data, size_t bytes)
@@ -284,7 +288,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
     std::vector<double> wholeUpdate, wholeFused, setup;
     Mesh fused;
     {
-        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, size_t(gOursThreads));
         std::vector<Pose> chosen;
         bench::forEachCutStroke(vc.scene, target, kerf, [&](bench::CandidateStroke& c) {
             row.blade = c.blade;
@@ -528,7 +532,7 @@ void printRow(const Row& r)
 
 void printTables(const std::vector<Row>& rows)
 {
-    std::printf("\nHaptic step (ours one core; median of runs x %d steps) vs baselines per step\n\n", kSteps);
+    std::printf("\nHaptic step (ours on %d thread(s); median of runs x %d steps) vs baselines per step\n\n", gOursThreads, kSteps);
     std::printf("| volume | cut cells (target) | surface cells | new cells / re-meshed per step | vox+mask us | "
                 "update us | step us | + view us | fusedMesh ms | (a) re-extract ms | (b) OpenVDB ms (blade/copy/csg/mesh) | "
                 "step vs (a) | step vs (b) |\n");
@@ -546,7 +550,7 @@ void printTables(const std::vector<Row>& rows)
                     r.stepUpdateUs, stepUs, r.stepViewUs, r.stepFusedMs, r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs,
                     r.bMeshMs, r.aMs / (stepUs * 1e-3), r.bStepMs / (stepUs * 1e-3));
     }
-    std::printf("\nWhole cut from scratch (ours one core; median of runs)\n\n");
+    std::printf("\nWhole cut from scratch (ours on %d thread(s); median of runs)\n\n", gOursThreads);
     std::printf("| volume | cut cells | re-meshed | stroke: blade x sweep mm, quads (variant) | update ms | + fusedMesh ms | us per cell | "
                 "no-op update ms | kernel alone ms | remesher setup ms | (a) ms | (b) whole ms | update vs (a) | "
                 "+fused vs (a) | update vs (b) | defects ours / (b) | refused strokes |\n");
@@ -618,6 +622,8 @@ int main(int argc, char** argv)
             gDumpDir = argv[++i];
         } else if (!std::strcmp(argv[i], "--hash")) {
             gHash = true;
+        } else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
+            gOursThreads = std::max(1, std::atoi(argv[++i]));
         } else if (!std::strcmp(argv[i], "--no-baselines")) {
             gBaselines = false;
         } else if (!std::strcmp(argv[i], "--head-only")) {
@@ -628,7 +634,7 @@ int main(int argc, char** argv)
             while (std::getline(ss, item, ',')) targets.push_back(size_t(std::atol(item.c_str())));
         } else {
             std::fprintf(stderr,
-                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash]\n");
+                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash] [--threads N]\n");
             return 2;
         }
     }

@@ -7,6 +7,10 @@
 
 #include <boost/container/small_vector.hpp>
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -1894,6 +1898,12 @@ namespace {
 /// the neighbour's other neighbour), so it is kept with those five quads'
 /// data and rebuilt when any of it changes. One mask frame (CutRemesher
 /// clears it when the frame or kerf changes).
+/// One re-meshing kernel per thread for CutRemesher::update().
+struct KernelPool : tbb::enumerable_thread_specific<RemeshKernel>
+{
+    KernelPool(const vdb::Volume& volume, float iso) : tbb::enumerable_thread_specific<RemeshKernel>(std::cref(volume), iso) {}
+};
+
 struct QuadGeomCache
 {
     static constexpr size_t kPerQuad = 17; // corners, normal, cornerCount, degenerate
@@ -2146,7 +2156,8 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
 }
 
 CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
-    : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mPrismCache(std::make_unique<PrismCache>()),
+    : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mKernels(std::make_unique<KernelPool>(volume, isovalue)),
+      mPrismCache(std::make_unique<PrismCache>()),
       mQuadCache(std::make_unique<QuadGeomCache>()), mVolume(&volume), mIso(isovalue), mUncut(uncut)
 {
     const size_t nt = mUncut.triangleCount();
@@ -2757,7 +2768,15 @@ size_t CutRemesher::update(const CutMask& mask)
         mRecords.erase(it);
     }
     size_t count = 0, keptCells = 0;
-    std::vector<QuadGeom> quads; // the cell's quads for the kernel (storage reused)
+    std::vector<QuadGeom> quads; // the cell's quads (storage reused)
+    struct CellJob
+    {
+        Coord cell;
+        std::vector<QuadGeom> quads;
+        CutCellGeometry* out;
+        std::exception_ptr error;
+    };
+    std::vector<CellJob> jobs;
     try {
         for (size_t i = 0; i < dirty.size(); ++i) {
             if (!lists[i]) continue;
@@ -2794,12 +2813,29 @@ size_t CutRemesher::update(const CutMask& mask)
             rec.quadCorners = std::move(signatures);
             rec.input = input;
             save(c);
-            CutCellGeometry& geometry = mCells[c];
             mRecords[c] = std::move(rec);
-            mKernel->remesh(c, quads, prism, geometry);
-            if (mCellHook) mCellHook(c, geometry);
-            ++count;
+            jobs.push_back({c, quads, &mCells[c], nullptr}); // map nodes: the pointer stays valid
         }
+        // The kernel over the cells to re-mesh, in parallel (each cell's
+        // geometry is a function of the cell, its quads and the volume; one
+        // kernel per thread). A refusal is reported for the lowest such cell,
+        // as a serial loop would.
+        const bool prism = mask.kerf() > 0;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+            RemeshKernel& kernel = mKernels->local();
+            for (size_t j = range.begin(); j != range.end(); ++j) {
+                try {
+                    kernel.remesh(jobs[j].cell, jobs[j].quads, prism, *jobs[j].out);
+                } catch (...) {
+                    jobs[j].error = std::current_exception();
+                }
+            }
+        });
+        for (CellJob& job : jobs) {
+            if (job.error) std::rethrow_exception(job.error);
+            if (mCellHook) mCellHook(job.cell, *job.out);
+        }
+        count = jobs.size();
         std::sort(changedCells.begin(), changedCells.end());
         checkLocally(changedCells);
     } catch (...) {

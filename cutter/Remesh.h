@@ -120,6 +120,7 @@ struct CutCellGeometry
 };
 
 class RemeshKernel; // per-cell kernel, scratch buffers (Remesh.cpp)
+struct KernelPool; // one RemeshKernel per thread (Remesh.cpp)
 struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
 struct QuadGeomCache; // zero kerf: each quad's index-space geometry, built once per quad (Remesh.cpp)
 
@@ -135,7 +136,9 @@ struct QuadGeomCache; // zero kerf: each quad's index-space geometry, built once
 /// order). Cost per update: O(quads of the mask) to find the changed quads
 /// (each compared with what the last update saw), O(cells of the changed
 /// quads and their stroke neighbours) to find the changed cells, plus the
-/// kernel per re-meshed cell. Not thread-safe.
+/// kernel per re-meshed cell, which update() runs over the cells in parallel
+/// (TBB; the result does not depend on the number of threads). The class is
+/// not thread-safe.
 class CutRemesher
 {
 public:
@@ -227,7 +230,8 @@ private:
         bool degenerate = false;
         std::vector<openvdb::Coord> cells;
     };
-    std::unique_ptr<RemeshKernel> mKernel;
+    std::unique_ptr<RemeshKernel> mKernel; ///< for serial work (verifying kept cells)
+    std::unique_ptr<KernelPool> mKernels; ///< update()'s re-meshing, one per thread
     std::unique_ptr<PrismCache> mPrismCache;
     std::unique_ptr<QuadGeomCache> mQuadCache;
     std::vector<std::vector<SeenQuad>> mSeen; ///< per stroke, per quad

@@ -37,6 +37,7 @@
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
+#include <tbb/global_control.h>
 
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/intersections.h>
@@ -1288,6 +1289,52 @@ TEST(CutProps, CellsKeptWhenANeighbourQuadArrivesAreThoseARemeshMakes)
         batch.update(mask);
         EXPECT_EQ(batch.lastKeptCells(), 0u);
         EXPECT_TRUE(sameMesh(live.fusedMesh(), batch.fusedMesh())) << "kerf " << kerf;
+    }
+}
+
+// update() runs the kernel over the cells in parallel: one thread and four
+// give the same cells (ids, positions, triangles) and the same fused mesh,
+// on the 4 mm head with the four random strokes of seed 1002 at kerf 0 and 0.5.
+TEST(CutProps, ParallelUpdateGivesTheSerialResultExactly)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(vol), kerf);
+        for (const auto& poses : randomStrokes(frameOf(vol), 1002, 4)) {
+            mask.beginStroke();
+            for (const Quad& q : filterStroke(poses, mask.frame())) mask.addQuad(q);
+        }
+        auto run = [&](size_t threads, std::map<openvdb::Coord, CutCellGeometry>& cells, Mesh& fused) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+            CutRemesher remesher(vol, 400.0f, uncut);
+            try {
+                remesher.update(mask);
+            } catch (const std::runtime_error& e) {
+                return std::string(e.what());
+            }
+            cells = remesher.cells();
+            fused = remesher.fusedMesh();
+            return std::string();
+        };
+        std::map<openvdb::Coord, CutCellGeometry> serialCells, parallelCells;
+        Mesh serial, parallel;
+        const std::string serialError = run(1, serialCells, serial), parallelError = run(4, parallelCells, parallel);
+        EXPECT_EQ(serialError, parallelError) << "kerf " << kerf << ": a refusal names the same cell";
+        ASSERT_TRUE(serialError.empty()) << serialError;
+        size_t surface = 0;
+        for (const auto& [c, g] : serialCells) surface += !g.indices.empty();
+        std::printf("kerf %g: %zu cut cells, %zu with geometry\n", kerf, serialCells.size(), surface);
+        ASSERT_GT(surface, 100u);
+        ASSERT_EQ(serialCells.size(), parallelCells.size());
+        for (auto a = serialCells.begin(), b = parallelCells.begin(); a != serialCells.end(); ++a, ++b) {
+            ASSERT_EQ(a->first, b->first);
+            EXPECT_TRUE(a->second.vertexIds == b->second.vertexIds && a->second.indexPositions == b->second.indexPositions &&
+                        a->second.indices == b->second.indices)
+                << "kerf " << kerf << ", cell " << a->first;
+        }
+        EXPECT_TRUE(sameMesh(serial, parallel)) << "kerf " << kerf;
     }
 }
 
