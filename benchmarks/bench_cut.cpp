@@ -288,7 +288,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
     std::vector<double> wholeUpdate, wholeFused, setup;
     Mesh fused;
     {
-        tbb::global_control one(tbb::global_control::max_allowed_parallelism, size_t(gOursThreads));
+        tbb::global_control ours(tbb::global_control::max_allowed_parallelism, size_t(gOursThreads));
         std::vector<Pose> chosen;
         bench::forEachCutStroke(vc.scene, target, kerf, [&](bench::CandidateStroke& c) {
             row.blade = c.blade;
@@ -623,7 +623,11 @@ int main(int argc, char** argv)
         } else if (!std::strcmp(argv[i], "--hash")) {
             gHash = true;
         } else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
-            gOursThreads = std::max(1, std::atoi(argv[++i]));
+            gOursThreads = std::atoi(argv[++i]);
+            if (gOursThreads < 1) {
+                std::fprintf(stderr, "bench_cut: --threads wants a positive number, got '%s'\n", argv[i]);
+                return 2;
+            }
         } else if (!std::strcmp(argv[i], "--no-baselines")) {
             gBaselines = false;
         } else if (!std::strcmp(argv[i], "--head-only")) {

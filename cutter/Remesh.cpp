@@ -1892,18 +1892,18 @@ namespace {
 
 } // namespace
 
-/// Zero kerf: each quad's QuadGeom (makeQuadGeom), built once per quad. It
-/// depends on the quad and the two quads either side of it in its stroke
-/// (junctions with the neighbours; the rim sides at a junction's ends look at
-/// the neighbour's other neighbour), so it is kept with those five quads'
-/// data and rebuilt when any of it changes. One mask frame (CutRemesher
-/// clears it when the frame or kerf changes).
 /// One re-meshing kernel per thread for CutRemesher::update().
 struct KernelPool : tbb::enumerable_thread_specific<RemeshKernel>
 {
     KernelPool(const vdb::Volume& volume, float iso) : tbb::enumerable_thread_specific<RemeshKernel>(std::cref(volume), iso) {}
 };
 
+/// Zero kerf: each quad's QuadGeom (makeQuadGeom), built once per quad. It
+/// depends on the quad and the two quads either side of it in its stroke
+/// (junctions with the neighbours; the rim sides at a junction's ends look at
+/// the neighbour's other neighbour), so it is kept with those five quads'
+/// data and rebuilt when any of it changes. One mask frame (CutRemesher
+/// clears it when the frame or kerf changes).
 struct QuadGeomCache
 {
     static constexpr size_t kPerQuad = 17; // corners, normal, cornerCount, degenerate
@@ -2156,8 +2156,7 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
 }
 
 CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& uncut)
-    : mKernel(std::make_unique<RemeshKernel>(volume, isovalue)), mKernels(std::make_unique<KernelPool>(volume, isovalue)),
-      mPrismCache(std::make_unique<PrismCache>()),
+    : mKernels(std::make_unique<KernelPool>(volume, isovalue)), mPrismCache(std::make_unique<PrismCache>()),
       mQuadCache(std::make_unique<QuadGeomCache>()), mVolume(&volume), mIso(isovalue), mUncut(uncut)
 {
     const size_t nt = mUncut.triangleCount();
@@ -2290,12 +2289,9 @@ glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& p)
                      float(origin[2] + spacing[2] * p.z));
 }
 
-namespace {
-
-/// The cells within one cell (26-neighbourhood) of `cells`, and `cells`,
-/// ascending. Marks a bitmap over their box when it is compact (a haptic
-/// step's cells), else sorts (the 27 copies sorted as Coord were a quarter
-/// of a step).
+// Marks a bitmap over the box when it is compact (a haptic step's cells),
+// else sorts packed integer keys (the 27 copies sorted as Coord were a
+// quarter of a step).
 std::vector<Coord> dilatedCells(const std::vector<Coord>& cells)
 {
     std::vector<Coord> out;
@@ -2343,8 +2339,6 @@ std::vector<Coord> dilatedCells(const std::vector<Coord>& cells)
     for (uint64_t k : keys) out.push_back(lo + Coord(int(k / (ny * nz)), int(k / nz % ny), int(k % nz)));
     return out;
 }
-
-} // namespace
 
 void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
 {
@@ -2777,6 +2771,7 @@ size_t CutRemesher::update(const CutMask& mask)
         std::exception_ptr error;
     };
     std::vector<CellJob> jobs;
+    const bool prism = mask.kerf() > 0;
     try {
         for (size_t i = 0; i < dirty.size(); ++i) {
             if (!lists[i]) continue;
@@ -2788,17 +2783,16 @@ size_t CutRemesher::update(const CutMask& mask)
             signatures.reserve(list.size());
             for (const QuadRef& r : list) signatures.push_back(quadSignature(mask, r));
             if (!newList && it->second.quadCorners == signatures) continue;
-            const bool prism = mask.kerf() > 0;
             cellQuads(mask, list, *mPrismCache, mQuadCache.get(), quads);
             const std::array<uint64_t, 2> input = kernelInputDigest(c, quads, prism);
             if (!newList && it->second.input == input) {
                 // A neighbour quad's side changed where this cell does not
                 // reach (kernelInputDigest): the kernel would make the same
                 // geometry. Keep it; remember the new signatures.
-                if (mVerifySkips) {
+                if (mVerifyKept) {
                     CutCellGeometry again;
-                    mKernel->remesh(c, quads, prism, again);
-                    const CutCellGeometry& kept = mCells[c];
+                    mKernels->local().remesh(c, quads, prism, again);
+                    const CutCellGeometry& kept = mCells.at(c);
                     if (!(again.vertexIds == kept.vertexIds && again.indexPositions == kept.indexPositions &&
                           again.indices == kept.indices))
                         throw std::logic_error("remesh: kept geometry differs from a re-mesh in cell " + cellText(c));
@@ -2820,7 +2814,6 @@ size_t CutRemesher::update(const CutMask& mask)
         // geometry is a function of the cell, its quads and the volume; one
         // kernel per thread). A refusal is reported for the lowest such cell,
         // as a serial loop would.
-        const bool prism = mask.kerf() > 0;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
             RemeshKernel& kernel = mKernels->local();
             for (size_t j = range.begin(); j != range.end(); ++j) {

@@ -119,7 +119,6 @@ struct CutCellGeometry
     }
 };
 
-class RemeshKernel; // per-cell kernel, scratch buffers (Remesh.cpp)
 struct KernelPool; // one RemeshKernel per thread (Remesh.cpp)
 struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
 struct QuadGeomCache; // zero kerf: each quad's index-space geometry, built once per quad (Remesh.cpp)
@@ -183,7 +182,7 @@ public:
 
     /// For tests only: re-mesh every kept cell anyway and throw
     /// std::logic_error when the result differs from the kept geometry.
-    void setVerifyKeptCellsForTesting(bool on) { mVerifySkips = on; }
+    void setVerifyKeptCellsForTesting(bool on) { mVerifyKept = on; }
 
     /// For tests only: called on each cell's new geometry right after the
     /// kernel made it (e.g. to corrupt it and see the check fire). Empty: none.
@@ -230,8 +229,7 @@ private:
         bool degenerate = false;
         std::vector<openvdb::Coord> cells;
     };
-    std::unique_ptr<RemeshKernel> mKernel; ///< for serial work (verifying kept cells)
-    std::unique_ptr<KernelPool> mKernels; ///< update()'s re-meshing, one per thread
+    std::unique_ptr<KernelPool> mKernels; ///< update()'s re-meshing, one kernel per thread
     std::unique_ptr<PrismCache> mPrismCache;
     std::unique_ptr<QuadGeomCache> mQuadCache;
     std::vector<std::vector<SeenQuad>> mSeen; ///< per stroke, per quad
@@ -239,7 +237,7 @@ private:
     IndexFrame mSeenFrame;
     std::vector<openvdb::Coord> mLastChanged;
     size_t mLastKept = 0;
-    bool mVerifySkips = false;
+    bool mVerifyKept = false;
     const vdb::Volume* mVolume;
     float mIso;
     Mesh mUncut;
@@ -289,6 +287,11 @@ glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& indexPoint)
 /// kerf > 0 cut: the union of the quads' prisms as the re-mesher shapes them
 /// (mitre joints included). Empty for kerf 0. For the carved volume.
 openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask);
+
+/// The cells within one cell (26-neighbourhood) of `cells` and `cells`
+/// themselves, ascending, without repeats: the region CutRemesher's local
+/// check reads around the changed cells. Cost O(27 n log n) at worst.
+std::vector<openvdb::Coord> dilatedCells(const std::vector<openvdb::Coord>& cells);
 
 /// Re-meshes one cell cut by the given quads of `mask` into `out` (cleared
 /// first). For tests and tools; CutRemesher is the incremental front end.

@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <random>
 #include <set>
 #include <tuple>
 
@@ -519,6 +520,37 @@ TEST(Remesh, CrossingAndGridAlignedStrokesOnTheSphereUndoExactly)
 // makes update() throw naming that cell, and the remesher keeps its earlier
 // state (fusedMesh() is the last good mesh; undoing the stroke in the mask
 // then needs no work). Without the hook the same cut passes.
+// The local check's region: the 26-neighbourhood of the changed cells,
+// ascending, each cell once. Compared with the plain construction (27 copies
+// sorted as Coord) on seeded random sets of both kinds dilatedCells tells
+// apart: compact ones (a stroke's cells; the bitmap) and sparse ones (cells
+// scattered over a large box, negative coordinates included; the sort).
+TEST(Remesh, DilatedCellsIsTheSortedNeighbourhood)
+{
+    std::mt19937 rng(20261122);
+    auto plain = [](const std::vector<openvdb::Coord>& cells) {
+        std::vector<openvdb::Coord> out;
+        for (const openvdb::Coord& c : cells)
+            for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dz = -1; dz <= 1; ++dz) out.push_back(c + openvdb::Coord(dx, dy, dz));
+        std::sort(out.begin(), out.end());
+        out.erase(std::unique(out.begin(), out.end()), out.end());
+        return out;
+    };
+    EXPECT_TRUE(dilatedCells({}).empty());
+    for (int trial = 0; trial < 200; ++trial) {
+        const bool sparse = trial % 2 == 1;
+        const int extent = sparse ? 400 : 6, n = 1 + int(rng() % 60);
+        std::uniform_int_distribution<int> coord(-extent, extent);
+        std::vector<openvdb::Coord> cells;
+        for (int i = 0; i < n; ++i) cells.emplace_back(coord(rng), coord(rng), coord(rng) / (sparse ? 1 : 3));
+        std::sort(cells.begin(), cells.end());
+        cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+        EXPECT_EQ(dilatedCells(cells), plain(cells)) << "trial " << trial << (sparse ? " (sparse)" : " (compact)");
+    }
+}
+
 TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
 {
     const double R = 15.0;
