@@ -329,9 +329,11 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///   quads' offset planes meet exactly (also with anisotropic spacing).
 /// - Any other edge (rims, unjoined stick ends): the plane through it
 ///   perpendicular to the quad; but a rim that continues the previous quad's
-///   rim (both its corners within 1e-4 voxel of that plane, normals within
-///   1.4e-4 rad) uses that very plane object, so the two prisms meet the
-///   mitre in the same rim line and leave no sub-micron sliver there.
+///   rim through a corner of their shared stick, mitred or not (both its
+///   corners within 1e-4 voxel of that plane, normals within 1.4e-4 rad),
+///   uses that very plane object, so the two prisms meet the mitre in the
+///   same rim line and leave no sub-micron sliver there, and coplanar faces
+///   across an unmitred turn are one surface in remeshTet.
 /// The mask voxelises cutRegion(), which covers the mitre joints.
 QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache);
 std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& r);
@@ -396,6 +398,11 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             const Quad& o = mask.quad(QuadRef{ref.stroke, uint32_t(oq)});
             if (o.degenerate) continue;
             if (!sharesEdge(o, hullOf(o, frame, indexNormal(o, frame)), wa, wb)) continue;
+            if (dq < 0) { // joined to the previous quad, with or without a mitre
+                joinedPrevious = true;
+                prevA = wa;
+                prevB = wb;
+            }
             const bool lower = dq > 0;
             const dvec3 nl = lower ? q.normal : o.normal, nu = lower ? o.normal : q.normal; // world
             const double c = glm::dot(nl, nu);
@@ -417,11 +424,6 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             side.orient = own > 0 ? 1.0 : -1.0;
             joint[e] = side;
             isJoint[e] = 1;
-            if (dq < 0) {
-                joinedPrevious = true;
-                prevA = wa;
-                prevB = wb;
-            }
             break;
         }
     }
@@ -827,6 +829,8 @@ private:
     }
 
     void splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
+    /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
+    void pushSimple(Poly o, std::vector<Poly>& out);
     void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
 
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
@@ -1186,6 +1190,34 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
     }
 }
 
+void RemeshKernel::pushSimple(Poly o, std::vector<Poly>& out)
+{
+    // Conformity can put a vertex on an edge of a piece that already has it
+    // (near-coincident lines whose points are one vertex by name: the offset
+    // planes of two mitred quads on their mitre): the piece then runs out
+    // along a line and back through that vertex, a loop plus a spike of zero
+    // area, and its classification by its first off-plane vertex could be
+    // the spike's. Split it at the repeat; loops of fewer than 3 go.
+    const size_t n = o.v.size();
+    for (size_t i = 0; i < n; ++i)
+        for (size_t j = i + 1; j < n; ++j) {
+            if (o.v[i] != o.v[j]) continue;
+            Poly a, b;
+            for (size_t k = i; k < j; ++k) {
+                a.v.push_back(o.v[k]);
+                a.lab.push_back(o.lab[k]);
+            }
+            for (size_t k = j; k < n + i; ++k) {
+                b.v.push_back(o.v[k % n]);
+                b.lab.push_back(o.lab[k % n]);
+            }
+            if (a.v.size() >= 3) pushSimple(std::move(a), out);
+            if (b.v.size() >= 3) pushSimple(std::move(b), out);
+            return;
+        }
+    out.push_back(std::move(o));
+}
+
 void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     out.clear();
@@ -1321,6 +1353,12 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     {
         uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
         const QuadGeom* quad; // cap: its quad
+        /// Kerf > 0: further prisms with this very face plane (a rim shared
+        /// along the stroke, facing the same way): one surface, whose pieces
+        /// are kept where any of these prisms' rule keeps them, so the faces
+        /// merge into one region (no corner where one prism's face ends
+        /// inside the other's, which the neighbouring cell need not see).
+        std::vector<const QuadGeom*> also;
         int sides;           // cap: bit 0 = + side output, bit 1 = - side output
         dvec3 normal;        // reference normal (pieces are CCW around it)
         Poly poly;
@@ -1375,6 +1413,15 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     }
     for (const FacePlane& fp : facePlanes) {
         const QuadGeom* q = fp.q;
+        if (mPrism) {
+            auto same = std::find_if(surfaces.begin(), surfaces.end(), [&](const Surface& o) {
+                return o.quad && o.plane == fp.id && glm::dot(o.normal, fp.normal) > 0;
+            });
+            if (same != surfaces.end()) {
+                same->also.push_back(q);
+                continue;
+            }
+        }
         double h[4];
         int on = 0;
         for (int i = 0; i < 4; ++i) {
@@ -1544,6 +1591,11 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 }
                 p = std::move(q);
             }
+            // A piece folded onto itself (it runs out along a line and back
+            // through the same vertex): its loop and the spike, apart.
+            next.clear();
+            for (Poly& p : pieces) pushSimple(std::move(p), next);
+            pieces.swap(next);
         }
         // Classification.
         std::vector<char> kept(pieces.size(), 1);
@@ -1564,16 +1616,22 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     for (const QuadGeom* q : mQuads) ok = ok && !insidePrism(p, *q);
                 } else {
                     for (int v : p.v) ok = ok && member(v) >= 0;
-                    ok = ok && insidePrism(p, *s.quad);
-                    for (const QuadGeom* q : mQuads) {
-                        if (!ok) break;
-                        if (q == s.quad || !insidePrism(p, *q)) continue;
-                        bool sameFace = false;
-                        for (const auto& sd : q->sides)
-                            sameFace = sameFace || (pieceSign(p, sd.id) == 0 &&
-                                                    glm::dot(sd.orient * sd.plane.n, s.normal) > 0);
-                        ok = sameFace && q->id > s.quad->id;
-                    }
+                    auto keptBy = [&](const QuadGeom* own) {
+                        bool k = insidePrism(p, *own);
+                        for (const QuadGeom* q : mQuads) {
+                            if (!k) break;
+                            if (q == own || !insidePrism(p, *q)) continue;
+                            bool sameFace = false;
+                            for (const auto& sd : q->sides)
+                                sameFace = sameFace || (pieceSign(p, sd.id) == 0 &&
+                                                        glm::dot(sd.orient * sd.plane.n, s.normal) > 0);
+                            k = sameFace && q->id > own->id;
+                        }
+                        return k;
+                    };
+                    bool any = ok && keptBy(s.quad);
+                    for (const QuadGeom* own : s.also) any = any || (ok && keptBy(own));
+                    ok = any;
                 }
                 kept[i] = ok;
             }

@@ -46,8 +46,12 @@
 // inside the solid and outside every other closed prism; of two coincident
 // faces facing the same way, the lower quad's), through the same arrangement,
 // naming and triangulation as above, with no slits, tags or Steiner points.
-// A rim continuing the previous quad's rim (within 1e-4 voxel) shares its
-// plane object, so straight strokes meet the mitre in one rim line. Where a
+// A rim continuing the previous quad's rim (within 1e-4 voxel), across a
+// mitre or an unmitred turn, shares its plane object, so straight strokes
+// meet the mitre in one rim line, and the prisms' faces on that one plane
+// are one surface (kept where any of the prisms keeps it): no vertex where
+// one prism's face ends on the other's, which the neighbouring cell may not
+// see (a blade whose edge runs in a grid plane through a 90 degree turn). Where a
 // curved stroke's rims cross a mitre in slightly different lines, the
 // sub-micron slivers and points where the union of prisms pinches (a blade
 // pivoting on a point) are refused by the local check (6 of 100 random head

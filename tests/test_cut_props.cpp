@@ -1181,6 +1181,11 @@ TEST_P(CutProps, HandMadeStrokesOnTheHeads)
         EXPECT_EQ(st.defects, 0u);
         EXPECT_LE(st.refused, kerfRefusalBound(w, st.strokes));
         EXPECT_LE(st.state.kerfIntersecting, w > 0 ? kKerfIntersectingHandMade : 0u);
+        // The exact shapes (blades in grid planes, through grid vertices, the
+        // staircase whose prisms' bottoms lie in one grid plane across 90
+        // degree turns) are never refused, with or without kerf.
+        for (const std::string& r : st.refusals)
+            EXPECT_EQ(r.find("grid"), std::string::npos) << "an exact grid-aligned stroke was refused: " << r;
     }
     if (!found) GTEST_SKIP() << "shared data 'vhm_head_4mm.nhdr' / 'vhm_head_2mm.nhdr' not found (set MTCUT_DATA)";
 }
