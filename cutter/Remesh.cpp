@@ -78,6 +78,15 @@ constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord 
 constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
 constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local vertices of the tet face/edge
 constexpr int kJunctionKind = 7;
+/// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
+/// vertex inside a tet where the removed region's boundary pinches.
+constexpr uint64_t kPinchTag = uint64_t(1) << 63;
+/// Kerf > 0: where the removed region's boundary has several fans at one
+/// vertex inside a tet (the union of the prisms, or the solid left between
+/// them, touches itself at that point: a blade pivoting on a corner), every
+/// fan but the first gets its own copy of the vertex, so the surface is a
+/// 2-manifold that touches itself there.
+void splitPinches(CutCellGeometry& out);
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
 constexpr double kMaxMitreBend = 0.35; ///< kerf > 0: consecutive prisms bending less than this (rad) meet on a mitre
 
@@ -1242,7 +1251,90 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
         }
         remeshTet(out, cellIndex);
     }
+    if (mPrism) splitPinches(out);
 }
+
+namespace {
+
+void splitPinches(CutCellGeometry& out)
+{
+    const uint32_t nv = uint32_t(out.vertexIds.size());
+    const size_t nt = out.indices.size() / 3;
+    // Triangles around each tet-inside vertex (only its tet's triangles can use it).
+    std::vector<std::vector<uint32_t>> around;
+    std::vector<int32_t> slot(nv, -1);
+    for (size_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = out.indices[3 * t + size_t(k)];
+            if (out.vertexIds[v].dim != 3) continue;
+            if (slot[v] < 0) {
+                slot[v] = int32_t(around.size());
+                around.emplace_back();
+            }
+            around[size_t(slot[v])].push_back(uint32_t(t));
+        }
+    for (uint32_t v = 0; v < nv; ++v) {
+        if (slot[v] < 0) continue;
+        const std::vector<uint32_t>& tris = around[size_t(slot[v])];
+        if (tris.size() < 6) continue; // two fans need at least 3 triangles each
+        // Link edges b -> c of the triangles (v, b, c); fans = their components.
+        std::vector<std::pair<uint32_t, uint32_t>> link(tris.size());
+        for (size_t i = 0; i < tris.size(); ++i) {
+            const uint32_t* tri = &out.indices[3 * tris[i]];
+            const int k = tri[0] == v ? 0 : tri[1] == v ? 1 : 2;
+            link[i] = {tri[(k + 1) % 3], tri[(k + 2) % 3]};
+        }
+        std::vector<int> fan(tris.size(), -1);
+        int fans = 0;
+        for (size_t s = 0; s < tris.size(); ++s) {
+            if (fan[s] >= 0) continue;
+            std::vector<size_t> stack{s};
+            fan[s] = fans;
+            while (!stack.empty()) {
+                const size_t a = stack.back();
+                stack.pop_back();
+                for (size_t b = 0; b < tris.size(); ++b)
+                    if (fan[b] < 0 && (link[b].first == link[a].second || link[b].second == link[a].first ||
+                                       link[b].first == link[a].first || link[b].second == link[a].second)) {
+                        fan[b] = fans;
+                        stack.push_back(b);
+                    }
+            }
+            ++fans;
+        }
+        if (fans < 2) continue;
+        // Each fan must be one closed cycle (a disc); otherwise leave it to the
+        // local check, which refuses the cell.
+        bool discs = true;
+        for (int f = 0; f < fans && discs; ++f) {
+            std::map<uint32_t, int> out1, in1;
+            for (size_t i = 0; i < tris.size(); ++i)
+                if (fan[i] == f) {
+                    ++out1[link[i].first];
+                    ++in1[link[i].second];
+                }
+            for (const auto& [u, c] : out1) discs = discs && c == 1 && in1[u] == 1;
+            discs = discs && out1.size() == in1.size();
+        }
+        if (!discs) continue;
+        // Fan 0 (the one with the first triangle) keeps the vertex; each other
+        // fan gets a copy at the same position, told apart by a pinch tag.
+        for (int f = 1; f < fans; ++f) {
+            CutVertexId id = out.vertexIds[v];
+            if (id.tagCount >= id.tags.size()) throw std::runtime_error("remesh: too many fans at a pinch point");
+            id.tags[id.tagCount++] = kPinchTag | uint64_t(f);
+            const uint32_t copy = uint32_t(out.vertexIds.size());
+            out.vertexIds.push_back(id);
+            out.indexPositions.push_back(out.indexPositions[v]);
+            for (size_t i = 0; i < tris.size(); ++i)
+                if (fan[i] == f)
+                    for (int k = 0; k < 3; ++k)
+                        if (out.indices[3 * tris[i] + size_t(k)] == v) out.indices[3 * tris[i] + size_t(k)] = copy;
+        }
+    }
+}
+
+} // namespace
 
 /// Even permutation of (0,1,2,3) starting with the given 1 or 2 entries (as the isosurface tables).
 static std::array<int, 4> evenPerm(std::initializer_list<int> first)

@@ -51,11 +51,15 @@
 // meet the mitre in one rim line, and the prisms' faces on that one plane
 // are one surface (kept where any of the prisms keeps it): no vertex where
 // one prism's face ends on the other's, which the neighbouring cell may not
-// see (a blade whose edge runs in a grid plane through a 90 degree turn). Where a
-// curved stroke's rims cross a mitre in slightly different lines, the
-// sub-micron slivers and points where the union of prisms pinches (a blade
-// pivoting on a point) are refused by the local check (6 of 100 random head
-// strokes), never written.
+// see (a blade whose edge runs in a grid plane through a 90 degree turn).
+// Where a blade pivots on a corner, the union of the prisms (or the solid
+// left between them) can touch itself at one point inside a tet: the
+// boundary there has several fans, and each fan but the first gets its own
+// copy of the vertex (same name plus a pinch tag, same position), so the
+// surface is a 2-manifold that touches itself at that point, as the exact
+// shape does. What the kernel still cannot mesh (1 of 104 random head
+// strokes: an open edge where a curved stroke's rims cross a mitre in
+// slightly different lines) is refused by the local check, never written.
 //
 // Snap rounding (fusedMesh): new vertices joined by an edge that round to
 // the same float position are one vertex of the written mesh, and the
@@ -90,7 +94,9 @@ struct CutVertexId
     /// dim 0..2: sorted grid vertex ids (gridVertexId); dim 3: cell id, tet index.
     std::array<uint64_t, 3> feature{};
     std::array<uint64_t, 8> planes{}; ///< sorted plane ids (1 = iso surface)
-    std::array<uint64_t, 4> tags{};   ///< sorted side tags (quad plane id << 1 | minus)
+    /// Sorted side tags (quad plane id << 1 | minus); kerf > 0: 2^63 | k for
+    /// the k-th copy of a vertex where the removed region pinches.
+    std::array<uint64_t, 4> tags{};
 
     bool operator==(const CutVertexId& o) const;
     bool operator<(const CutVertexId& o) const;
