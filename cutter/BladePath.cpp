@@ -475,6 +475,15 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
     const double cy = lo.y + o.faceFraction * size.y;
     const double z = lo.z + o.zFraction * size.z;
     const double ax = o.halfWidthFraction * size.x, ay = o.depthFraction * size.y;
+    // Every blade points at one focus (cx, cy + 0.6 ay) and reaches 0.7 L
+    // inside the ellipse; the ellipse comes closest to the focus at its ends
+    // (or its front). On a small box (a tooth) a 30 mm blade would pass
+    // through the focus from every pose: every quad in one cell, which no
+    // re-mesher should be asked to untangle. The blade is shortened so its
+    // tip stops a fifth of that distance short of the focus (on the heads
+    // and the phantom the 30 mm blade already does: unchanged there).
+    const double focusDistance = std::min(std::hypot(ax, 0.6 * ay), 1.6 * ay);
+    const double bladeLength = std::min(o.bladeLength, 0.8 * focusDistance / 0.7);
     // Half ellipse over the face side (y < cy): angle from pi (left, -x) .. 2 pi.
     const double arc = 3.14159265358979 * 0.5 * (ax + ay); // approx half perimeter
     const int count = std::max(2, int(arc / o.speed * o.rate));
@@ -493,10 +502,10 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
         inward = glm::dvec3(std::cos(o.tilt) * inward.x, std::cos(o.tilt) * inward.y, -std::sin(o.tilt));
         Pose pose;
         pose.time = double(i) / o.rate;
-        pose.base = p + 0.3 * o.bladeLength * outward +
+        pose.base = p + 0.3 * bladeLength * outward +
                     glm::dvec3(noise(rng), noise(rng), noise(rng));
         pose.direction = inward;
-        pose.length = o.bladeLength;
+        pose.length = bladeLength;
         poses.push_back(pose);
     }
     return poses;
