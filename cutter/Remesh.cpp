@@ -1688,19 +1688,6 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             next.clear();
             for (Poly& p : pieces) pushSimple(std::move(p), next);
             pieces.swap(next);
-            // A loop running clockwise around the surface normal is the
-            // back of such a fold (the pieces of a convex polygon cut by
-            // lines all run as it does): it covers nothing; dropping it
-            // keeps its twin from cancelling the real piece.
-            next.clear();
-            for (Poly& p : pieces) {
-                dvec3 area(0.0);
-                const size_t n = p.v.size();
-                for (size_t k = 0; k < n; ++k)
-                    area += glm::cross(mVerts[size_t(p.v[k])].pos, mVerts[size_t(p.v[(k + 1) % n])].pos);
-                if (glm::dot(area, s.normal) >= 0.0) next.push_back(std::move(p));
-            }
-            pieces.swap(next);
         }
         // Classification.
         std::vector<char> kept(pieces.size(), 1);
