@@ -86,7 +86,7 @@ constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 /// them, touches itself at that point: a blade pivoting on a corner), every
 /// fan but the first gets its own copy of the vertex, so the surface is a
 /// 2-manifold that touches itself there.
-void splitPinches(CutCellGeometry& out);
+void splitPinches(const openvdb::Coord& cell, CutCellGeometry& out);
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
 constexpr double kMaxMitreBend = 0.35; ///< kerf > 0: consecutive prisms bending less than this (rad) meet on a mitre
 
@@ -1251,12 +1251,12 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
         }
         remeshTet(out, cellIndex);
     }
-    if (mPrism) splitPinches(out);
+    if (mPrism) splitPinches(cell, out);
 }
 
 namespace {
 
-void splitPinches(CutCellGeometry& out)
+void splitPinches(const openvdb::Coord& cell, CutCellGeometry& out)
 {
     const uint32_t nv = uint32_t(out.vertexIds.size());
     const size_t nt = out.indices.size() / 3;
@@ -1321,7 +1321,8 @@ void splitPinches(CutCellGeometry& out)
         // fan gets a copy at the same position, told apart by a pinch tag.
         for (int f = 1; f < fans; ++f) {
             CutVertexId id = out.vertexIds[v];
-            if (id.tagCount >= id.tags.size()) throw std::runtime_error("remesh: too many fans at a pinch point");
+            if (id.tagCount >= id.tags.size())
+                throw std::runtime_error("remesh: a pinch point whose vertex has no free tag in cell " + cellText(cell));
             id.tags[id.tagCount++] = kPinchTag | uint64_t(f);
             const uint32_t copy = uint32_t(out.vertexIds.size());
             out.vertexIds.push_back(id);
