@@ -12,6 +12,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -2750,7 +2751,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     }
 }
 
-size_t CutRemesher::update(const CutMask& mask)
+size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
 {
     const Coord last = mVolume->dims - Coord(2);
     auto inBox = [&](const Coord& c) {
@@ -2965,16 +2966,28 @@ size_t CutRemesher::update(const CutMask& mask)
         // geometry is a function of the cell, its quads and the volume; one
         // kernel per thread). A refusal is reported for the lowest such cell,
         // as a serial loop would.
+        // With an interrupter: polled after every cell (a cell is 10-400 us;
+        // a pathological one, many quads pivoting through it, much more),
+        // with the share of cells done; once it asks to stop, the remaining
+        // cells are skipped and Cancelled is thrown below.
+        InterrupterScope scope(interrupter, "re-meshing the cut cells");
+        std::atomic<size_t> done{0};
+        std::atomic<bool> cancelled{false};
         tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
             RemeshKernel& kernel = mKernels->local();
             for (size_t j = range.begin(); j != range.end(); ++j) {
+                if (cancelled.load(std::memory_order_relaxed)) return;
                 try {
                     kernel.remesh(jobs[j].cell, jobs[j].quads, prism, *jobs[j].out);
                 } catch (...) {
                     jobs[j].error = std::current_exception();
                 }
+                const size_t n = done.fetch_add(1, std::memory_order_relaxed) + 1;
+                if (interrupter && interrupter->wasInterrupted(int(100 * n / jobs.size())))
+                    cancelled.store(true, std::memory_order_relaxed);
             }
         });
+        if (cancelled) throw Cancelled();
         for (CellJob& job : jobs) {
             if (job.error) std::rethrow_exception(job.error);
             if (mCellHook) mCellHook(job.cell, *job.out);

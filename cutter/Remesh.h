@@ -69,6 +69,7 @@
 
 #include "cutter/CutMask.h"
 #include "cutter/Mesh.h"
+#include "vdb/Progress.h"
 #include "vdb/Volume.h"
 
 #include <glm/vec3.hpp>
@@ -182,7 +183,12 @@ public:
     /// With the environment variable MTCUT_REMESH_DEBUG set, an open edge is
     /// also described on stderr (both vertices' names and float positions,
     /// and the triangles around it), to find which rule of the kernel broke.
-    size_t update(const CutMask& mask);
+    ///
+    /// `interrupter` (optional) is started as "re-meshing the cut cells" and
+    /// polled from the worker threads as cells are done, with the percentage
+    /// of the cells to re-mesh; when it asks to stop, update() throws
+    /// Cancelled and, as on any throw, leaves the remesher as it was.
+    size_t update(const CutMask& mask, Interrupter* interrupter = nullptr);
 
     /// The cells the last successful update() kept without re-meshing: cells
     /// of a quad whose stroke neighbour came or went, where the neighbour's

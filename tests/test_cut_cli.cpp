@@ -219,6 +219,41 @@ TEST(CutCli, KerfCutThroughABallRemovesTheSlab)
     EXPECT_EQ(carved->tree().getValue(openvdb::Coord(20, 22, 20)), vol.grid->tree().getValue(openvdb::Coord(20, 22, 20)));
 }
 
+// A blade that passes beside the ball cuts cells but no solid: the outputs
+// are the uncut ball (one fragment, clean), and the user is told nothing was
+// cut instead of being left to find out from the files.
+TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = dir.file("beside.csv");
+    {
+        std::ofstream f(path);
+        f << "t,x,y,z,dx,dy,dz,length\n";
+        for (int i = 0; i <= 100; ++i) f << 0.001 * i << "," << -10.0 + 0.2 * i << ",17.3,10,0,0,-1,20\n";
+    }
+    const std::string out = dir.file("out");
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("mtcut: warning: the blade meets no solid at iso 0"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("(0 meet the solid)"), std::string::npos) << r.output;
+    EXPECT_EQ(countOf(r.output, "fragment_"), 2u) << r.output; // the list line and the "wrote:" line
+    EXPECT_TRUE(fs::exists(out + "/fragment_000.stl"));
+    EXPECT_FALSE(fs::exists(out + "/fragment_001.stl"));
+
+    // The same blade moved into the ball meets it: no warning.
+    const std::string inside = dir.file("inside.csv");
+    {
+        std::ofstream f(inside);
+        f << "t,x,y,z,dx,dy,dz,length\n";
+        for (int i = 0; i <= 100; ++i) f << 0.001 * i << "," << -10.0 + 0.2 * i << ",7.3,10,0,0,-1,20\n";
+    }
+    const test::RunResult r2 = runMtcut("cut " + ball + " --iso 0 --path " + inside + " -o " + dir.file("out2"));
+    ASSERT_EQ(r2.exitCode, 0) << r2.output;
+    EXPECT_EQ(r2.output.find("warning"), std::string::npos) << r2.output;
+}
+
 TEST(CutCli, BadPathFileFailsNamingTheLine)
 {
     openvdb::initialize();

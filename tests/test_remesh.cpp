@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <mutex>
 #include <random>
 #include <set>
 #include <tuple>
@@ -603,6 +604,59 @@ TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
         EXPECT_GT(remesher.update(mask), 0u);
         EXPECT_TRUE(checkMesh(remesher.fusedMesh()).ok());
     }
+}
+
+// update() with an interrupter: reports the share of cells done (ending at
+// 100 %), and when asked to stop throws Cancelled and leaves the remesher as
+// it was (strong guarantee), so a later update() still does the whole cut.
+TEST(Remesh, UpdateReportsProgressAndCancelsCleanly)
+{
+    const double R = 15.0;
+    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    const auto first = straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200);
+    const auto second = straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200);
+    struct Recorder : Interrupter
+    {
+        std::mutex m;
+        std::vector<std::string> started;
+        std::vector<int> percents;
+        int stopAfter = -1; // polls before asking to stop; -1 never
+        void start(const char* name) override { started.push_back(name ? name : ""); }
+        bool wasInterrupted(int percent) override
+        {
+            std::lock_guard<std::mutex> lock(m);
+            percents.push_back(percent);
+            return stopAfter >= 0 && int(percents.size()) > stopAfter;
+        }
+    };
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, 0.0f, uncut);
+    addStroke(mask, first);
+    Recorder all;
+    const size_t firstCells = remesher.update(mask, &all);
+    ASSERT_GT(firstCells, 10u);
+    EXPECT_EQ(all.started, std::vector<std::string>{"re-meshing the cut cells"});
+    ASSERT_EQ(all.percents.size(), firstCells); // once per cell
+    EXPECT_EQ(*std::max_element(all.percents.begin(), all.percents.end()), 100);
+    EXPECT_GE(*std::min_element(all.percents.begin(), all.percents.end()), 0);
+    const Mesh good = remesher.fusedMesh();
+    const auto cellsBefore = remesher.cells();
+
+    addStroke(mask, second);
+    Recorder stop;
+    stop.stopAfter = 5;
+    EXPECT_THROW(remesher.update(mask, &stop), Cancelled);
+    EXPECT_LT(stop.percents.size(), firstCells); // the rest were skipped
+    EXPECT_TRUE(sameMesh(remesher.fusedMesh(), good));
+    EXPECT_EQ(remesher.cells().size(), cellsBefore.size());
+    // Nothing of the cancelled update stuck: the next one does the second stroke in full.
+    EXPECT_GT(remesher.update(mask), 0u);
+    const Mesh both = remesher.fusedMesh();
+    EXPECT_TRUE(checkMesh(both).ok());
+    CutRemesher fresh(vol, 0.0f, uncut);
+    fresh.update(mask);
+    EXPECT_TRUE(sameMesh(fresh.fusedMesh(), both));
 }
 
 // The head stroke that used to leave 7 boundary edges silently (seed 13,

@@ -132,9 +132,14 @@ int runCut(const Args& args)
     t0 = Clock::now();
     cutter::Mesh fused;
     std::vector<cutter::Fragment> fragments;
+    size_t surfaceCells = 0; // cut cells with new geometry: the blade meets the solid there
     try {
         cutter::CutRemesher remesher(vol, iso, uncut);
-        remesher.update(mask);
+        {
+            ProgressBar progress;
+            remesher.update(mask, &progress);
+        }
+        for (const auto& [cell, geometry] : remesher.cells()) surfaceCells += geometry.indices.empty() ? 0 : 1;
         fused = remesher.fusedMesh();
     } catch (const InputError&) {
         throw;
@@ -172,18 +177,37 @@ int runCut(const Args& args)
                 pathFile.empty() ? (onPhantom ? "built-in LeFort I (phantom's LeFort plane)" : "built-in LeFort I")
                                  : pathFile.c_str(),
                 strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "");
-    std::printf("cut cells:  %zu\n", mask.cutCellCount());
+    std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),
                 fragments.size());
-    for (const FragmentRecord& r : records) {
+    // The largest fragments; a noisy scan can leave hundreds of specks, all
+    // of which summary.json lists.
+    constexpr size_t kListed = 12;
+    for (size_t i = 0; i < records.size() && i < kListed; ++i) {
+        const FragmentRecord& r = records[i];
         std::printf("  %-18s %10.1f mm^3 %10.1f mm^2 %9zu triangles\n", r.file.c_str(), r.volume, r.area, r.triangles);
     }
+    if (records.size() > kListed)
+        std::printf("  ... and %zu smaller fragment(s), listed in summary.json\n", records.size() - kListed);
     std::printf("time:       read %.2f s, extract %.2f s, mask %.2f s, remesh %.2f s, check %.2f s, write %.2f s\n",
                 t.read, t.extract, t.mask, t.remesh, t.check, t.write);
     std::printf("wrote:      %s/{fragment_000..%03zu.%s, cut.vdb, slices.exr, summary.json}\n", outDir.c_str(),
                 fragments.size() - 1, ext.c_str());
 
+    std::fflush(stdout); // warnings after the report, also when both go to one pipe
+    if (surfaceCells == 0) {
+        // Not an error (the files are a faithful, uncut copy), but almost
+        // certainly not what was meant: say so rather than look like a cut.
+        if (mask.cutCellCount() == 0)
+            std::fprintf(stderr, "mtcut: warning: the blade never enters the scan's box, so nothing was cut (the "
+                                 "path is in world mm: check its position against the scan's origin)\n");
+        else
+            std::fprintf(stderr,
+                         "mtcut: warning: the blade meets no solid at iso %g: none of its %zu cut cells holds part of "
+                         "the surface, so nothing was cut (check --iso and the path's position in world mm)\n",
+                         double(iso), mask.cutCellCount());
+    }
     if (!check.ok()) {
         if (args.has("check")) {
             std::printf("%s", check.report().c_str());
