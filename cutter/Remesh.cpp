@@ -686,6 +686,63 @@ private:
     int mTet = 0;
     Support mT;
     std::vector<Vert> mVerts;
+    /// CutVertexIdHash of each mVerts[i].key: makeVertex's search for an
+    /// existing name compares these first (a cell where many quads pivot has
+    /// thousands of vertices per tet; comparing whole keys was most of its time).
+    std::vector<uint64_t> mVertHash;
+    /// Past kIndexFrom vertices, an index over mVertHash: per hash the first
+    /// and last vertex holding it, chained in ascending order through
+    /// mNextSameHash, so findVertex still returns the lowest match.
+    static constexpr size_t kIndexFrom = 64;
+    std::unordered_map<uint64_t, std::pair<int, int>> mHashChain;
+    std::vector<int> mNextSameHash;
+    bool mHashIndexed = false;
+    void indexVertex(int i)
+    {
+        mNextSameHash.push_back(-1);
+        auto [it, fresh] = mHashChain.try_emplace(mVertHash[size_t(i)], i, i);
+        if (!fresh) {
+            mNextSameHash[size_t(it->second.second)] = i;
+            it->second.second = i;
+        }
+    }
+    void rebuildHashIndex()
+    {
+        mHashChain.clear();
+        mNextSameHash.clear();
+        for (size_t i = 0; i < mVerts.size(); ++i) indexVertex(int(i));
+        mHashIndexed = true;
+    }
+    /// The lowest vertex named `key` (hash: its CutVertexIdHash), or -1.
+    int findVertex(const CutVertexId& key, uint64_t hash) const
+    {
+        if (!mHashIndexed) {
+            for (size_t i = 0; i < mVerts.size(); ++i)
+                if (mVertHash[i] == hash && mVerts[i].key == key) return int(i);
+            return -1;
+        }
+        auto it = mHashChain.find(hash);
+        for (int i = it == mHashChain.end() ? -1 : it->second.first; i >= 0; i = mNextSameHash[size_t(i)])
+            if (mVerts[size_t(i)].key == key) return i;
+        return -1;
+    }
+    void pushVertex(Vert&& v, uint64_t hash)
+    {
+        mVerts.push_back(std::move(v));
+        mVertHash.push_back(hash);
+        if (mHashIndexed) indexVertex(int(mVerts.size() - 1));
+        else if (mVerts.size() >= kIndexFrom) rebuildHashIndex();
+    }
+    /// sign() memo: row vi, column = the plane's index in mPlanes; 2 = not yet
+    /// known. Ids not in mPlanes use Vert::signs. Reset per tet.
+    std::vector<int8_t> mSignTab;
+    size_t mSignStride = 0; ///< mPlanes.size() once mPlanes is final; 0 before
+    void forgetSigns(size_t vi)
+    {
+        mVerts[vi].signs.clear();
+        if (mSignStride && mSignTab.size() >= (vi + 1) * mSignStride)
+            std::fill_n(mSignTab.begin() + std::ptrdiff_t(vi * mSignStride), mSignStride, int8_t(2));
+    }
     std::vector<const QuadGeom*> mQuads;             // quads crossing this tet
     std::vector<std::pair<uint64_t, Plane>> mPlanes; // sorted by id: ISO_A, ISO_B, quad planes and sides
     int mTriCount = 0;
@@ -1028,8 +1085,8 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
     }
     key.planeCount = uint8_t(planes.size());
     for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
-    for (size_t i = 0; i < mVerts.size(); ++i)
-        if (mVerts[i].key == key) return int(i);
+    const uint64_t hash = CutVertexIdHash()(key);
+    if (const int found = findVertex(key, hash); found >= 0) return found;
     // Inside the tet (no other tet or cell ever names it), one point made by
     // different planes (two pieces of one region split by the planes of two
     // joined quads whose rims are coplanar) is one vertex: its name is the
@@ -1047,7 +1104,9 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
             if (all.size() > o.key.planes.size()) break;
             o.key.planeCount = uint8_t(all.size());
             for (size_t k = 0; k < all.size(); ++k) o.key.planes[k] = all[k];
-            o.signs.clear();
+            mVertHash[i] = CutVertexIdHash()(o.key);
+            if (mHashIndexed) rebuildHashIndex();
+            forgetSigns(i);
             o.member = 2;
             return int(i);
         }
@@ -1056,7 +1115,7 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
     v.key = key;
     v.support = support;
     v.pos = canonicalPosition(key, support, pos0);
-    mVerts.push_back(std::move(v));
+    pushVertex(std::move(v), hash);
     return int(mVerts.size() - 1);
 }
 
@@ -1066,14 +1125,14 @@ int RemeshKernel::makeSteiner(uint8_t support, PlaneList planes, const dvec3& po
     std::sort(planes.begin(), planes.end());
     key.planeCount = uint8_t(planes.size());
     for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
-    for (size_t i = 0; i < mVerts.size(); ++i)
-        if (mVerts[i].key == key) return int(i);
+    const uint64_t hash = CutVertexIdHash()(key);
+    if (const int found = findVertex(key, hash); found >= 0) return found;
     Vert v;
     v.key = key;
     v.support = support;
     v.pos = pos;
     v.steiner = true;
-    mVerts.push_back(std::move(v));
+    pushVertex(std::move(v), hash);
     return int(mVerts.size() - 1);
 }
 
@@ -1082,6 +1141,16 @@ int RemeshKernel::sign(int vi, uint64_t id)
     Vert& v = mVerts[size_t(vi)];
     for (const auto& s : v.signs)
         if (s.first == id) return s.second;
+    size_t slot = SIZE_MAX; // in mSignTab
+    if (mSignStride) {
+        auto it = std::lower_bound(mPlanes.begin(), mPlanes.end(), id,
+                                   [](const std::pair<uint64_t, Plane>& a, uint64_t b) { return a.first < b; });
+        if (it != mPlanes.end() && it->first == id) {
+            slot = size_t(vi) * mSignStride + size_t(it - mPlanes.begin());
+            if (mSignTab.size() <= slot) mSignTab.resize((size_t(vi) + 1) * mSignStride, int8_t(2));
+            if (mSignTab[slot] != 2) return mSignTab[slot];
+        }
+    }
     int r;
     const bool inKey = std::binary_search(v.key.planes.begin(), v.key.planes.begin() + v.key.planeCount, id);
     if (inKey) {
@@ -1112,7 +1181,8 @@ int RemeshKernel::sign(int vi, uint64_t id)
         const double h = p->h(v.pos);
         r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
     }
-    v.signs.push_back({id, int8_t(r)});
+    if (slot != SIZE_MAX) mSignTab[slot] = int8_t(r);
+    else v.signs.push_back({id, int8_t(r)});
     return r;
 }
 
@@ -1361,6 +1431,14 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     // air; they cost nothing now.
     if (!mT.inside[0] && !mT.inside[1] && !mT.inside[2] && !mT.inside[3]) return;
     mVerts.clear();
+    mVertHash.clear();
+    if (mHashIndexed) {
+        mHashChain.clear();
+        mNextSameHash.clear();
+        mHashIndexed = false;
+    }
+    mSignTab.clear();
+    mSignStride = 0;
     mQuads.clear();
     mPlanes.clear();
     mTriCount = 0;
@@ -1441,6 +1519,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                                   return a.first == b.first;
                               }),
                   mPlanes.end());
+    mSignStride = mPlanes.size();
     if (mTriCount == 2) mFoldConvex = mTriPlane[0].h(triPts[1][2]) >= 0;
 
     struct Surface
@@ -1655,6 +1734,22 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
             std::sort(all.begin(), all.end());
             all.erase(std::unique(all.begin(), all.end()), all.end());
+            // The vertices of `all` on each edge label's line (ascending),
+            // found once per label rather than once per edge: a cell where
+            // many quads pivot has thousands of edges and vertices here.
+            std::vector<std::pair<uint64_t, std::vector<int>>> onLabel;
+            auto onLineOf = [&](uint64_t L) -> size_t {
+                for (size_t i = 0; i < onLabel.size(); ++i)
+                    if (onLabel[i].first == L) return i;
+                std::vector<int> xs;
+                for (int x : all) {
+                    const Vert& vx = mVerts[size_t(x)];
+                    const bool onLine = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
+                    if (onLine) xs.push_back(x);
+                }
+                onLabel.emplace_back(L, std::move(xs));
+                return onLabel.size() - 1;
+            };
             for (Poly& p : pieces) {
                 Poly q;
                 const size_t n = p.v.size();
@@ -1666,12 +1761,9 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
                     const double dd = glm::dot(d, d);
                     std::vector<std::pair<double, int>> on;
-                    for (int x : all) {
+                    for (int x : onLabel[onLineOf(L)].second) {
                         if (x == u || x == w) continue;
                         const Vert& vx = mVerts[size_t(x)];
-                        const bool onLine = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0
-                                                                 : sign(x, L) == 0;
-                        if (!onLine) continue;
                         const double t = glm::dot(vx.pos - a, d) / dd;
                         if (!(t > 1e-12 && t < 1 - 1e-12)) continue;
                         if (glm::length(vx.pos - (a + t * d)) > 1e-9 * (1 + std::sqrt(dd))) continue;
