@@ -14,6 +14,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -252,6 +253,40 @@ TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
     const test::RunResult r2 = runMtcut("cut " + ball + " --iso 0 --path " + inside + " -o " + dir.file("out2"));
     ASSERT_EQ(r2.exitCode, 0) << r2.output;
     EXPECT_EQ(r2.output.find("warning"), std::string::npos) << r2.output;
+}
+
+// The same straight stroke twice: with a zero-width blade the two strokes'
+// quads are coplanar and overlap, which the re-mesher refuses. The error
+// names the cell and where it is in world mm, suggests a saw width, and
+// nothing is written; with --kerf 0.5 the same path cuts the ball in two.
+TEST(CutCli, RefusedStrokeNamesTheCellInWorldMmAndWritesNothing)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string once = readText(writeStraightPath(dir));
+    const std::string path = dir.file("twice.csv");
+    {
+        std::ofstream f(path);
+        f << once << "\nstroke\n" << once;
+    }
+    const std::string out = dir.file("out");
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out);
+    EXPECT_EQ(r.exitCode, 1) << r.output;
+    EXPECT_EQ(r.output.rfind("mtcut: error: remesh: coplanar overlapping quads in cell (", 0), 0u) << r.output;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(cell \((-?\d+), (-?\d+), (-?\d+)\), centred at \(([-.0-9]+), ([-.0-9]+), ([-.0-9]+)\) mm)")))
+        << r.output;
+    for (int a = 0; a < 3; ++a) // the ball's grid: origin -19.5 mm, 1 mm voxels
+        EXPECT_NEAR(std::stod(m[4 + a]), -19.5 + std::stod(m[1 + a]) + 0.5, 1e-9) << r.output;
+    EXPECT_NEAR(std::stod(m[5]), 0.0, 1.0) << "the cell holds the blade at y = 0.37: " << r.output;
+    EXPECT_NE(r.output.find("--kerf 0.5"), std::string::npos) << r.output;
+    EXPECT_TRUE(filesIn(out).empty());
+
+    const test::RunResult k = runMtcut("cut " + ball + " --iso 0 --path " + path + " --kerf 0.5 -o " + out + " --check");
+    ASSERT_EQ(k.exitCode, 0) << k.output;
+    EXPECT_TRUE(fs::exists(out + "/fragment_001.stl"));
+    EXPECT_FALSE(fs::exists(out + "/fragment_002.stl"));
 }
 
 TEST(CutCli, BadPathFileFailsNamingTheLine)
