@@ -1080,6 +1080,35 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
         std::sort(planes.begin(), planes.end());
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
     }
+    if (planes.size() > key.planes.size() && key.dim == 3) {
+        // A point inside the tet on more planes than a name holds (a blade
+        // pivoting exactly about it: every stick, so every mitre and quad
+        // plane, passes through it). No other tet or cell names it and its
+        // position is pos0, so any of its planes that fix the point name it
+        // uniquely: three with independent normals (the lowest ids that are),
+        // then the lowest others. The same plane set always gives the same
+        // name; the dropped planes still hold it (sign() finds it on them).
+        PlaneList chosen;
+        dvec3 n0(0.0), n1(0.0);
+        for (uint64_t id : planes) {
+            const Plane* pl = planeById(id);
+            if (!pl || chosen.size() == 3) continue;
+            const dvec3 n = pl->n;
+            const bool independent = chosen.empty()                ? glm::length(n) > 0.5
+                                     : chosen.size() == 1          ? glm::length(glm::cross(n0, n)) > 1e-6
+                                                                   : std::abs(glm::dot(glm::cross(n0, n1), n)) > 1e-6;
+            if (!independent) continue;
+            (chosen.empty() ? n0 : n1) = n;
+            chosen.push_back(id);
+        }
+        if (chosen.size() == 3) {
+            for (uint64_t id : planes)
+                if (chosen.size() < key.planes.size() && std::find(chosen.begin(), chosen.end(), id) == chosen.end())
+                    chosen.push_back(id);
+            std::sort(chosen.begin(), chosen.end());
+            planes = chosen;
+        }
+    }
     if (planes.size() > key.planes.size()) {
         throw std::runtime_error("remesh: a point lies on more than 8 blade planes in cell " + cellText(mCell));
     }
