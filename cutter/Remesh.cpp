@@ -697,8 +697,54 @@ private:
     std::unordered_map<uint64_t, std::pair<int, int>> mHashChain;
     std::vector<int> mNextSameHash;
     bool mHashIndexed = false;
+    /// Also past kIndexFrom: the tet-inside, non-Steiner vertices by position,
+    /// in buckets of kNearCell voxels (far above mergeTolerance), for
+    /// makeVertex's merge of one point made by different planes.
+    static constexpr double kNearCell = 1e-5;
+    std::unordered_map<uint64_t, SmallVector<int, 2>> mNear;
+    static uint64_t nearKey(int64_t x, int64_t y, int64_t z)
+    {
+        uint64_t h = uint64_t(x) * 0x9e3779b97f4a7c15ull;
+        h ^= uint64_t(y) * 0xc2b2ae3d27d4eb4full + (h << 6) + (h >> 2);
+        h ^= uint64_t(z) * 0x165667b19e3779f9ull + (h << 6) + (h >> 2);
+        return h;
+    }
+    static double mergeTolerance(const dvec3& p)
+    {
+        return 1e-11 * (1.0 + std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}));
+    }
+    /// The lowest tet-inside, non-Steiner vertex with this feature within
+    /// mergeTolerance of `p`, or -1.
+    int mergeCandidate(const std::array<uint64_t, 3>& feature, const dvec3& p) const
+    {
+        auto fits = [&](const Vert& o) {
+            return o.key.dim == 3 && !o.steiner && o.key.feature == feature && glm::length(o.pos - p) <= mergeTolerance(p);
+        };
+        if (!mHashIndexed) {
+            for (size_t i = 0; i < mVerts.size(); ++i)
+                if (fits(mVerts[i])) return int(i);
+            return -1;
+        }
+        const int64_t bx = int64_t(std::floor(p.x / kNearCell)), by = int64_t(std::floor(p.y / kNearCell)),
+                      bz = int64_t(std::floor(p.z / kNearCell));
+        int best = -1;
+        for (int64_t dx = -1; dx <= 1; ++dx)
+            for (int64_t dy = -1; dy <= 1; ++dy)
+                for (int64_t dz = -1; dz <= 1; ++dz) {
+                    auto it = mNear.find(nearKey(bx + dx, by + dy, bz + dz));
+                    if (it == mNear.end()) continue;
+                    for (int i : it->second)
+                        if ((best < 0 || i < best) && fits(mVerts[size_t(i)])) best = i;
+                }
+        return best;
+    }
     void indexVertex(int i)
     {
+        const Vert& v = mVerts[size_t(i)];
+        if (v.key.dim == 3 && !v.steiner)
+            mNear[nearKey(int64_t(std::floor(v.pos.x / kNearCell)), int64_t(std::floor(v.pos.y / kNearCell)),
+                          int64_t(std::floor(v.pos.z / kNearCell)))]
+                .push_back(i);
         mNextSameHash.push_back(-1);
         auto [it, fresh] = mHashChain.try_emplace(mVertHash[size_t(i)], i, i);
         if (!fresh) {
@@ -710,6 +756,7 @@ private:
     {
         mHashChain.clear();
         mNextSameHash.clear();
+        mNear.clear();
         for (size_t i = 0; i < mVerts.size(); ++i) indexVertex(int(i));
         mHashIndexed = true;
     }
@@ -733,15 +780,31 @@ private:
         if (mHashIndexed) indexVertex(int(mVerts.size() - 1));
         else if (mVerts.size() >= kIndexFrom) rebuildHashIndex();
     }
-    /// sign() memo: row vi, column = the plane's index in mPlanes; 2 = not yet
-    /// known. Ids not in mPlanes use Vert::signs. Reset per tet.
+    /// sign() memo, one column per plane of mPlanes (a plane's signs over
+    /// the vertices are contiguous: splitting pieces asks one plane about many
+    /// nearby vertices): entry pidx * mSignCap + vi; 2 = not yet known. Ids
+    /// not in mPlanes use Vert::signs. Reset per tet.
     std::vector<int8_t> mSignTab;
     size_t mSignStride = 0; ///< mPlanes.size() once mPlanes is final; 0 before
+    size_t mSignCap = 0;    ///< vertices per column
+    int8_t& signSlot(size_t vi, size_t pidx)
+    {
+        if (vi >= mSignCap) {
+            size_t cap = std::max<size_t>(64, mSignCap);
+            while (cap <= vi) cap *= 2;
+            std::vector<int8_t> grown(mSignStride * cap, int8_t(2));
+            for (size_t p = 0; p < mSignStride && mSignCap; ++p)
+                std::copy_n(mSignTab.begin() + std::ptrdiff_t(p * mSignCap), mSignCap, grown.begin() + std::ptrdiff_t(p * cap));
+            mSignTab.swap(grown);
+            mSignCap = cap;
+        }
+        return mSignTab[pidx * mSignCap + vi];
+    }
     void forgetSigns(size_t vi)
     {
         mVerts[vi].signs.clear();
-        if (mSignStride && mSignTab.size() >= (vi + 1) * mSignStride)
-            std::fill_n(mSignTab.begin() + std::ptrdiff_t(vi * mSignStride), mSignStride, int8_t(2));
+        if (vi < mSignCap)
+            for (size_t p = 0; p < mSignStride; ++p) mSignTab[p * mSignCap + vi] = 2;
     }
     std::vector<const QuadGeom*> mQuads;             // quads crossing this tet
     std::vector<std::pair<uint64_t, Plane>> mPlanes; // sorted by id: ISO_A, ISO_B, quad planes and sides
@@ -766,9 +829,40 @@ private:
 
     const Plane* planeById(uint64_t id) const
     {
+        if (mSignStride) {
+            const size_t i = planeIndex(id);
+            return i == SIZE_MAX ? nullptr : &mPlanes[i].second;
+        }
         auto it = std::lower_bound(mPlanes.begin(), mPlanes.end(), id,
                                    [](const std::pair<uint64_t, Plane>& a, uint64_t b) { return a.first < b; });
         return it != mPlanes.end() && it->first == id ? &it->second : nullptr;
+    }
+    /// Once mPlanes is final: an open-addressing table id -> index in mPlanes
+    /// (sign() and planeById() ask it millions of times in a cell where many
+    /// quads pivot; a binary search over mPlanes was half of sign()).
+    std::vector<std::pair<uint64_t, uint32_t>> mPlaneSlots; ///< (id, index); index UINT32_MAX = empty
+    static size_t slotHash(uint64_t id) { return size_t((id * 0x9e3779b97f4a7c15ull) >> 32); }
+    void buildPlaneSlots()
+    {
+        size_t n = 16;
+        while (n < 2 * mPlanes.size()) n *= 2;
+        mPlaneSlots.assign(n, {0, UINT32_MAX});
+        for (size_t i = 0; i < mPlanes.size(); ++i) {
+            size_t h = slotHash(mPlanes[i].first) & (n - 1);
+            while (mPlaneSlots[h].second != UINT32_MAX) h = (h + 1) & (n - 1);
+            mPlaneSlots[h] = {mPlanes[i].first, uint32_t(i)};
+        }
+    }
+    /// Index of plane `id` in mPlanes once it is final; SIZE_MAX when absent or before.
+    size_t planeIndex(uint64_t id) const
+    {
+        if (!mSignStride) return SIZE_MAX;
+        const size_t mask = mPlaneSlots.size() - 1;
+        for (size_t h = slotHash(id) & mask;; h = (h + 1) & mask) {
+            const auto& s = mPlaneSlots[h];
+            if (s.second == UINT32_MAX) return SIZE_MAX;
+            if (s.first == id) return s.second;
+        }
     }
 
     static int bits(uint8_t m) { return (m & 1) + (m >> 1 & 1) + (m >> 2 & 1) + (m >> 3 & 1); }
@@ -1120,24 +1214,20 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
     // different planes (two pieces of one region split by the planes of two
     // joined quads whose rims are coplanar) is one vertex: its name is the
     // union of the planes, so the pieces share it and merge.
-    if (key.dim == 3) {
-        for (size_t i = 0; i < mVerts.size(); ++i) {
-            Vert& o = mVerts[i];
-            if (o.key.dim != 3 || o.steiner || o.key.feature != key.feature) continue;
-            if (!(glm::length(o.pos - pos0) <= 1e-11 * (1.0 + std::max({std::abs(pos0.x), std::abs(pos0.y), std::abs(pos0.z)}))))
-                continue;
-            std::vector<uint64_t> all(o.key.planes.begin(), o.key.planes.begin() + o.key.planeCount);
-            all.insert(all.end(), planes.begin(), planes.end());
-            std::sort(all.begin(), all.end());
-            all.erase(std::unique(all.begin(), all.end()), all.end());
-            if (all.size() > o.key.planes.size()) break;
+    if (const int i = key.dim == 3 ? mergeCandidate(key.feature, pos0) : -1; i >= 0) {
+        Vert& o = mVerts[size_t(i)];
+        std::vector<uint64_t> all(o.key.planes.begin(), o.key.planes.begin() + o.key.planeCount);
+        all.insert(all.end(), planes.begin(), planes.end());
+        std::sort(all.begin(), all.end());
+        all.erase(std::unique(all.begin(), all.end()), all.end());
+        if (all.size() <= o.key.planes.size()) {
             o.key.planeCount = uint8_t(all.size());
             for (size_t k = 0; k < all.size(); ++k) o.key.planes[k] = all[k];
-            mVertHash[i] = CutVertexIdHash()(o.key);
+            mVertHash[size_t(i)] = CutVertexIdHash()(o.key);
             if (mHashIndexed) rebuildHashIndex();
-            forgetSigns(i);
+            forgetSigns(size_t(i));
             o.member = 2;
-            return int(i);
+            return i;
         }
     }
     Vert v;
@@ -1167,19 +1257,14 @@ int RemeshKernel::makeSteiner(uint8_t support, PlaneList planes, const dvec3& po
 
 int RemeshKernel::sign(int vi, uint64_t id)
 {
+    int8_t* slot = nullptr; // in mSignTab
+    if (const size_t pidx = planeIndex(id); pidx != SIZE_MAX) {
+        slot = &signSlot(size_t(vi), pidx);
+        if (*slot != 2) return *slot;
+    }
     Vert& v = mVerts[size_t(vi)];
     for (const auto& s : v.signs)
         if (s.first == id) return s.second;
-    size_t slot = SIZE_MAX; // in mSignTab
-    if (mSignStride) {
-        auto it = std::lower_bound(mPlanes.begin(), mPlanes.end(), id,
-                                   [](const std::pair<uint64_t, Plane>& a, uint64_t b) { return a.first < b; });
-        if (it != mPlanes.end() && it->first == id) {
-            slot = size_t(vi) * mSignStride + size_t(it - mPlanes.begin());
-            if (mSignTab.size() <= slot) mSignTab.resize((size_t(vi) + 1) * mSignStride, int8_t(2));
-            if (mSignTab[slot] != 2) return mSignTab[slot];
-        }
-    }
     int r;
     const bool inKey = std::binary_search(v.key.planes.begin(), v.key.planes.begin() + v.key.planeCount, id);
     if (inKey) {
@@ -1210,7 +1295,7 @@ int RemeshKernel::sign(int vi, uint64_t id)
         const double h = p->h(v.pos);
         r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
     }
-    if (slot != SIZE_MAX) mSignTab[slot] = int8_t(r);
+    if (slot) *slot = int8_t(r);
     else v.signs.push_back({id, int8_t(r)});
     return r;
 }
@@ -1464,10 +1549,12 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     if (mHashIndexed) {
         mHashChain.clear();
         mNextSameHash.clear();
+        mNear.clear();
         mHashIndexed = false;
     }
     mSignTab.clear();
     mSignStride = 0;
+    mSignCap = 0;
     mQuads.clear();
     mPlanes.clear();
     mTriCount = 0;
@@ -1549,6 +1636,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                               }),
                   mPlanes.end());
     mSignStride = mPlanes.size();
+    buildPlaneSlots();
     if (mTriCount == 2) mFoldConvex = mTriPlane[0].h(triPts[1][2]) >= 0;
 
     struct Surface

@@ -1548,9 +1548,8 @@ INSTANTIATE_TEST_SUITE_P(Kerf, CutProps, ::testing::Values(0.0, 0.5),
 // blade planes"; a point inside a tet is now named by three independent
 // planes and the lowest others). It is also the re-mesher's worst case for
 // cost: the arrangement of a tet grows with the planes crossing it (the
-// wobbling fan took 40 s of re-meshing before the kernel found vertices by
-// hash and memoised signs in a table, about 5 s after, on the 2-core CI
-// machine). Kerf 0 (the fan's quads touching, slivers between nearly
+// wobbling fan took 40 s of re-meshing before the kernel's lookups were
+// indexed, about 2.5 s after, on a 2-core machine). Kerf 0 (the fan's quads touching, slivers between nearly
 // coincident ones): refused or clean, never silent.
 TEST(CutPropsDefects, PivotingBladeFanIsCleanWithKerf)
 {
