@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <regex>
 #include <unistd.h>
 
 namespace mtcut::cli {
@@ -107,6 +108,23 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
         count += quads.size();
     }
     return count;
+}
+
+std::string describeRefusal(const std::string& what, const cutter::IndexFrame& frame, double kerf)
+{
+    if (what.rfind("remesh: ", 0) != 0) return what; // not a refusal
+    std::string out = what;
+    std::smatch m;
+    static const std::regex cell(R"(cell \((-?[0-9]+), (-?[0-9]+), (-?[0-9]+)\))");
+    if (std::regex_search(what, m, cell)) {
+        const glm::dvec3 c = frame.toWorld(glm::dvec3(std::stod(m[1]) + 0.5, std::stod(m[2]) + 0.5, std::stod(m[3]) + 0.5));
+        char buf[128];
+        std::snprintf(buf, sizeof buf, ", centred at (%.2f, %.2f, %.2f) mm", c.x, c.y, c.z);
+        out += buf;
+    }
+    out += "; the re-mesher refuses rather than write a broken surface";
+    if (kerf == 0.0) out += " (a stroke that crosses or pivots through itself may go through with a saw width: kerf > 0, e.g. --kerf 0.5)";
+    return out;
 }
 
 ProgressBar::ProgressBar() : mTty(::isatty(2) != 0)

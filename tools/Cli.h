@@ -77,6 +77,12 @@ private:
     std::mutex mMutex;
 };
 
+/// The re-mesher's refusal ("remesh: ... in cell (i, j, k)", `what`) for a
+/// user: the cell's centre in world mm, that nothing broken was written, and
+/// with a zero-width blade (`kerf` 0) that a saw width may go through. Other
+/// messages are returned as they are.
+std::string describeRefusal(const std::string& what, const cutter::IndexFrame& frame, double kerf);
+
 /// "1.23 GiB", "45.6 MiB", ...
 std::string humanBytes(double bytes);
 

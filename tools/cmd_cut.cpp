@@ -18,7 +18,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <regex>
 
 namespace mtcut::cli {
 
@@ -83,25 +82,6 @@ std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::In
     return cutter::makeLeFortStroke(frame, options);
 }
 
-/// The re-mesher's refusal ("remesh: ... in cell (i, j, k)") for a user: the
-/// cell's centre in world mm (where to look in a viewer or the path file),
-/// and with a zero-width blade, that a saw width may go through.
-std::string refusalMessage(const std::string& what, const cutter::IndexFrame& frame, double kerf)
-{
-    std::string out = what;
-    std::smatch m;
-    static const std::regex cell(R"(cell \((-?[0-9]+), (-?[0-9]+), (-?[0-9]+)\))");
-    if (std::regex_search(what, m, cell)) {
-        const glm::dvec3 c = frame.toWorld(glm::dvec3(std::stod(m[1]) + 0.5, std::stod(m[2]) + 0.5, std::stod(m[3]) + 0.5));
-        char buf[128];
-        std::snprintf(buf, sizeof buf, ", centred at (%.2f, %.2f, %.2f) mm", c.x, c.y, c.z);
-        out += buf;
-    }
-    out += "; the re-mesher refuses rather than write a broken surface";
-    if (kerf == 0.0) out += " (a stroke that crosses or pivots through itself may go through with a saw width, e.g. --kerf 0.5)";
-    return out;
-}
-
 int runCut(const Args& args)
 {
     // -- arguments: everything checked before the long work --------------------
@@ -164,7 +144,7 @@ int runCut(const Args& args)
     } catch (const Cancelled&) {
         throw;
     } catch (const std::runtime_error& e) {
-        throw InputError(refusalMessage(e.what(), frame, kerf)); // a configuration the kernel refuses
+        throw InputError(describeRefusal(e.what(), frame, kerf)); // a configuration the kernel refuses
     }
     const size_t uncutTriangles = uncut.triangleCount();
     uncut = cutter::Mesh(); // free it

@@ -5,6 +5,7 @@
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
+#include "tools/Cli.h"
 #include "vdb/Phantom.h"
 
 #include <glm/geometric.hpp>
@@ -220,7 +221,7 @@ void CutSession::updateCut()
                 s.mask->undoToQuad(s.goodQuads);
             }
             s.broken = true;
-            message(true, std::string("cut refused, the stroke stops here: ") + e.what());
+            message(true, "cut refused, the stroke stops here: " + cli::describeRefusal(e.what(), s.mask->frame(), s.mask->kerf()));
         } else {
             throw;
         }
@@ -341,7 +342,7 @@ void CutSession::recut(float iso, std::shared_ptr<const cutter::Mesh> surface, s
     try {
         remesher->update(cutMask);
     } catch (const std::runtime_error& e) {
-        throw InputError(refusal + ": " + e.what());
+        throw InputError(refusal + ": " + cli::describeRefusal(e.what(), cutMask.frame(), cutMask.kerf()));
     }
     s.iso = iso;
     s.surface = std::move(surface);
@@ -499,7 +500,8 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
                   } catch (const std::runtime_error& e) {
                       s.mask->undoStroke();
                       s.remesher->update(*s.mask);
-                      message(true, pathName + ": stroke " + std::to_string(i + 1) + " refused: " + e.what());
+                      message(true, pathName + ": stroke " + std::to_string(i + 1) +
+                                        " refused: " + cli::describeRefusal(e.what(), s.mask->frame(), s.mask->kerf()));
                   }
               }
               if (added) s.pathFile = pathName;
@@ -547,7 +549,7 @@ void CutSession::redo()
                       s.mask->undoStroke();
                   }
                   s.remesher->update(*s.mask);
-                  throw InputError(std::string("redo refused: ") + e.what());
+                  throw InputError("redo refused: " + cli::describeRefusal(e.what(), s.mask->frame(), s.mask->kerf()));
               }
               s.sceneDirty = s.fragmentsDirty = true;
           }});
