@@ -228,12 +228,15 @@ TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
     openvdb::initialize();
     TempDir dir;
     const std::string ball = writeBall(dir);
-    const std::string path = dir.file("beside.csv");
-    {
-        std::ofstream f(path);
+    // A 20 mm stroke along x at height y, the blade 20 mm down from z = 10.
+    auto writeLine = [&](const std::string& name, double y) {
+        const std::string file = dir.file(name);
+        std::ofstream f(file);
         f << "t,x,y,z,dx,dy,dz,length\n";
-        for (int i = 0; i <= 100; ++i) f << 0.001 * i << "," << -10.0 + 0.2 * i << ",17.3,10,0,0,-1,20\n";
-    }
+        for (int i = 0; i <= 100; ++i) f << 0.001 * i << "," << -10.0 + 0.2 * i << "," << y << ",10,0,0,-1,20\n";
+        return file;
+    };
+    const std::string path = writeLine("beside.csv", 17.3);
     const std::string out = dir.file("out");
     const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check");
     ASSERT_EQ(r.exitCode, 0) << r.output;
@@ -244,12 +247,7 @@ TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
     EXPECT_FALSE(fs::exists(out + "/fragment_001.stl"));
 
     // The same blade moved into the ball meets it: no warning.
-    const std::string inside = dir.file("inside.csv");
-    {
-        std::ofstream f(inside);
-        f << "t,x,y,z,dx,dy,dz,length\n";
-        for (int i = 0; i <= 100; ++i) f << 0.001 * i << "," << -10.0 + 0.2 * i << ",7.3,10,0,0,-1,20\n";
-    }
+    const std::string inside = writeLine("inside.csv", 7.3);
     const test::RunResult r2 = runMtcut("cut " + ball + " --iso 0 --path " + inside + " -o " + dir.file("out2"));
     ASSERT_EQ(r2.exitCode, 0) << r2.output;
     EXPECT_EQ(r2.output.find("warning"), std::string::npos) << r2.output;

@@ -552,13 +552,23 @@ TEST(Remesh, DilatedCellsIsTheSortedNeighbourhood)
     }
 }
 
+/// The 15 mm ball at 1 mm and two straight strokes through it, along x and
+/// then along y (kerf 0, iso 0): a cut, then a second stroke crossing it.
+struct BallAndTwoStrokes
+{
+    vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [](const Vec3d& p) { return 15.0 - p.length(); });
+    Mesh uncut = extractIsosurface(vol, 0.0f);
+    std::vector<Pose> first = straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200);
+    std::vector<Pose> second = straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200);
+};
+
 TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
 {
-    const double R = 15.0;
-    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
-    const Mesh uncut = extractIsosurface(vol, 0.0f);
-    const auto first = straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200);
-    const auto second = straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200);
+    const BallAndTwoStrokes ball;
+    const vdb::Volume& vol = ball.vol;
+    const Mesh& uncut = ball.uncut;
+    const std::vector<Pose>& first = ball.first;
+    const std::vector<Pose>& second = ball.second;
     for (int corruption : {0, 1, 2}) { // drop a triangle, turn one over, repeat a vertex
         CutMask mask(frameOf(vol), 0.0);
         CutRemesher remesher(vol, 0.0f, uncut);
@@ -611,11 +621,11 @@ TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
 // it was (strong guarantee), so a later update() still does the whole cut.
 TEST(Remesh, UpdateReportsProgressAndCancelsCleanly)
 {
-    const double R = 15.0;
-    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
-    const Mesh uncut = extractIsosurface(vol, 0.0f);
-    const auto first = straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200);
-    const auto second = straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200);
+    const BallAndTwoStrokes ball;
+    const vdb::Volume& vol = ball.vol;
+    const Mesh& uncut = ball.uncut;
+    const std::vector<Pose>& first = ball.first;
+    const std::vector<Pose>& second = ball.second;
     struct Recorder : Interrupter
     {
         std::mutex m;
