@@ -941,6 +941,25 @@ private:
 
     dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
     int makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
+    /// Whether three of `planes` (those with a plane in this tet) have
+    /// independent normals, so together they fix one point.
+    bool spansSpace(const PlaneList& planes) const
+    {
+        dvec3 n0(0.0), n1(0.0);
+        int rank = 0;
+        for (uint64_t id : planes) {
+            const Plane* pl = planeById(id);
+            if (!pl) continue;
+            const dvec3& n = pl->n;
+            if (rank == 0 ? glm::length(n) > 0.5
+                          : rank == 1 ? glm::length(glm::cross(n0, n)) > 1e-6
+                                      : std::abs(glm::dot(glm::cross(n0, n1), n)) > 1e-6) {
+                (rank == 0 ? n0 : n1) = n;
+                if (++rank == 3) return true;
+            }
+        }
+        return false;
+    }
     int makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos);
     /// A slit chord of quad r between two rim points on different rim lines:
     /// the two sides of the slit need a tagged vertex on it.
@@ -1169,7 +1188,14 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
         if (on.size() == before) break;
     }
-    if (int(planes.size()) < int(key.dim)) { // a face needs two planes, an edge one, the inside three
+    // A face needs two planes, an edge one, the inside three; inside the tet
+    // the three must also be independent. Prisms: a mitre and the two offset
+    // planes it bisects meet in one line, so a point on that line is named
+    // by the three and nothing else when its other plane is not active
+    // (outside that prism): two points of the line would share the name.
+    // The planes that made it complete the name (inside points are named
+    // only in this tet, so the union is the same whichever pair made it).
+    if (int(planes.size()) < int(key.dim) || (key.dim == 3 && !spansSpace(planes))) {
         planes.insert(planes.end(), defining.begin(), defining.end());
         std::sort(planes.begin(), planes.end());
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
