@@ -2235,7 +2235,18 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 // chord's Steiner midpoint are collinear only up to rounding.
                 convex = cross2(a, b, c) >= -1e-9 * std::hypot(b.x - a.x, b.y - a.y) * std::hypot(c.x - b.x, c.y - b.y);
             }
-            if (convex) {
+            // A triangle inside its own slit (every corner tagged with this
+            // cap's side, so the other side's triangle shares no vertex)
+            // needs no centre: a centre would add three triangles, and in a
+            // region a few float ulps wide one of them has zero area once
+            // rounded to float mm (seed 1021).
+            const bool ownSlit = convex && poly.size() == 3 && std::all_of(poly.begin(), poly.end(), [&](int i) {
+                const auto& tags = nodes[size_t(ptNode[size_t(i)])].tags;
+                return std::binary_search(tags.begin(), tags.end(), r.cap->id << 1 | (r.side < 0 ? 1u : 0u));
+            });
+            if (ownSlit) {
+                tris.insert(tris.end(), poly.begin(), poly.end());
+            } else if (convex) {
                 // A cap region: fan from a tagged centre, so no chord joins two rim
                 // points (the two sides of the slit would share it).
                 dvec3 centre(0.0);
@@ -2982,7 +2993,18 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
         if (!known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
         const glm::dvec3 a(world[tr.v[0]]), b(world[tr.v[1]]), c(world[tr.v[2]]);
         const glm::dvec3 n = glm::cross(b - a, c - a);
-        if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) fail("a triangle of zero area in float mm", tr.cell);
+        if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) {
+            if (debug) {
+                std::fprintf(stderr, "zero-area triangle, cell (%d,%d,%d):\n", tr.cell.x(), tr.cell.y(), tr.cell.z());
+                for (uint32_t v : tr.v) desc(v);
+                for (const Tri& o : tris) {
+                    int shared = 0;
+                    for (uint32_t v : o.v) shared += v == tr.v[0] || v == tr.v[1] || v == tr.v[2];
+                    if (shared >= 2) std::fprintf(stderr, "   neighbour cell (%d,%d,%d): %u %u %u\n", o.cell.x(), o.cell.y(), o.cell.z(), o.v[0], o.v[1], o.v[2]);
+                }
+            }
+            fail("a triangle of zero area in float mm", tr.cell);
+        }
     }
 }
 

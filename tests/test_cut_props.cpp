@@ -1103,7 +1103,9 @@ void printHead(const std::string& what, const HeadStats& st, double seconds)
     printState(what.c_str(), st.state);
 }
 
-/// Refusals allowed: at most 1 in 20 strokes (and at least 1 for short runs).
+/// Refusals allowed in the hand-made strokes at w = 0: at most 1 in 20
+/// strokes (and at least 1 for short runs); the one now is the figure eight
+/// retracing its start (RetracedStrokeStartIsNeverSilentlyNonManifold).
 size_t refusalBound(size_t strokes) { return std::max<size_t>(1, strokes / 20); }
 
 /// Kerf > 0 on the heads, measured 2026-11-22 (not yet the goal of zero):
@@ -1150,7 +1152,9 @@ TEST_P(CutProps, RandomStrokesOnThe4mmHead)
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     printHead("4 mm head, random strokes, " + kerfName(w), st, seconds);
     EXPECT_EQ(st.defects, 0u);
-    EXPECT_LE(st.refused, kerfRefusalBound(w, st.strokes));
+    // None refused (the last ones: seed 1021 at w = 0, seed 1017 at w = 0.5,
+    // see CutPropsDefects).
+    EXPECT_EQ(st.refused, 0u) << st.refusals.front();
     EXPECT_LE(st.state.kerfIntersecting, w > 0 ? kKerfIntersectingRandom : 0u);
     // Updates kept cells (each verified against a re-mesh by the remesher).
     EXPECT_GT(st.kept, 0u);
@@ -1457,17 +1461,19 @@ struct HeadStrokeCut
 
 // Random stroke seed 1021, stroke 0 (randomStrokes(frame, 1021, 4): 200 poses,
 // 0.6 mm per pose, 30 mm blade) on the 4 mm head at 400 HU, w = 0, on a
-// fresh mask: refused or clean, never silently defective. This failed after
-// b3916e9 (snap rounding in fusedMesh): the fused mesh had 2 triangles of
-// zero area in float in cell (39, 31, 16), because the local check judged
+// fresh mask: clean, with no triangle of zero area in float. This failed
+// after b3916e9 (snap rounding in fusedMesh): the fused mesh had 2 triangles
+// of zero area in float in cell (39, 31, 16), because the local check judged
 // double positions: GCC 12.2's SLP vectoriser had folded the check's
-// double(float(x)) round trip away for two of the three axes.
+// double(float(x)) round trip away for two of the three axes. Then it was
+// refused: a cap region there is a triangle a few float ulps wide inside the
+// slit, and the fan from its centre put the centre between two corners in
+// float. Such a triangle is now kept as it is.
 TEST(CutPropsDefects, Seed1021Stroke0IsNeverSilentlyDegenerate)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
     HeadStrokeCut cut(path, 1021, 0.0);
-    const UpdateResult& u = cut.result;
-    if (u.outcome == Outcome::Refused) { std::printf("refused: %s\n", u.message.c_str()); return; } // refused: not silent
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
     const Mesh fused = cut.remesher.fusedMesh();
     const MeshCheck check = checkMesh(fused);
     EXPECT_TRUE(check.ok()) << check.report();
