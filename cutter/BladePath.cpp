@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace mtcut::cutter {
@@ -464,6 +465,25 @@ void voxelizeCut(const Quad& quad, double kerfMm, const IndexFrame& frame, std::
 
 // ---------------------------------------------------------------------------
 // Generators
+
+LeFortOptions leFortOptionsFittedTo(const std::vector<glm::vec3>& bone)
+{
+    LeFortOptions options;
+    if (bone.empty()) return options;
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const glm::vec3& p : bone)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], double(p[a]));
+            hi[a] = std::max(hi[a], double(p[a]));
+        }
+    options.boxLo = lo;
+    options.boxHi = hi;
+    options.zFraction = 0.42;
+    options.faceFraction = 0.25;
+    options.jitter = 0.0;
+    options.tilt = 0.1;
+    return options;
+}
 
 std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& o)
 {

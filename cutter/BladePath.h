@@ -294,6 +294,12 @@ struct LeFortOptions
     glm::dvec3 boxLo{0.0}, boxHi{0.0};
 };
 std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& options = {});
+/// LeFortOptions fitted to a head scan from the vertex to the neck through
+/// its bone's points (world mm, e.g. the isosurface's vertices): the
+/// fractions refer to their bounding box, the ellipse at 42 % of its height
+/// with its front a quarter of its depth back (through the maxilla), no
+/// tremor, the blade sloping down 0.1 rad. The defaults when `bone` is empty.
+LeFortOptions leFortOptionsFittedTo(const std::vector<glm::vec3>& bone);
 
 /// Seeded random strokes inside the scan box: smooth random walks of the base
 /// with a slowly turning blade. `steps` poses per stroke, base moving about

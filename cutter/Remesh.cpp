@@ -521,8 +521,32 @@ bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<in
 {
     auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
     auto len = [](const Vec2& a, const Vec2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
+    // Shape of triangle (a, b, c): its smallest sine, <= 0 when not CCW.
+    auto shape = [&](int a, int b, int c) {
+        const double lab = len(P(a), P(b)), lbc = len(P(b), P(c)), lca = len(P(c), P(a));
+        const double area2 = cross2(P(a), P(b), P(c));
+        if (!(lab > 0 && lbc > 0 && lca > 0)) return -1.0;
+        return std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
+    };
     while (poly.size() > 3) {
         const size_t n = poly.size();
+        if (n == 4) {
+            // The last four: the diagonal whose two triangles have the better
+            // worst shape. Clipping the best ear first would leave the other
+            // triangle, flat when a corner is nearly straight (a seam bending
+            // slightly on a mitre): a sliver that rounding to float folds over.
+            double split[2];
+            for (int d = 0; d < 2; ++d) {
+                const int a = poly[size_t(d)], b = poly[size_t(d + 1)], c = poly[size_t(d + 2)], e = poly[size_t(d + 3) % 4];
+                split[d] = std::min(shape(a, b, c), shape(a, c, e));
+            }
+            const int d = split[1] > split[0] ? 1 : 0;
+            if (split[d] > 1e-9 && !same2(P(poly[size_t(d)]), P(poly[size_t(d + 2)]))) {
+                const int a = poly[size_t(d)], b = poly[size_t(d + 1)], c = poly[size_t(d + 2)], e = poly[size_t(d + 3) % 4];
+                tris.insert(tris.end(), {a, b, c, a, c, e});
+                return true;
+            }
+        }
         size_t best = n;
         double bestScore = -1.0;
         for (double tol : {1e-9, 0.0}) {

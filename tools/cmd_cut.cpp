@@ -50,30 +50,12 @@ bool looksLikePhantom(const vdb::Volume& vol)
 
 /// The built-in stroke: makeLeFortStroke on the volume's frame; on the
 /// phantom, at the height of its LeFort I plane; on other inputs, fitted to
-/// the bounding box of the isosurface (a head scan from the vertex to the
-/// neck: the ellipse at 42 % of the bone's height, its front a quarter of the
-/// bone's depth back, runs through the maxilla), without tremor, the blade
-/// sloping down 0.1 rad.
+/// the isosurface's bounding box (cutter::leFortOptionsFittedTo).
 std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::IndexFrame& frame,
                                         const cutter::Mesh& surface, bool* onPhantom)
 {
-    cutter::LeFortOptions options;
     *onPhantom = looksLikePhantom(vol);
-    if (!*onPhantom && !surface.positions.empty()) {
-        glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-        for (const glm::vec3& p : surface.positions) {
-            for (int a = 0; a < 3; ++a) {
-                lo[a] = std::min(lo[a], double(p[a]));
-                hi[a] = std::max(hi[a], double(p[a]));
-            }
-        }
-        options.boxLo = lo;
-        options.boxHi = hi;
-        options.zFraction = 0.42;
-        options.faceFraction = 0.25;
-        options.jitter = 0.0;
-        options.tilt = 0.1;
-    }
+    cutter::LeFortOptions options = *onPhantom ? cutter::LeFortOptions{} : cutter::leFortOptionsFittedTo(surface.positions);
     if (*onPhantom) {
         const double lo = frame.toWorld(glm::dvec3(0.0)).z;
         const double hi = frame.toWorld(glm::dvec3(0.0, 0.0, double(std::max(frame.dims.z - 1, 0)))).z;
