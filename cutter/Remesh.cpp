@@ -512,6 +512,76 @@ bool segmentsIntersect(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& 
     return false;
 }
 
+/// The triangulation of a simple CCW polygon of at most kBestOfAllMax
+/// corners (indices into pts) whose worst triangle has the best shape (the
+/// largest smallest sine), by dynamic programming over its diagonals: a
+/// triangle counts when it turns CCW by more than 1e-9, holds no other
+/// corner (within a relative 1e-9) and its new sides cross no side of the
+/// polygon. Returns false (tris unchanged) when the polygon repeats a point
+/// or no triangulation passes.
+constexpr size_t kBestOfAllMax = 9;
+bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pts, std::vector<int>& tris)
+{
+    const size_t n = poly.size();
+    if (n < 3 || n > kBestOfAllMax) return false;
+    auto P = [&](size_t i) -> const Vec2& { return pts[size_t(poly[i])]; };
+    for (size_t i = 0; i < n; ++i)
+        for (size_t j = i + 1; j < n; ++j)
+            if (same2(P(i), P(j))) return false;
+    auto len = [](const Vec2& a, const Vec2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
+    // A chord (i, j) of the polygon, not a side: crosses no side.
+    auto chordOk = [&](size_t i, size_t j) {
+        if ((i + 1) % n == j || (j + 1) % n == i) return true;
+        for (size_t e = 0; e < n; ++e) {
+            const size_t f = (e + 1) % n;
+            if (e == i || e == j || f == i || f == j) continue;
+            if (segmentsIntersect(P(i), P(j), P(e), P(f))) return false;
+        }
+        return true;
+    };
+    auto shape = [&](size_t a, size_t b, size_t c) {
+        const double lab = len(P(a), P(b)), lbc = len(P(b), P(c)), lca = len(P(c), P(a));
+        const double area2 = cross2(P(a), P(b), P(c));
+        if (!(lab > 0 && lbc > 0 && lca > 0) || !(area2 > 1e-9 * lab * lbc)) return -1.0;
+        for (size_t v = 0; v < n; ++v) {
+            if (v == a || v == b || v == c) continue;
+            const Vec2& q = P(v);
+            if (cross2(P(a), P(b), q) >= -1e-9 * lab * lab && cross2(P(b), P(c), q) >= -1e-9 * lbc * lbc &&
+                cross2(P(c), P(a), q) >= -1e-9 * lca * lca)
+                return -1.0;
+        }
+        if (!chordOk(a, b) || !chordOk(b, c) || !chordOk(c, a)) return -1.0;
+        return std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
+    };
+    // best[i][j]: the chain i..j closed by the chord (j, i); split[i][j] its apex.
+    double best[kBestOfAllMax][kBestOfAllMax];
+    size_t split[kBestOfAllMax][kBestOfAllMax];
+    for (size_t gap = 1; gap < n; ++gap)
+        for (size_t i = 0; i + gap < n; ++i) {
+            const size_t j = i + gap;
+            best[i][j] = gap == 1 ? 2.0 : -1.0; // a side: no triangle
+            for (size_t k = i + 1; k < j; ++k) {
+                const double q = std::min({best[i][k], best[k][j], shape(i, k, j)});
+                if (q > best[i][j]) {
+                    best[i][j] = q;
+                    split[i][j] = k;
+                }
+            }
+        }
+    if (!(best[0][n - 1] > 0.0)) return false;
+    std::vector<std::pair<size_t, size_t>> todo{{0, n - 1}};
+    while (!todo.empty()) {
+        const auto [i, j] = todo.back();
+        todo.pop_back();
+        if (j - i < 2) continue;
+        const size_t k = split[i][j];
+        tris.insert(tris.end(), {poly[i], poly[k], poly[j]});
+        todo.push_back({i, k});
+        todo.push_back({k, j});
+    }
+    return true;
+}
+
 /// Ear clipping of a weakly simple CCW polygon (indices into pts). Each step
 /// clips the valid ear with the best shape (largest smallest sine of its
 /// angles), so straight vertices never end up as the tip of a flat ear.
@@ -2286,7 +2356,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     tris.push_back(poly[i]);
                     tris.push_back(poly[(i + 1) % poly.size()]);
                 }
-            } else if (!earClip(poly, pts, tris)) {
+            } else if (!(mPrism && bestTriangulation(poly, pts, tris)) && !earClip(poly, pts, tris)) {
                 throw std::runtime_error("remesh: triangulation failed in cell " + cellText(mCell));
             }
             for (int i : tris) {
