@@ -512,6 +512,17 @@ bool segmentsIntersect(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& 
     return false;
 }
 
+/// Shape of triangle abc: the smallest sine of its angles (negative when it
+/// turns CW); -1 when a side has zero length.
+double minSine(const Vec2& a, const Vec2& b, const Vec2& c)
+{
+    const double lab = std::hypot(a.x - b.x, a.y - b.y), lbc = std::hypot(b.x - c.x, b.y - c.y),
+                 lca = std::hypot(c.x - a.x, c.y - a.y);
+    if (!(lab > 0 && lbc > 0 && lca > 0)) return -1.0;
+    const double area2 = cross2(a, b, c);
+    return std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
+}
+
 /// The triangulation of a simple CCW polygon of at most kBestOfAllMax
 /// corners (indices into pts) whose worst triangle has the best shape (the
 /// largest smallest sine), by dynamic programming over its diagonals: a
@@ -551,7 +562,7 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
                 return -1.0;
         }
         if (!chordOk(a, b) || !chordOk(b, c) || !chordOk(c, a)) return -1.0;
-        return std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
+        return minSine(P(a), P(b), P(c));
     };
     // best[i][j]: the chain i..j closed by the chord (j, i); split[i][j] its apex.
     double best[kBestOfAllMax][kBestOfAllMax];
@@ -591,13 +602,6 @@ bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<in
 {
     auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
     auto len = [](const Vec2& a, const Vec2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
-    // Shape of triangle (a, b, c): its smallest sine, <= 0 when not CCW.
-    auto shape = [&](int a, int b, int c) {
-        const double lab = len(P(a), P(b)), lbc = len(P(b), P(c)), lca = len(P(c), P(a));
-        const double area2 = cross2(P(a), P(b), P(c));
-        if (!(lab > 0 && lbc > 0 && lca > 0)) return -1.0;
-        return std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
-    };
     while (poly.size() > 3) {
         const size_t n = poly.size();
         if (n == 4) {
@@ -608,7 +612,7 @@ bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<in
             double split[2];
             for (int d = 0; d < 2; ++d) {
                 const int a = poly[size_t(d)], b = poly[size_t(d + 1)], c = poly[size_t(d + 2)], e = poly[size_t(d + 3) % 4];
-                split[d] = std::min(shape(a, b, c), shape(a, c, e));
+                split[d] = std::min(minSine(P(a), P(b), P(c)), minSine(P(a), P(c), P(e)));
             }
             const int d = split[1] > split[0] ? 1 : 0;
             if (split[d] > 1e-9 && !same2(P(poly[size_t(d)]), P(poly[size_t(d + 2)]))) {
@@ -646,7 +650,7 @@ bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<in
                         ok = false;
                 }
                 if (!ok) continue;
-                const double score = std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
+                const double score = minSine(P(a), P(b), P(c));
                 if (score > bestScore) {
                     bestScore = score;
                     best = i;
@@ -1035,24 +1039,25 @@ private:
 
     dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
     int makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
-    /// Whether three of `planes` (those with a plane in this tet) have
-    /// independent normals, so together they fix one point.
-    bool spansSpace(const PlaneList& planes) const
+    /// The first of `planes` (in order; those with a plane in this tet)
+    /// whose normals are independent, at most three: three fix one point.
+    PlaneList independentPlanes(const PlaneList& planes) const
     {
+        PlaneList chosen;
         dvec3 n0(0.0), n1(0.0);
-        int rank = 0;
         for (uint64_t id : planes) {
             const Plane* pl = planeById(id);
             if (!pl) continue;
             const dvec3& n = pl->n;
-            if (rank == 0 ? glm::length(n) > 0.5
-                          : rank == 1 ? glm::length(glm::cross(n0, n)) > 1e-6
-                                      : std::abs(glm::dot(glm::cross(n0, n1), n)) > 1e-6) {
-                (rank == 0 ? n0 : n1) = n;
-                if (++rank == 3) return true;
-            }
+            const bool independent = chosen.empty()       ? glm::length(n) > 0.5
+                                     : chosen.size() == 1 ? glm::length(glm::cross(n0, n)) > 1e-6
+                                                          : std::abs(glm::dot(glm::cross(n0, n1), n)) > 1e-6;
+            if (!independent) continue;
+            (chosen.empty() ? n0 : n1) = n;
+            chosen.push_back(id);
+            if (chosen.size() == 3) break;
         }
-        return false;
+        return chosen;
     }
     int makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos);
     /// A slit chord of quad r between two rim points on different rim lines:
@@ -1289,7 +1294,7 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
     // (outside that prism): two points of the line would share the name.
     // The planes that made it complete the name (inside points are named
     // only in this tet, so the union is the same whichever pair made it).
-    if (int(planes.size()) < int(key.dim) || (key.dim == 3 && !spansSpace(planes))) {
+    if (int(planes.size()) < int(key.dim) || (key.dim == 3 && independentPlanes(planes).size() < 3)) {
         planes.insert(planes.end(), defining.begin(), defining.end());
         std::sort(planes.begin(), planes.end());
         planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
@@ -1302,19 +1307,7 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
         // uniquely: three with independent normals (the lowest ids that are),
         // then the lowest others. The same plane set always gives the same
         // name; the dropped planes still hold it (sign() finds it on them).
-        PlaneList chosen;
-        dvec3 n0(0.0), n1(0.0);
-        for (uint64_t id : planes) {
-            const Plane* pl = planeById(id);
-            if (!pl || chosen.size() == 3) continue;
-            const dvec3 n = pl->n;
-            const bool independent = chosen.empty()                ? glm::length(n) > 0.5
-                                     : chosen.size() == 1          ? glm::length(glm::cross(n0, n)) > 1e-6
-                                                                   : std::abs(glm::dot(glm::cross(n0, n1), n)) > 1e-6;
-            if (!independent) continue;
-            (chosen.empty() ? n0 : n1) = n;
-            chosen.push_back(id);
-        }
+        PlaneList chosen = independentPlanes(planes);
         if (chosen.size() == 3) {
             for (uint64_t id : planes)
                 if (chosen.size() < key.planes.size() && std::find(chosen.begin(), chosen.end(), id) == chosen.end())
