@@ -1,5 +1,6 @@
 // mtcut: batch front end. Each command is a cmd_*.cpp; see `mtcut help`.
 #include "tools/Cli.h"
+#include "vdb/SliceExr.h"
 
 #include <openvdb/openvdb.h>
 
@@ -7,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <thread>
 
 using namespace mtcut;
 using namespace mtcut::cli;
@@ -90,6 +92,7 @@ int main(int argc, char** argv)
     }
     try {
         openvdb::initialize();
+        vdb::setExrThreadCount(std::thread::hardware_concurrency()); // EXR compression on every core
         const Args args = parse(it->second, argc, argv);
         return it->second.run(args);
     } catch (const InputError& e) {

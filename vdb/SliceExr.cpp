@@ -15,6 +15,7 @@
 #include <ImfOutputPart.h>
 #include <ImfPartType.h>
 #include <ImfStringAttribute.h>
+#include <ImfThreading.h>
 #include <ImfVecAttribute.h>
 
 #include <openvdb/tools/Dense.h>
@@ -132,5 +133,7 @@ void writeSliceStack(const std::string& path, const Volume& volume, const openvd
         }
     });
 }
+
+void setExrThreadCount(unsigned threads) { Imf::setGlobalThreadCount(int(threads)); }
 
 } // namespace mtcut::vdb

@@ -51,4 +51,11 @@ std::string sliceName(int k);
 void writeSliceStack(const std::string& path, const Volume& volume, const openvdb::Int32Grid& cutMask,
                      float isovalue, Interrupter* interrupter = nullptr);
 
+/// Sizes OpenEXR's global thread pool, which compresses the blocks of every
+/// EXR this process writes (slice stacks, rendered frames): `threads` = 0
+/// compresses on the calling thread (OpenEXR's default at start-up); the
+/// front ends (mtcut, mtcut-view) call it once with the number of hardware
+/// threads. Not thread-safe: call it before writing starts.
+void setExrThreadCount(unsigned threads);
+
 } // namespace mtcut::vdb

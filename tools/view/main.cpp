@@ -3,6 +3,7 @@
 #include "tools/Cli.h"
 #include "tools/view/Script.h"
 #include "tools/view/Viewer.h"
+#include "vdb/SliceExr.h"
 
 #include <openvdb/openvdb.h>
 
@@ -11,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <thread>
 
 using namespace mtcut;
 
@@ -86,6 +88,7 @@ int main(int argc, char** argv)
     }
     try {
         openvdb::initialize();
+        vdb::setExrThreadCount(std::thread::hardware_concurrency()); // EXR compression on every core
         std::string scriptPath;
         view::ViewerOptions options = parseArgs(argc, argv, scriptPath);
         if (!scriptPath.empty()) {
