@@ -904,6 +904,21 @@ private:
         if (vi < mSignCap)
             for (size_t p = 0; p < mSignStride; ++p) mSignTab[p * mSignCap + vi] = 2;
     }
+    // remeshTet's scratch, kept between tets for its capacity.
+    std::vector<int> mNodeHead, mNodeNext, mParent, mEdgeOrder;
+    std::vector<Poly> mPieces, mNextPieces;
+    using Tags = SmallVector<uint64_t, 4>;
+    struct Node // a vertex of a region loop: the vertex and its side tags
+    {
+        int vert;
+        Tags tags;
+    };
+    std::vector<Node> mNodes;
+    std::vector<Vec2> mTriangulatePts;
+    std::vector<int> mTriangulateNodes;
+    std::vector<std::array<int, 4>> mEdgeUses, mEdgeSorted;
+    std::vector<std::vector<std::array<int64_t, 3>>> mRegionEdges;
+    std::vector<std::pair<int, int>> mBoundaryKeys;
     std::vector<const QuadGeom*> mQuads;             // quads crossing this tet
     std::vector<std::pair<uint64_t, Plane>> mPlanes; // sorted by id: ISO_A, ISO_B, quad planes and sides
     int mTriCount = 0;
@@ -1071,7 +1086,18 @@ private:
             if (sd.partner < 0 && sign(u, sd.id) == 0 && sign(v, sd.id) == 0) return false;
         return true;
     }
-    int sign(int v, uint64_t planeId);
+    /// Side of vertex v on plane planeId: 1, -1, or 0 on it (by name, or
+    /// within the tie rule); memoised.
+    int sign(int v, uint64_t planeId)
+    {
+        const size_t pidx = planeIndex(planeId);
+        if (pidx != SIZE_MAX && size_t(v) < mSignCap) {
+            const int8_t known = mSignTab[pidx * mSignCap + size_t(v)];
+            if (known != 2) return known;
+        }
+        return signSlow(v, planeId, pidx);
+    }
+    int signSlow(int v, uint64_t planeId, size_t pidx);
     int member(int v);
     bool inExtentClosed(int v, const QuadGeom& q)
     {
@@ -1107,7 +1133,9 @@ private:
         return nullptr;
     }
 
-    void splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
+    /// Appends the pieces of `in` on either side of plane p to `out` (`in`
+    /// itself, moved, when p does not cross it).
+    void splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
     /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
     void pushSimple(Poly o, std::vector<Poly>& out);
     void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
@@ -1368,10 +1396,10 @@ int RemeshKernel::makeSteiner(uint8_t support, PlaneList planes, const dvec3& po
     return int(mVerts.size() - 1);
 }
 
-int RemeshKernel::sign(int vi, uint64_t id)
+int RemeshKernel::signSlow(int vi, uint64_t id, size_t pidx)
 {
     int8_t* slot = nullptr; // in mSignTab
-    if (const size_t pidx = planeIndex(id); pidx != SIZE_MAX) {
+    if (pidx != SIZE_MAX) {
         slot = &signSlot(size_t(vi), pidx);
         if (*slot != 2) return *slot;
     }
@@ -1445,7 +1473,7 @@ int RemeshKernel::member(int vi)
     return r;
 }
 
-void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
+void RemeshKernel::splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
 {
     const size_t n = in.v.size();
     SmallVector<int, 8> sv(n);
@@ -1456,7 +1484,7 @@ void RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
         neg |= sv[i] < 0;
     }
     if (!(pos && neg)) {
-        out.push_back(in);
+        out.push_back(std::move(in));
         return;
     }
     const Plane* pl = planeById(p);
@@ -1704,7 +1732,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         else outs[no++] = i;
     }
     if (ni == 0) return; // nothing solid here
-    std::vector<std::vector<std::array<int, 2>>> triEdges;
+    SmallVector<SmallVector<std::array<int, 2>, 4>, 2> triEdges;
     if (ni == 1 || ni == 3) {
         const int lone = ni == 1 ? ins[0] : outs[0];
         const auto p = evenPerm({lone});
@@ -1728,7 +1756,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     }
     mTriCount = int(triEdges.size());
     // Iso planes first (so ISO_A/B sort first in mPlanes too).
-    std::vector<dvec3> triPts[2];
+    SmallVector<dvec3, 4> triPts[2];
     for (int k = 0; k < mTriCount; ++k) {
         for (const auto& e : triEdges[size_t(k)]) triPts[k].push_back(mtPoint(e[0], e[1]));
         dvec3 nrm(0.0);
@@ -1761,12 +1789,12 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         /// are kept where any of these prisms' rule keeps them, so the faces
         /// merge into one region (no corner where one prism's face ends
         /// inside the other's, which the neighbouring cell need not see).
-        std::vector<const QuadGeom*> also;
+        SmallVector<const QuadGeom*, 2> also;
         int sides;           // cap: bit 0 = + side output, bit 1 = - side output
         dvec3 normal;        // reference normal (pieces are CCW around it)
         Poly poly;
     };
-    std::vector<Surface> surfaces;
+    SmallVector<Surface, 8> surfaces;
     for (int k = 0; k < mTriCount; ++k) {
         Surface s;
         s.plane = kIsoA + uint64_t(k);
@@ -1806,7 +1834,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         Plane plane;
         dvec3 normal; // surface normal (zero kerf: reference normal of the two-sided cap)
     };
-    std::vector<FacePlane> facePlanes;
+    SmallVector<FacePlane, 8> facePlanes;
     for (const QuadGeom* q : mQuads) {
         if (!mPrism) {
             facePlanes.push_back({q, q->id, q->pi, q->pi.n});
@@ -1834,7 +1862,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 ++on;
             }
         }
-        std::vector<std::pair<int, dvec3>> pts; // vertex, position
+        SmallVector<std::pair<int, dvec3>, 8> pts; // vertex, position
         for (int i = 0; i < 4; ++i)
             if (h[i] == 0) pts.push_back({makeVertex(uint8_t(1 << i), {fp.id}, mT.p[i]), mT.p[i]});
         for (int i = 0; i < 4; ++i)
@@ -1864,10 +1892,15 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         c /= double(pts.size());
         dvec3 e1 = glm::normalize(pts[0].second - c);
         const dvec3 e2 = glm::cross(s.normal, e1);
-        std::sort(pts.begin(), pts.end(), [&](const auto& a, const auto& b) {
-            return std::atan2(glm::dot(a.second - c, e2), glm::dot(a.second - c, e1)) <
-                   std::atan2(glm::dot(b.second - c, e2), glm::dot(b.second - c, e1));
-        });
+        {
+            // By angle about the centre (each angle computed once).
+            SmallVector<std::pair<double, std::pair<int, dvec3>>, 8> byAngle;
+            for (const auto& p : pts)
+                byAngle.push_back({std::atan2(glm::dot(p.second - c, e2), glm::dot(p.second - c, e1)), p});
+            std::sort(byAngle.begin(), byAngle.end(),
+                      [](const auto& a, const auto& b) { return a.first < b.first; });
+            for (size_t i = 0; i < pts.size(); ++i) pts[i] = byAngle[i].second;
+        }
         for (size_t i = 0; i < pts.size(); ++i) {
             s.poly.v.push_back(pts[i].first);
             const uint8_t m = uint8_t(mVerts[size_t(pts[i].first)].support |
@@ -1883,7 +1916,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         uint64_t id;
         const QuadGeom* owner; // restricts a quad's plane / rim side to its junction zone
     };
-    std::vector<SplitPlane> splitOrder;
+    SmallVector<SplitPlane, 16> splitOrder;
     for (const auto& pl : mPlanes)
         if (pl.first <= kIsoB) splitOrder.push_back({pl.first, nullptr});
     for (const auto& pl : mPlanes)
@@ -1905,35 +1938,47 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     }
 
     // Arrangements, classification, tagged loops.
-    struct Node
-    {
-        int vert;
-        std::vector<uint64_t> tags;
-    };
-    std::vector<Node> nodes;
-    auto nodeOf = [&](int vert, std::vector<uint64_t>& tags) {
+    std::vector<Node>& nodes = mNodes;
+    nodes.clear();
+    // The nodes of each vertex, chained in creation order (nodeOf returns
+    // the first with these tags, as a scan of `nodes` would).
+    std::vector<int>& nodeHead = mNodeHead;
+    std::vector<int>& nodeNext = mNodeNext;
+    nodeHead.clear();
+    nodeNext.clear();
+    auto nodeOf = [&](int vert, Tags& tags) {
         std::sort(tags.begin(), tags.end());
-        for (size_t i = 0; i < nodes.size(); ++i)
-            if (nodes[i].vert == vert && nodes[i].tags == tags) return int(i);
+        if (size_t(vert) >= nodeHead.size()) nodeHead.resize(mVerts.size() + 16, -1);
+        int last = -1;
+        for (int i = nodeHead[size_t(vert)]; i >= 0; i = nodeNext[size_t(i)]) {
+            if (nodes[size_t(i)].tags == tags) return i;
+            last = i;
+        }
         nodes.push_back({vert, tags});
-        return int(nodes.size() - 1);
+        nodeNext.push_back(-1);
+        const int id = int(nodes.size() - 1);
+        (last < 0 ? nodeHead[size_t(vert)] : nodeNext[size_t(last)]) = id;
+        return id;
     };
     struct Loop
     {
-        std::vector<int> nodes;
-        std::vector<uint64_t> labels; // labels[i]: edge nodes[i] -> nodes[i+1]
+        SmallVector<int, 16> nodes;
+        SmallVector<uint64_t, 16> labels; // labels[i]: edge nodes[i] -> nodes[i+1]
     };
     struct Region
     {
         dvec3 normal;
-        std::vector<Loop> loops;
+        SmallVector<Loop, 1> loops;
         const QuadGeom* cap = nullptr; // cap regions: the quad, and the side
         int side = 0;
     };
-    std::vector<Region> regions;
+    SmallVector<Region, 8> regions;
 
     for (Surface& s : surfaces) {
-        std::vector<Poly> pieces{s.poly}, next;
+        std::vector<Poly>& pieces = mPieces;
+        std::vector<Poly>& next = mNextPieces;
+        pieces.clear();
+        pieces.push_back(s.poly);
         auto pieceSign = [&](const Poly& p, uint64_t id) {
             for (int v : p.v) {
                 const int sg = sign(v, id);
@@ -1945,33 +1990,33 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             if (sp.id == s.plane) continue;
             if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
             next.clear();
-            for (const Poly& p : pieces) {
+            for (Poly& p : pieces) {
                 // A quad's plane and rim sides only split inside its junction zone,
                 // so near-coincident planes of consecutive quads never meet there.
                 bool outside = false;
                 if (sp.owner)
                     for (const auto& sd : sp.owner->sides)
                         if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
-                if (outside) next.push_back(p);
-                else splitPoly(p, s.plane, sp.id, next);
+                if (outside) next.push_back(std::move(p));
+                else splitPoly(std::move(p), s.plane, sp.id, next);
             }
             pieces.swap(next);
         }
         // Conformity: restricted splits end on junction lines; put their end
         // points on the neighbouring pieces' edges too (no T-junction inside).
         {
-            std::vector<int> all;
+            SmallVector<int, 32> all;
             for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
             std::sort(all.begin(), all.end());
             all.erase(std::unique(all.begin(), all.end()), all.end());
             // The vertices of `all` on each edge label's line (ascending),
             // found once per label rather than once per edge: a cell where
             // many quads pivot has thousands of edges and vertices here.
-            std::vector<std::pair<uint64_t, std::vector<int>>> onLabel;
+            SmallVector<std::pair<uint64_t, SmallVector<int, 8>>, 8> onLabel;
             auto onLineOf = [&](uint64_t L) -> size_t {
                 for (size_t i = 0; i < onLabel.size(); ++i)
                     if (onLabel[i].first == L) return i;
-                std::vector<int> xs;
+                SmallVector<int, 8> xs;
                 for (int x : all) {
                     const Vert& vx = mVerts[size_t(x)];
                     const bool onLine = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
@@ -1990,7 +2035,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     q.lab.push_back(L);
                     const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
                     const double dd = glm::dot(d, d);
-                    std::vector<std::pair<double, int>> on;
+                    SmallVector<std::pair<double, int>, 4> on;
                     for (int x : onLabel[onLineOf(L)].second) {
                         if (x == u || x == w) continue;
                         const Vert& vx = mVerts[size_t(x)];
@@ -2014,7 +2059,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             pieces.swap(next);
         }
         // Classification.
-        std::vector<char> kept(pieces.size(), 1);
+        SmallVector<char, 32> kept(pieces.size(), 1);
         if (mPrism) {
             // Kerf > 0 (DESIGN's sketch): iso pieces outside every closed prism;
             // prism face pieces inside closed P, on their own closed face and
@@ -2097,25 +2142,42 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 }
                 return false;
             };
-            // Union-find over kept pieces across non-slit shared edges.
-            std::vector<int> parent(pieces.size());
+            // Union-find over kept pieces across non-slit shared edges: each
+            // later use of an edge joins its piece to the edge's first piece.
+            std::vector<int>& parent = mParent;
+            parent.resize(pieces.size());
             for (size_t i = 0; i < parent.size(); ++i) parent[i] = int(i);
-            std::function<int(int)> find = [&](int x) { return parent[size_t(x)] == x ? x : parent[size_t(x)] = find(parent[size_t(x)]); };
-            std::map<std::pair<int, int>, int> edgeOwner;
+            auto find = [&](int x) {
+                int r = x;
+                while (parent[size_t(r)] != r) r = parent[size_t(r)];
+                while (parent[size_t(x)] != r) x = std::exchange(parent[size_t(x)], r);
+                return r;
+            };
+            auto& uses = mEdgeUses; // (lower vertex, higher vertex, sequence, piece)
+            uses.clear();
             for (size_t i = 0; i < pieces.size(); ++i) {
                 if (!kept[i]) continue;
                 const Poly& p = pieces[i];
                 for (size_t k = 0; k < p.v.size(); ++k) {
                     int a = p.v[k], b = p.v[(k + 1) % p.v.size()];
                     if (a > b) std::swap(a, b);
-                    auto it = edgeOwner.find({a, b});
-                    if (it == edgeOwner.end()) {
-                        edgeOwner[{a, b}] = int(i);
-                    } else if (!isSlit(a, b)) {
-                        parent[size_t(find(int(i)))] = find(it->second);
-                    }
+                    uses.push_back({a, b, int(uses.size()), int(i)});
                 }
             }
+            auto& order = mEdgeOrder; // first use of the same edge, per use in sequence
+            order.assign(uses.size(), -1);
+            {
+                auto& sorted = mEdgeSorted;
+                sorted.assign(uses.begin(), uses.end());
+                std::sort(sorted.begin(), sorted.end());
+                for (size_t k = 1; k < sorted.size(); ++k) {
+                    const auto& f = sorted[k - 1];
+                    const auto& g = sorted[k];
+                    if (f[0] == g[0] && f[1] == g[1]) order[size_t(g[2])] = order[size_t(f[2])] >= 0 ? order[size_t(f[2])] : f[3];
+                }
+            }
+            for (const auto& u : uses)
+                if (order[size_t(u[2])] >= 0 && !isSlit(u[0], u[1])) parent[size_t(find(u[3]))] = find(order[size_t(u[2])]);
             // Directed edges per region, with tagged nodes.
             auto stripSide = [&](const Poly& piece, const QuadGeom* r, int vert) -> int {
                 if (r == s.quad) return side;
@@ -2134,14 +2196,17 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
                 return sg;
             };
-            std::map<int, std::vector<std::array<int64_t, 3>>> regionEdges; // root -> (from node, to node, label)
+            // Per root piece (ascending): (from node, to node, label).
+            auto& regionEdges = mRegionEdges;
+            if (regionEdges.size() < pieces.size()) regionEdges.resize(pieces.size());
+            for (size_t i = 0; i < pieces.size(); ++i) regionEdges[i].clear();
             for (size_t i = 0; i < pieces.size(); ++i) {
                 if (!kept[i]) continue;
                 const Poly& p = pieces[i];
                 const size_t n = p.v.size();
-                std::vector<int> pn(n);
+                SmallVector<int, 16> pn(n);
                 for (size_t k = 0; k < n; ++k) {
-                    std::vector<uint64_t> tags;
+                    Tags tags;
                     for (const QuadGeom* r : mQuads) {
                         if (mPrism) break;
                         if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
@@ -2150,7 +2215,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     }
                     pn[k] = nodeOf(p.v[k], tags);
                 }
-                auto& list = regionEdges[find(int(i))];
+                auto& list = regionEdges[size_t(find(int(i)))];
                 const bool reverse = s.quad && !mPrism && side > 0;
                 for (size_t k = 0; k < n; ++k) {
                     const int a = pn[k], b = pn[(k + 1) % n];
@@ -2159,14 +2224,18 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 }
             }
             const dvec3 outNormal = s.quad && !mPrism && side > 0 ? -s.normal : s.normal;
-            for (auto& re : regionEdges) {
-                auto& edges = re.second;
+            for (size_t root = 0; root < pieces.size(); ++root) {
+                const auto& edges = regionEdges[root];
+                if (edges.empty()) continue;
                 // Boundary edges: those whose reverse is not in the region.
-                std::map<std::pair<int, int>, int> count;
-                for (const auto& e : edges) count[{int(e[0]), int(e[1])}]++;
-                std::vector<std::array<int64_t, 3>> bnd;
+                auto& keys = mBoundaryKeys;
+                keys.clear();
+                for (const auto& e : edges) keys.push_back({int(e[0]), int(e[1])});
+                std::sort(keys.begin(), keys.end());
+                SmallVector<std::array<int64_t, 3>, 16> bnd;
                 for (const auto& e : edges)
-                    if (!count.count({int(e[1]), int(e[0])})) bnd.push_back(e);
+                    if (!std::binary_search(keys.begin(), keys.end(), std::pair<int, int>(int(e[1]), int(e[0]))))
+                        bnd.push_back(e);
                 if (bnd.empty()) continue;
                 dvec3 e1 = std::abs(outNormal.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
                 e1 = glm::normalize(e1 - outNormal * glm::dot(outNormal, e1));
@@ -2175,7 +2244,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     const dvec3& x = mVerts[size_t(nodes[size_t(node)].vert)].pos;
                     return Vec2{glm::dot(x, e1), glm::dot(x, e2)};
                 };
-                std::vector<char> used(bnd.size(), 0);
+                SmallVector<char, 16> used(bnd.size(), 0);
                 Region region;
                 region.normal = outNormal;
                 region.cap = s.quad;
@@ -2233,7 +2302,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         }
         return false;
     };
-    std::vector<char> corner(nodes.size(), 0);
+    SmallVector<char, 64> corner(nodes.size(), 0);
     for (const Region& r : regions) {
         for (const Loop& l : r.loops) {
             const size_t n = l.nodes.size();
@@ -2258,8 +2327,10 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         dvec3 e1 = std::abs(nrm.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
         e1 = glm::normalize(e1 - nrm * glm::dot(nrm, e1));
         const dvec3 e2 = glm::cross(nrm, e1);
-        std::vector<Vec2> pts;
-        std::vector<int> ptNode;
+        std::vector<Vec2>& pts = mTriangulatePts;
+        std::vector<int>& ptNode = mTriangulateNodes;
+        pts.clear();
+        ptNode.clear();
         std::vector<std::vector<int>> outers, holes;
         for (const Loop& l : r.loops) {
             std::vector<int> loop;
@@ -2339,7 +2410,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 dvec3 centre(0.0);
                 for (int i : poly) centre += mVerts[size_t(nodes[size_t(ptNode[size_t(i)])].vert)].pos / double(poly.size());
                 const int cv = makeSteiner(15, {kCentroid, r.cap->id, uint64_t(&r - regions.data()) + 8}, centre);
-                std::vector<uint64_t> tags{r.cap->id << 1 | (r.side < 0 ? 1u : 0u)};
+                Tags tags{r.cap->id << 1 | (r.side < 0 ? 1u : 0u)};
                 const int cn = nodeOf(cv, tags);
                 pts.push_back({glm::dot(centre, e1), glm::dot(centre, e2)});
                 ptNode.push_back(cn);
@@ -2915,7 +2986,12 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     {
         std::vector<uint32_t> rep(ids.size());
         for (size_t v = 0; v < rep.size(); ++v) rep[v] = uint32_t(v);
-        std::function<uint32_t(uint32_t)> find = [&](uint32_t x) { return rep[x] == x ? x : rep[x] = find(rep[x]); };
+        auto find = [&](uint32_t x) {
+            uint32_t r = x;
+            while (rep[r] != r) r = rep[r];
+            while (rep[x] != r) x = std::exchange(rep[x], r);
+            return r;
+        };
         for (const Tri& tr : tris)
             for (int k = 0; k < 3; ++k) {
                 const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
@@ -2978,28 +3054,41 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                     if (isChanged(Coord(x, y, z))) return true;
         return false;
     };
-    std::unordered_map<uint64_t, std::pair<uint32_t, uint32_t>> uses; // directed edge -> (count, triangle)
-    std::vector<uint64_t> relevant;
+    // (directed edge, triangle) per use that matters, in triangle order; and
+    // sorted, so an edge's uses are one run (its first triangle first).
+    std::vector<std::pair<uint64_t, uint32_t>> relevant, sortedUses;
     for (size_t t = 0; t < tris.size(); ++t) {
         const Tri& tr = tris[t];
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
             if (!matters(a, b, tr.cell)) continue;
-            const uint64_t key = uint64_t(a) << 32 | b;
-            auto& u = uses[key];
-            if (u.first++ == 0) u.second = uint32_t(t);
-            relevant.push_back(key);
+            relevant.push_back({uint64_t(a) << 32 | b, uint32_t(t)});
         }
     }
-    for (uint64_t key : relevant) {
-        const auto& u = uses[key];
+    sortedUses = relevant;
+    std::sort(sortedUses.begin(), sortedUses.end());
+    struct Uses
+    {
+        uint32_t count = 0, triangle = 0; ///< uses, and the first one's triangle
+    };
+    auto usesOf = [&](uint64_t key) {
+        auto it = std::lower_bound(sortedUses.begin(), sortedUses.end(), std::pair<uint64_t, uint32_t>(key, 0));
+        Uses u;
+        if (it == sortedUses.end() || it->first != key) return u;
+        u.triangle = it->second;
+        for (; it != sortedUses.end() && it->first == key; ++it) ++u.count;
+        return u;
+    };
+    for (const auto& use : relevant) {
+        const uint64_t key = use.first;
+        const Uses u = usesOf(key);
         const uint64_t rev = (key << 32) | (key >> 32);
-        auto r = uses.find(rev);
-        const uint32_t back = r == uses.end() ? 0 : r->second.first;
-        if (u.first == 1 && back == 1) continue;
+        const Uses r = usesOf(rev);
+        const uint32_t back = r.count;
+        if (u.count == 1 && back == 1) continue;
         // Name a changed cell: the triangle's own, else a changed cell holding the edge.
-        Coord cell = tris[u.second].cell;
-        if (!isChanged(cell) && r != uses.end() && isChanged(tris[r->second.second].cell)) cell = tris[r->second.second].cell;
+        Coord cell = tris[u.triangle].cell;
+        if (!isChanged(cell) && r.count && isChanged(tris[r.triangle].cell)) cell = tris[r.triangle].cell;
         if (!isChanged(cell)) {
             Coord la, ha, lb, hb;
             cellsHolding(ids[uint32_t(key >> 32)], la, ha);
@@ -3014,7 +3103,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
             }
         }
         if (debug) {
-            std::fprintf(stderr, "open edge, triangle cell (%d,%d,%d):\n", tris[u.second].cell.x(), tris[u.second].cell.y(), tris[u.second].cell.z());
+            std::fprintf(stderr, "open edge, triangle cell (%d,%d,%d):\n", tris[u.triangle].cell.x(), tris[u.triangle].cell.y(), tris[u.triangle].cell.z());
             desc(uint32_t(key >> 32));
             desc(uint32_t(key));
             std::set<uint32_t> around; // the vertices of the triangles at either end
@@ -3028,21 +3117,28 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
             for (uint32_t v : around) desc(v);
         }
         std::ostringstream os;
-        os << "an edge used " << u.first << " time(s) one way and " << back << " the other";
+        os << "an edge used " << u.count << " time(s) one way and " << back << " the other";
         fail(os.str(), cell);
     }
     // Every vertex of a changed cell's triangles has one fan (a disc): all the
     // triangles that can use it are in the region.
-    std::unordered_map<uint32_t, std::vector<std::pair<uint32_t, uint32_t>>> links;
+    // Links (the edge opposite each corner), per vertex ascending, each in
+    // triangle order.
+    std::vector<char> ofChanged(ids.size(), 0);
     for (const Tri& tr : tris)
         if (isChanged(tr.cell))
-            for (int k = 0; k < 3; ++k) links[tr.v[k]];
+            for (uint32_t v : tr.v) ofChanged[v] = 1;
+    std::vector<std::pair<uint32_t, std::pair<uint32_t, uint32_t>>> linkEdges;
     for (const Tri& tr : tris)
-        for (int k = 0; k < 3; ++k) {
-            auto it = links.find(tr.v[k]);
-            if (it != links.end()) it->second.push_back({tr.v[(k + 1) % 3], tr.v[(k + 2) % 3]});
-        }
-    for (const auto& [v, link] : links) {
+        for (int k = 0; k < 3; ++k)
+            if (ofChanged[tr.v[k]]) linkEdges.push_back({tr.v[k], {tr.v[(k + 1) % 3], tr.v[(k + 2) % 3]}});
+    std::stable_sort(linkEdges.begin(), linkEdges.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<std::pair<uint32_t, uint32_t>> link;
+    for (size_t begin = 0, end = 0; begin < linkEdges.size(); begin = end) {
+        const uint32_t v = linkEdges[begin].first;
+        link.clear();
+        for (end = begin; end < linkEdges.size() && linkEdges[end].first == v; ++end) link.push_back(linkEdges[end].second);
         size_t steps = 0;
         uint32_t at = link[0].second;
         while (steps < link.size()) {
