@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -75,6 +76,14 @@ std::string readText(const std::string& path)
     return os.str();
 }
 
+/// The number after `"key": ` in a JSON text; NaN when absent.
+double jsonValue(const std::string& json, const std::string& key)
+{
+    const size_t at = json.find("\"" + key + "\": ");
+    if (at == std::string::npos) return std::nan("");
+    return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+}
+
 size_t countOf(const std::string& text, const std::string& what)
 {
     size_t n = 0;
@@ -135,8 +144,18 @@ TEST(CutCli, StraightCutThroughABallGivesTwoClosedFragmentsAndAllOutputs)
     EXPECT_NE(json.find("\"fragment_001.stl\""), std::string::npos) << json;
     EXPECT_NE(json.find("\"defects\": 0}"), std::string::npos) << json;
     for (const char* key : {"\"input\"", "\"isovalue\"", "\"kerf_mm\"", "\"path\"", "\"timings_s\"", "\"read\"",
-                            "\"extract\"", "\"mask\"", "\"remesh\"", "\"write\"", "\"volume_mm3\"", "\"area_mm2\""}) {
+                            "\"extract\"", "\"mask\"", "\"remesh\"", "\"write\"", "\"write_meshes\"",
+                            "\"write_vdb\"", "\"write_slices\"", "\"volume_mm3\"", "\"area_mm2\""}) {
         EXPECT_NE(json.find(key), std::string::npos) << key << "\n" << json;
+    }
+    // The parts of the write add up to no more than the write.
+    {
+        const double write = jsonValue(json, "write"), meshes = jsonValue(json, "write_meshes"),
+                     vdbFile = jsonValue(json, "write_vdb"), slices = jsonValue(json, "write_slices");
+        EXPECT_GT(meshes, 0.0) << json;
+        EXPECT_GT(vdbFile, 0.0) << json;
+        EXPECT_GT(slices, 0.0) << json;
+        EXPECT_LE(meshes + vdbFile + slices, write) << json;
     }
 
     // cut.vdb: carved, cut_mask, fragment_000, fragment_001.

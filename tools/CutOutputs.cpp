@@ -90,7 +90,9 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
        << ", \"malformed_arrays\": " << c.malformedArrays << ", \"defects\": " << c.defects() << "},\n";
     os << "  \"timings_s\": {\"read\": " << jsonNumber(t.read) << ", \"extract\": " << jsonNumber(t.extract)
        << ", \"mask\": " << jsonNumber(t.mask) << ", \"remesh\": " << jsonNumber(t.remesh)
-       << ", \"check\": " << jsonNumber(t.check) << ", \"write\": " << jsonNumber(t.write) << "}\n";
+       << ", \"check\": " << jsonNumber(t.check) << ", \"write\": " << jsonNumber(t.write)
+       << ", \"write_meshes\": " << jsonNumber(t.writeMeshes) << ", \"write_vdb\": " << jsonNumber(t.writeVdb)
+       << ", \"write_slices\": " << jsonNumber(t.writeSlices) << "}\n";
     os << "}\n";
     return os.str();
 }
@@ -164,6 +166,8 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         fragmentMeshes.push_back(fm);
     }
     removeStaleFragments(outDir, written);
+    const auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    timings.writeMeshes = since(t0);
 
     // Carved volume: voxels whose centre lies in the removed region (the
     // kerf's prisms). With kerf 0 the blade removes nothing.
@@ -178,9 +182,13 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
     const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
     const std::string jsonPath = (fs::path(outDir) / "summary.json").string();
+    const auto tVdb = Clock::now();
     vdb::writeCutVdb(vdbPath, volume, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, interrupter);
+    timings.writeVdb = since(tVdb);
+    const auto tSlices = Clock::now();
     vdb::writeSliceStack(exrPath, carved, cutMaskGrid, request.isovalue, interrupter);
-    timings.write = std::chrono::duration<double>(Clock::now() - t0).count();
+    timings.writeSlices = since(tSlices);
+    timings.write = since(t0);
     const std::string json = summaryJson(request, mask.cutCellCount(), records, check, timings);
     writeFileAtomically(jsonPath, [&](const std::string& tmp) {
         std::ofstream out(tmp, std::ios::binary);

@@ -16,11 +16,14 @@
 
 namespace mtcut::cli {
 
-/// Seconds per stage, for summary.json's "timings_s" (write is measured by
-/// writeCutOutputs itself).
+/// Seconds per stage, for summary.json's "timings_s" (write and its parts
+/// are measured by writeCutOutputs itself).
 struct CutTimings
 {
     double read = 0, extract = 0, mask = 0, remesh = 0, check = 0, write = 0;
+    /// Parts of write: the fragment mesh files; cut.vdb (mostly the
+    /// fragments' level sets); slices.exr. The rest of write is the carving.
+    double writeMeshes = 0, writeVdb = 0, writeSlices = 0;
 };
 
 /// One fragment file written.
