@@ -166,7 +166,15 @@ int runCut(const Args& args)
     constexpr size_t kListed = 12;
     for (size_t i = 0; i < records.size() && i < kListed; ++i) {
         const FragmentRecord& r = records[i];
-        std::printf("  %-18s %10.1f mm^3 %10.1f mm^2 %9zu triangles\n", r.file.c_str(), r.volume, r.area, r.triangles);
+        // One decimal, except for crumbs that would print as 0.0 (a closed
+        // piece where the surface just reaches the blade): two digits.
+        const char* volumeFormat = std::abs(r.volume) < 0.05 ? "%10.2g" : "%10.1f";
+        const char* areaFormat = std::abs(r.area) < 0.05 ? "%10.2g" : "%10.1f";
+        std::printf("  %-18s ", r.file.c_str());
+        std::printf(volumeFormat, r.volume);
+        std::printf(" mm^3 ");
+        std::printf(areaFormat, r.area);
+        std::printf(" mm^2 %9zu triangles\n", r.triangles);
     }
     if (records.size() > kListed)
         std::printf("  ... and %zu smaller fragment(s), listed in summary.json\n", records.size() - kListed);
