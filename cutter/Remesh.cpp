@@ -572,7 +572,9 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
             const size_t j = i + gap;
             best[i][j] = gap == 1 ? 2.0 : -1.0; // a side: no triangle
             for (size_t k = i + 1; k < j; ++k) {
-                const double q = std::min({best[i][k], best[k][j], shape(i, k, j)});
+                // The apex k can only win when both sub-chains beat the best so far.
+                if (!(std::min(best[i][k], best[k][j]) > best[i][j])) continue;
+                const double q = std::min(std::min(best[i][k], best[k][j]), shape(i, k, j));
                 if (q > best[i][j]) {
                     best[i][j] = q;
                     split[i][j] = k;
@@ -907,6 +909,7 @@ private:
     // remeshTet's scratch, kept between tets for its capacity.
     std::vector<int> mNodeHead, mNodeNext, mParent, mEdgeOrder;
     std::vector<Poly> mPieces, mNextPieces;
+    std::vector<int> mOnLine;
     using Tags = SmallVector<uint64_t, 4>;
     struct Node // a vertex of a region loop: the vertex and its side tags
     {
@@ -1954,7 +1957,9 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             if (nodes[size_t(i)].tags == tags) return i;
             last = i;
         }
-        nodes.push_back({vert, tags});
+        nodes.emplace_back();
+        nodes.back().vert = vert;
+        nodes.back().tags.assign(tags.begin(), tags.end());
         nodeNext.push_back(-1);
         const int id = int(nodes.size() - 1);
         (last < 0 ? nodeHead[size_t(vert)] : nodeNext[size_t(last)]) = id;
@@ -2012,18 +2017,21 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             // The vertices of `all` on each edge label's line (ascending),
             // found once per label rather than once per edge: a cell where
             // many quads pivot has thousands of edges and vertices here.
-            SmallVector<std::pair<uint64_t, SmallVector<int, 8>>, 8> onLabel;
-            auto onLineOf = [&](uint64_t L) -> size_t {
-                for (size_t i = 0; i < onLabel.size(); ++i)
-                    if (onLabel[i].first == L) return i;
-                SmallVector<int, 8> xs;
+            // onLabel: (label, begin, end) of its vertices in mOnLine.
+            SmallVector<std::array<uint64_t, 3>, 8> onLabel;
+            std::vector<int>& onLine = mOnLine;
+            onLine.clear();
+            auto onLineOf = [&](uint64_t L) -> std::pair<const int*, const int*> {
+                for (const auto& e : onLabel)
+                    if (e[0] == L) return {onLine.data() + e[1], onLine.data() + e[2]};
+                const size_t begin = onLine.size();
                 for (int x : all) {
                     const Vert& vx = mVerts[size_t(x)];
-                    const bool onLine = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
-                    if (onLine) xs.push_back(x);
+                    const bool on = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
+                    if (on) onLine.push_back(x);
                 }
-                onLabel.emplace_back(L, std::move(xs));
-                return onLabel.size() - 1;
+                onLabel.push_back({L, begin, onLine.size()});
+                return {onLine.data() + begin, onLine.data() + onLine.size()};
             };
             for (Poly& p : pieces) {
                 Poly q;
@@ -2036,7 +2044,9 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                     const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
                     const double dd = glm::dot(d, d);
                     SmallVector<std::pair<double, int>, 4> on;
-                    for (int x : onLabel[onLineOf(L)].second) {
+                    const auto [xsBegin, xsEnd] = onLineOf(L);
+                    for (const int* it = xsBegin; it != xsEnd; ++it) {
+                        const int x = *it;
                         if (x == u || x == w) continue;
                         const Vert& vx = mVerts[size_t(x)];
                         const double t = glm::dot(vx.pos - a, d) / dd;

@@ -64,6 +64,17 @@ std::vector<cutter::Pose> builtinStroke(const vdb::Volume& vol, const cutter::In
     return cutter::makeLeFortStroke(frame, options);
 }
 
+/// A volume (mm^3) or area (mm^2) for the fragment list, 10 wide: one
+/// decimal, or two significant digits for a crumb that would print as 0.0
+/// (a closed piece where the surface just reaches the blade).
+std::string amountText(double v)
+{
+    char text[32];
+    if (std::abs(v) < 0.05) std::snprintf(text, sizeof text, "%10.2g", v);
+    else std::snprintf(text, sizeof text, "%10.1f", v);
+    return text;
+}
+
 int runCut(const Args& args)
 {
     // -- arguments: everything checked before the long work --------------------
@@ -166,15 +177,8 @@ int runCut(const Args& args)
     constexpr size_t kListed = 12;
     for (size_t i = 0; i < records.size() && i < kListed; ++i) {
         const FragmentRecord& r = records[i];
-        // One decimal, except for crumbs that would print as 0.0 (a closed
-        // piece where the surface just reaches the blade): two digits.
-        const char* volumeFormat = std::abs(r.volume) < 0.05 ? "%10.2g" : "%10.1f";
-        const char* areaFormat = std::abs(r.area) < 0.05 ? "%10.2g" : "%10.1f";
-        std::printf("  %-18s ", r.file.c_str());
-        std::printf(volumeFormat, r.volume);
-        std::printf(" mm^3 ");
-        std::printf(areaFormat, r.area);
-        std::printf(" mm^2 %9zu triangles\n", r.triangles);
+        std::printf("  %-18s %s mm^3 %s mm^2 %9zu triangles\n", r.file.c_str(), amountText(r.volume).c_str(),
+                    amountText(r.area).c_str(), r.triangles);
     }
     if (records.size() > kListed)
         std::printf("  ... and %zu smaller fragment(s), listed in summary.json\n", records.size() - kListed);
