@@ -98,6 +98,36 @@ TEST(Cli, ErrorsAreOneLineNamingTheFileWithNonZeroExit)
     EXPECT_NE(hugeSize.output.find("more than the limit"), std::string::npos) << hugeSize.output;
 }
 
+// `mtcut COMMAND --help` (or -h, anywhere an option may stand) and `mtcut
+// help COMMAND` print that command's usage on stdout and exit 0, reading
+// nothing; a "-h" that is an option's value is that value, not a request.
+TEST(Cli, CommandHelpPrintsItsUsageAndExitsZero)
+{
+    for (const std::string args : {"cut --help", "cut ../nothere -h --iso 400", "help cut"}) {
+        const auto help = runMtcut(args);
+        EXPECT_EQ(help.exitCode, 0) << args << ": " << help.output;
+        EXPECT_EQ(help.output.rfind("usage: mtcut cut INPUT --iso V", 0), 0u) << args << ": " << help.output;
+        EXPECT_NE(help.output.find("--kerf"), std::string::npos) << args;
+        EXPECT_NE(help.output.find("input options"), std::string::npos) << args << ": cut reads an INPUT";
+        EXPECT_EQ(help.output.find("mesh INPUT"), std::string::npos) << args << ": only the one command";
+    }
+    const auto phantom = runMtcut("phantom --help");
+    EXPECT_EQ(phantom.exitCode, 0);
+    EXPECT_EQ(phantom.output.rfind("usage: mtcut phantom OUT.vdb", 0), 0u) << phantom.output;
+    EXPECT_EQ(phantom.output.find("input options"), std::string::npos) << "phantom reads no INPUT";
+    // As a value: --path -h names a path file "-h"; the command then fails on --iso, not with help.
+    const auto value = runMtcut("cut x --path -h");
+    EXPECT_EQ(value.exitCode, 1) << value.output;
+    EXPECT_EQ(value.output.find("usage: mtcut cut"), std::string::npos) << value.output;
+    const auto unknown = runMtcut("help frobnicate");
+    EXPECT_EQ(unknown.exitCode, 2);
+    EXPECT_NE(unknown.output.find("unknown command 'frobnicate'"), std::string::npos) << unknown.output;
+    // The overview names every command and how to get one command's help.
+    const auto all = runMtcut("--help");
+    EXPECT_EQ(all.exitCode, 0);
+    EXPECT_NE(all.output.find("mtcut COMMAND --help"), std::string::npos) << all.output;
+}
+
 TEST(Cli, FailedWriteLeavesNothingBehind)
 {
     TempDir dir;

@@ -15,12 +15,8 @@ using namespace mtcut::cli;
 
 namespace {
 
-void printUsage(FILE* out)
+void printInputOptions(FILE* out)
 {
-    std::fprintf(out, "usage: mtcut COMMAND [ARGS]\n\ncommands:\n");
-    for (const auto& [name, cmd] : commands()) {
-        std::fprintf(out, "  %s\n      %s\n", cmd.usage.c_str(), cmd.summary.c_str());
-    }
     std::fprintf(out,
                  "\ninput options (any INPUT: DICOM folder, .nrrd/.nhdr, .nii/.nii.gz, .mha/.mhd, .vdb, raw):\n"
                  "  --series UID        DICOM: read this series (default: the one with most slices)\n"
@@ -29,6 +25,42 @@ void printUsage(FILE* out)
                  "  --dims X,Y,Z --type int8|uint8|int16|uint16|int32|uint32|float32|float64\n"
                  "  [--endian little|big] [--spacing X,Y,Z] [--origin X,Y,Z] [--offset BYTES]\n"
                  "                      raw data layout\n");
+}
+
+void printUsage(FILE* out)
+{
+    std::fprintf(out, "usage: mtcut COMMAND [ARGS]\n\ncommands:\n");
+    for (const auto& [name, cmd] : commands()) {
+        std::fprintf(out, "  %s\n      %s\n", cmd.usage.c_str(), cmd.summary.c_str());
+    }
+    std::fprintf(out, "\n'mtcut COMMAND --help' (or 'mtcut help COMMAND') shows one command.\n");
+    printInputOptions(out);
+}
+
+/// `mtcut COMMAND --help`: the command's usage line, what it does, and the
+/// input options when it reads an INPUT.
+void printCommandUsage(const Command& cmd, FILE* out)
+{
+    std::fprintf(out, "usage: mtcut %s\n\n%s\n", cmd.usage.c_str(), cmd.summary.c_str());
+    if (std::find(cmd.valueOptions.begin(), cmd.valueOptions.end(), "series") != cmd.valueOptions.end()) {
+        printInputOptions(out);
+    }
+}
+
+/// Is `--help` or `-h` among the command's arguments where an option may
+/// stand (not as the value of the option before it)?
+bool asksForHelp(const Command& cmd, int argc, char** argv)
+{
+    for (int i = 2; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "--help" || a == "-h") return true;
+        const std::string name = a.size() > 2 && a.compare(0, 2, "--") == 0 ? a.substr(2) : std::string();
+        const bool takesValue =
+            a == "-o" || (!name.empty() && name.find('=') == std::string::npos &&
+                          std::find(cmd.valueOptions.begin(), cmd.valueOptions.end(), name) != cmd.valueOptions.end());
+        if (takesValue) ++i; // its value, whatever it looks like
+    }
+    return false;
 }
 
 Args parse(const Command& cmd, int argc, char** argv)
@@ -80,6 +112,15 @@ Args parse(const Command& cmd, int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+    if (argc >= 3 && !std::strcmp(argv[1], "help")) {
+        auto it = commands().find(argv[2]);
+        if (it == commands().end()) {
+            std::fprintf(stderr, "mtcut: unknown command '%s' (see mtcut help)\n", argv[2]);
+            return 2;
+        }
+        printCommandUsage(it->second, stdout);
+        return 0;
+    }
     if (argc < 2 || !std::strcmp(argv[1], "help") || !std::strcmp(argv[1], "--help") ||
         !std::strcmp(argv[1], "-h")) {
         printUsage(argc < 2 ? stderr : stdout);
@@ -89,6 +130,10 @@ int main(int argc, char** argv)
     if (it == commands().end()) {
         std::fprintf(stderr, "mtcut: unknown command '%s' (see mtcut help)\n", argv[1]);
         return 2;
+    }
+    if (asksForHelp(it->second, argc, argv)) {
+        printCommandUsage(it->second, stdout);
+        return 0;
     }
     try {
         openvdb::initialize();
