@@ -3064,38 +3064,63 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
                     if (isChanged(Coord(x, y, z))) return true;
         return false;
     };
-    // (directed edge, triangle) per use that matters, in triangle order; and
-    // sorted, so an edge's uses are one run (its first triangle first).
-    std::vector<std::pair<uint64_t, uint32_t>> relevant, sortedUses;
+    // Per use that matters: (undirected edge, direction, triangle, index in
+    // triangle order), sorted, so an edge's uses are one run, each
+    // direction's in triangle order. An edge is fine when it is used once
+    // each way; the one reported is the failing edge used first in triangle
+    // order, as a walk over the uses in that order would find it.
+    struct Use
+    {
+        uint64_t edge;  ///< min vertex << 32 | max vertex
+        uint32_t dir;   ///< 0: from the lower vertex to the higher, 1: back
+        uint32_t tri;
+        uint32_t order; ///< index of the use in triangle order
+        bool operator<(const Use& o) const
+        {
+            return edge != o.edge ? edge < o.edge : dir != o.dir ? dir < o.dir : tri < o.tri;
+        }
+    };
+    std::vector<Use> uses;
     for (size_t t = 0; t < tris.size(); ++t) {
         const Tri& tr = tris[t];
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
             if (!matters(a, b, tr.cell)) continue;
-            relevant.push_back({uint64_t(a) << 32 | b, uint32_t(t)});
+            const uint64_t edge = uint64_t(std::min(a, b)) << 32 | std::max(a, b);
+            uses.push_back({edge, a < b ? 0u : 1u, uint32_t(t), uint32_t(uses.size())});
         }
     }
-    sortedUses = relevant;
-    std::sort(sortedUses.begin(), sortedUses.end());
+    std::sort(uses.begin(), uses.end());
     struct Uses
     {
         uint32_t count = 0, triangle = 0; ///< uses, and the first one's triangle
     };
-    auto usesOf = [&](uint64_t key) {
-        auto it = std::lower_bound(sortedUses.begin(), sortedUses.end(), std::pair<uint64_t, uint32_t>(key, 0));
-        Uses u;
-        if (it == sortedUses.end() || it->first != key) return u;
-        u.triangle = it->second;
-        for (; it != sortedUses.end() && it->first == key; ++it) ++u.count;
-        return u;
-    };
-    for (const auto& use : relevant) {
-        const uint64_t key = use.first;
-        const Uses u = usesOf(key);
-        const uint64_t rev = (key << 32) | (key >> 32);
-        const Uses r = usesOf(rev);
+    size_t failOrder = SIZE_MAX, failAt = 0; // the failing edge's first use: its order, and its run
+    for (size_t begin = 0, end = 0; begin < uses.size(); begin = end) {
+        uint32_t count[2] = {0, 0}, first = UINT32_MAX;
+        for (end = begin; end < uses.size() && uses[end].edge == uses[begin].edge; ++end) {
+            ++count[uses[end].dir];
+            first = std::min(first, uses[end].order);
+        }
+        if (count[0] == 1 && count[1] == 1) continue;
+        if (first < failOrder) {
+            failOrder = first;
+            failAt = begin;
+        }
+    }
+    if (failOrder != SIZE_MAX) {
+        // The first use's direction is "one way"; each direction's count and first triangle.
+        Uses way[2];
+        uint32_t firstDir = 0;
+        for (size_t i = failAt; i < uses.size() && uses[i].edge == uses[failAt].edge; ++i) {
+            Uses& w = way[uses[i].dir];
+            if (w.count++ == 0) w.triangle = uses[i].tri;
+            if (uses[i].order == failOrder) firstDir = uses[i].dir;
+        }
+        const Uses u = way[firstDir], r = way[1 - firstDir];
+        const uint32_t lo = uint32_t(uses[failAt].edge >> 32), hi = uint32_t(uses[failAt].edge);
+        const uint64_t key = firstDir == 0 ? uint64_t(lo) << 32 | hi : uint64_t(hi) << 32 | lo;
         const uint32_t back = r.count;
-        if (u.count == 1 && back == 1) continue;
         // Name a changed cell: the triangle's own, else a changed cell holding the edge.
         Coord cell = tris[u.triangle].cell;
         if (!isChanged(cell) && r.count && isChanged(tris[r.triangle].cell)) cell = tris[r.triangle].cell;
@@ -3138,17 +3163,23 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     for (const Tri& tr : tris)
         if (isChanged(tr.cell))
             for (uint32_t v : tr.v) ofChanged[v] = 1;
-    std::vector<std::pair<uint32_t, std::pair<uint32_t, uint32_t>>> linkEdges;
+    // (A counting sort by vertex: names are dense, and it keeps triangle order.)
+    std::vector<uint32_t> linkStart(ids.size() + 1, 0);
     for (const Tri& tr : tris)
-        for (int k = 0; k < 3; ++k)
-            if (ofChanged[tr.v[k]]) linkEdges.push_back({tr.v[k], {tr.v[(k + 1) % 3], tr.v[(k + 2) % 3]}});
-    std::stable_sort(linkEdges.begin(), linkEdges.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (uint32_t v : tr.v)
+            if (ofChanged[v]) ++linkStart[v + 1];
+    for (size_t v = 0; v < ids.size(); ++v) linkStart[v + 1] += linkStart[v];
+    std::vector<std::pair<uint32_t, uint32_t>> linkEdges(linkStart.back());
+    {
+        std::vector<uint32_t> fill(linkStart.begin(), linkStart.end() - 1);
+        for (const Tri& tr : tris)
+            for (int k = 0; k < 3; ++k)
+                if (ofChanged[tr.v[k]]) linkEdges[fill[tr.v[k]]++] = {tr.v[(k + 1) % 3], tr.v[(k + 2) % 3]};
+    }
     std::vector<std::pair<uint32_t, uint32_t>> link;
-    for (size_t begin = 0, end = 0; begin < linkEdges.size(); begin = end) {
-        const uint32_t v = linkEdges[begin].first;
-        link.clear();
-        for (end = begin; end < linkEdges.size() && linkEdges[end].first == v; ++end) link.push_back(linkEdges[end].second);
+    for (uint32_t v = 0; v < uint32_t(ids.size()); ++v) {
+        if (linkStart[v] == linkStart[v + 1]) continue;
+        link.assign(linkEdges.begin() + linkStart[v], linkEdges.begin() + linkStart[v + 1]);
         size_t steps = 0;
         uint32_t at = link[0].second;
         while (steps < link.size()) {
