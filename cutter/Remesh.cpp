@@ -2912,9 +2912,28 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     // The triangles of the changed cells and of their 26 neighbours, over
     // vertex names (the fused mesh's identity: iso edge vertices by edge).
     const std::vector<Coord> region = dilatedCells(changed);
+    // Plain marching-tetrahedra vertices (most of them) by their grid edge,
+    // the others by their whole name; one numbering, in order of first use.
+    struct EdgeHash
+    {
+        size_t operator()(const std::pair<uint64_t, uint64_t>& e) const
+        {
+            uint64_t x = e.first * 0x9e3779b97f4a7c15ull ^ (e.second + 0x632be59bd9b4e019ull);
+            x ^= x >> 31;
+            x *= 0xbf58476d1ce4e5b9ull;
+            return size_t(x ^ (x >> 29));
+        }
+    };
+    std::unordered_map<std::pair<uint64_t, uint64_t>, uint32_t, EdgeHash> edgeNames;
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> names;
     std::vector<CutVertexId> ids;
+    auto edgeNameOf = [&](const std::pair<uint64_t, uint64_t>& e) {
+        auto [it, added] = edgeNames.emplace(e, uint32_t(ids.size()));
+        if (added) ids.push_back(isoEdgeVertex(e));
+        return it->second;
+    };
     auto nameOf = [&](const CutVertexId& id) {
+        if (id.isIsoEdgeVertex()) return edgeNameOf({id.feature[0], id.feature[1]});
         auto [it, added] = names.emplace(id, uint32_t(ids.size()));
         if (added) ids.push_back(id);
         return it->second;
@@ -2943,20 +2962,23 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
             cornerStart[i + 1] = corners.size();
         }
     }
+    // The names of each cut cell's vertices: localNames[localStart[i] ..].
+    std::vector<uint32_t> localNames;
+    std::vector<size_t> localStart(region.size() + 1, 0);
     for (size_t i = 0; i < region.size(); ++i) {
         const Coord& c = region[i];
         if (cutOf[i]) {
             const CutCellGeometry& g = *cutOf[i];
-            std::vector<uint32_t> local(g.vertexIds.size());
-            for (size_t v = 0; v < local.size(); ++v) local[v] = nameOf(g.vertexIds[v]);
+            const size_t base = localNames.size();
+            for (const CutVertexId& id : g.vertexIds) localNames.push_back(nameOf(id));
+            const uint32_t* local = localNames.data() + base;
             for (size_t k = 0; k + 2 < g.indices.size(); k += 3)
                 tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c});
         } else {
             for (size_t k = cornerStart[i]; k + 2 < cornerStart[i + 1]; k += 3)
-                tris.push_back({{nameOf(isoEdgeVertex(corners[k])), nameOf(isoEdgeVertex(corners[k + 1])),
-                                 nameOf(isoEdgeVertex(corners[k + 2]))},
-                                c});
+                tris.push_back({{edgeNameOf(corners[k]), edgeNameOf(corners[k + 1]), edgeNameOf(corners[k + 2])}, c});
         }
+        localStart[i + 1] = localNames.size();
     }
     auto isChanged = [&](const Coord& c) { return std::binary_search(changed.begin(), changed.end(), c); };
     auto fail = [&](const std::string& what, const Coord& c) {
@@ -2978,8 +3000,8 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
     for (size_t i = 0; i < region.size(); ++i) {
         for (size_t k = cornerStart[i]; k < cornerStart[i + 1]; ++k) {
             const uint32_t vertex = mUncut.indices[3 * size_t(runOf[i].first) + (k - cornerStart[i])];
-            auto it = names.find(isoEdgeVertex(corners[k]));
-            if (it != names.end() && !known[it->second]) {
+            auto it = edgeNames.find(corners[k]);
+            if (it != edgeNames.end() && !known[it->second]) {
                 world[it->second] = mUncut.positions[vertex];
                 known[it->second] = 1;
             }
@@ -2987,7 +3009,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
         if (!cutOf[i]) continue;
         const CutCellGeometry& g = *cutOf[i];
         for (size_t v = 0; v < g.vertexIds.size(); ++v) {
-            const uint32_t name = names.at(g.vertexIds[v]);
+            const uint32_t name = localNames[localStart[i] + v];
             if (known[name] || g.vertexIds[v].isIsoEdgeVertex()) continue;
             world[name] = worldPosition(*mVolume, g.indexPositions[v]);
             known[name] = 1;
