@@ -1,0 +1,60 @@
+// 2-D polygon helpers of the re-meshing kernel (Remesh.cpp): the cap and
+// iso regions of a tetrahedron are loops on their supporting plane, in that
+// plane's 2-D coordinates, triangulated here. Plain double arithmetic with
+// the relative tolerances stated per function. No GL, no OpenVDB.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+namespace mtcut::cutter::poly2 {
+
+struct Vec2
+{
+    double x, y;
+};
+
+/// Twice the signed area of triangle (o, a, b): > 0 when it turns CCW.
+inline double cross2(const Vec2& o, const Vec2& a, const Vec2& b)
+{
+    return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
+inline bool same2(const Vec2& a, const Vec2& b) { return a.x == b.x && a.y == b.y; }
+
+/// Do segments ab and cd cross (properly, or touching away from shared endpoints)?
+bool segmentsIntersect(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d);
+
+/// Shape of triangle abc: the smallest sine of its angles (negative when it
+/// turns CW); -1 when a side has zero length.
+double minSine(const Vec2& a, const Vec2& b, const Vec2& c);
+
+/// The most corners bestTriangulation() takes.
+constexpr size_t kBestOfAllMax = 9;
+
+/// The triangulation of a simple CCW polygon of at most kBestOfAllMax
+/// corners (indices into pts) whose worst triangle has the best shape (the
+/// largest smallest sine), by dynamic programming over its diagonals: a
+/// triangle counts when it turns CCW by more than 1e-9, holds no other
+/// corner (within a relative 1e-9) and its new sides cross no side of the
+/// polygon. Appends 3 indices per triangle to `tris`. Returns false (tris
+/// unchanged) when the polygon repeats a point or no triangulation passes.
+bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pts, std::vector<int>& tris);
+
+/// Ear clipping of a weakly simple CCW polygon (indices into pts). Each step
+/// clips the valid ear with the best shape (largest smallest sine of its
+/// angles), so straight vertices never end up as the tip of a flat ear; the
+/// last four corners are split by the diagonal whose two triangles have the
+/// better worst shape. Points within a relative 1e-9 of an ear's edges
+/// count as inside it. Appends 3 indices per triangle to `tris`; returns
+/// false when no ear can be found.
+bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<int>& tris);
+
+/// Signed area of a loop (indices into pts): > 0 when CCW.
+double signedArea(const std::vector<int>& loop, const std::vector<Vec2>& pts);
+
+/// Splices holes (CW loops inside the CCW `outer`) into `outer` through
+/// shortest visible bridges, so earClip() can take it. Returns false when a
+/// hole has no visible bridge.
+bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, const std::vector<Vec2>& pts);
+
+} // namespace mtcut::cutter::poly2

@@ -1,0 +1,138 @@
+// The re-meshing kernel's 2-D triangulation (cutter/Polygon2.h): every
+// triangle CCW, the area preserved exactly as a sum, and the shape rules that
+// keep slivers out of the cut (a sliver rounds to float and folds over).
+#include "cutter/Polygon2.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <vector>
+
+using namespace mtcut::cutter::poly2;
+
+namespace {
+
+/// Area of the triangles, checking each turns CCW; the worst shape in `worst`.
+double triangleArea(const std::vector<int>& tris, const std::vector<Vec2>& pts, double& worst)
+{
+    double area = 0.0;
+    worst = 1.0;
+    for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+        const Vec2 &a = pts[size_t(tris[t])], &b = pts[size_t(tris[t + 1])], &c = pts[size_t(tris[t + 2])];
+        EXPECT_GT(cross2(a, b, c), 0.0) << "triangle " << t / 3 << " does not turn CCW";
+        area += 0.5 * cross2(a, b, c);
+        worst = std::min(worst, minSine(a, b, c));
+    }
+    return area;
+}
+
+std::vector<int> iota(size_t n)
+{
+    std::vector<int> v(n);
+    std::iota(v.begin(), v.end(), 0);
+    return v;
+}
+
+} // namespace
+
+TEST(Polygon2, MinSineOfKnownTriangles)
+{
+    EXPECT_NEAR(minSine({0, 0}, {1, 0}, {0, 1}), std::sqrt(0.5), 1e-15); // 45-45-90
+    EXPECT_NEAR(minSine({0, 0}, {1, 0}, {0.5, std::sqrt(0.75)}), std::sqrt(0.75), 1e-15); // equilateral
+    EXPECT_LT(minSine({0, 0}, {0, 1}, {1, 0}), 0.0);                                    // CW
+    EXPECT_EQ(minSine({0, 0}, {0, 0}, {1, 0}), -1.0);                                   // a zero side
+}
+
+TEST(Polygon2, SegmentsIntersectCountsTouchingButNotSharedEnds)
+{
+    EXPECT_TRUE(segmentsIntersect({0, 0}, {2, 2}, {0, 2}, {2, 0}));   // a proper crossing
+    EXPECT_FALSE(segmentsIntersect({0, 0}, {1, 1}, {1, 1}, {2, 0}));  // a shared end
+    EXPECT_TRUE(segmentsIntersect({0, 0}, {2, 0}, {1, 0}, {1, 1}));   // a T: an end on the other's inside
+    EXPECT_FALSE(segmentsIntersect({0, 0}, {1, 0}, {0, 1}, {1, 1}));  // parallel
+    EXPECT_TRUE(segmentsIntersect({0, 0}, {2, 0}, {1, 0}, {3, 0}));   // overlapping, collinear
+}
+
+// The last four corners: ear clipping by best ear alone clips the right
+// angle at p1 first and leaves (p2, p3, p0), flat because p3 bulges out of
+// the segment p2 p0 by 1e-6 (a seam bending slightly on a mitre). The rule
+// for four corners takes the other diagonal, p1 p3: two fair triangles.
+TEST(Polygon2, EarClipSplitsTheLastFourCornersByTheBetterDiagonal)
+{
+    const double bulge = 1e-6 / std::sqrt(2.0);
+    const std::vector<Vec2> pts = {{0, 0}, {2, 0}, {1, 1}, {0.5 - bulge, 0.5 + bulge}};
+    ASSERT_GT(minSine(pts[0], pts[1], pts[2]), 0.7) << "the ear at p1 is the best single ear";
+    ASSERT_LT(minSine(pts[2], pts[3], pts[0]), 1e-5) << "and clipping it first leaves a sliver";
+    std::vector<int> tris;
+    ASSERT_TRUE(earClip(iota(4), pts, tris));
+    ASSERT_EQ(tris.size(), 6u);
+    double worst = 0;
+    EXPECT_NEAR(triangleArea(tris, pts, worst), 1.0 + 0.5 * std::sqrt(2.0) * 1e-6, 1e-12); // + the bulge
+    EXPECT_GT(worst, 0.3) << "a sliver was made";
+    for (size_t t = 0; t < 2; ++t) {
+        const int* tri = tris.data() + 3 * t;
+        EXPECT_TRUE(std::count(tri, tri + 3, 1) && std::count(tri, tri + 3, 3)) << "not split by the diagonal p1 p3";
+    }
+}
+
+TEST(Polygon2, EarClipTriangulatesAConcavePolygonAndAHole)
+{
+    // An L: 6 corners, area 3.
+    const std::vector<Vec2> l = {{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}};
+    std::vector<int> tris;
+    ASSERT_TRUE(earClip(iota(l.size()), l, tris));
+    EXPECT_EQ(tris.size(), 3 * (l.size() - 2));
+    double worst = 0;
+    EXPECT_DOUBLE_EQ(triangleArea(tris, l, worst), 3.0);
+    EXPECT_DOUBLE_EQ(signedArea(iota(l.size()), l), 3.0);
+
+    // A 4 x 4 square with a 1 x 1 square hole (CW): area 15 once bridged.
+    const std::vector<Vec2> pts = {{0, 0}, {4, 0}, {4, 4}, {0, 4}, {1, 1}, {1, 2}, {2, 2}, {2, 1}};
+    std::vector<int> outer = {0, 1, 2, 3};
+    const std::vector<std::vector<int>> holes = {{4, 5, 6, 7}};
+    EXPECT_DOUBLE_EQ(signedArea(holes[0], pts), -1.0);
+    ASSERT_TRUE(bridgeHoles(outer, holes, pts));
+    EXPECT_EQ(outer.size(), 4u + 4u + 2u) << "the hole and a bridge there and back";
+    tris.clear();
+    ASSERT_TRUE(earClip(outer, pts, tris));
+    EXPECT_DOUBLE_EQ(triangleArea(tris, pts, worst), 15.0);
+}
+
+// bestTriangulation maximises the worst triangle's shape over all
+// triangulations: on a fan of nearly straight corners no triangulation can
+// be better than it, and ear clipping's is never better.
+TEST(Polygon2, BestTriangulationIsNoWorseThanEarClipping)
+{
+    // A regular hexagon, and one with two corners pushed nearly straight.
+    for (double push : {0.0, 0.49}) {
+        std::vector<Vec2> pts;
+        for (int i = 0; i < 6; ++i) {
+            const double a = M_PI / 3 * i;
+            const double r = (i == 1 || i == 4) ? 1.0 - push : 1.0;
+            pts.push_back({r * std::cos(a), r * std::sin(a)});
+        }
+        std::vector<int> best, ears;
+        ASSERT_TRUE(bestTriangulation(iota(6), pts, best));
+        ASSERT_TRUE(earClip(iota(6), pts, ears));
+        ASSERT_EQ(best.size(), 12u);
+        double worstBest = 0, worstEars = 0;
+        const double area = triangleArea(best, pts, worstBest);
+        EXPECT_NEAR(area, triangleArea(ears, pts, worstEars), 1e-14);
+        EXPECT_NEAR(area, signedArea(iota(6), pts), 1e-14);
+        EXPECT_GE(worstBest, worstEars) << "push " << push;
+        if (push == 0.0) {
+            EXPECT_NEAR(worstBest, std::sin(M_PI / 6), 1e-12) << "the regular hexagon's best: 30-30-120 or better";
+        }
+    }
+    // A repeated point or too many corners: refused, tris unchanged.
+    std::vector<int> tris = {7};
+    const std::vector<Vec2> twice = {{0, 0}, {1, 0}, {1, 1}, {1, 0}};
+    EXPECT_FALSE(bestTriangulation(iota(4), twice, tris));
+    std::vector<Vec2> many;
+    for (size_t i = 0; i <= kBestOfAllMax; ++i)
+        many.push_back({std::cos(2 * M_PI * double(i) / double(kBestOfAllMax + 1)),
+                        std::sin(2 * M_PI * double(i) / double(kBestOfAllMax + 1))});
+    EXPECT_FALSE(bestTriangulation(iota(many.size()), many, tris));
+    EXPECT_EQ(tris, std::vector<int>{7});
+}
