@@ -4,6 +4,7 @@
 
 #include <openvdb/tools/Prune.h>
 
+#include <atomic>
 #include <cassert>
 #include <cmath>
 
@@ -53,8 +54,10 @@ QuadRef CutMask::addQuad(const Quad& quad, const std::vector<glm::ivec3>& cells)
 {
     if (!mStrokeOpen) beginStroke();
     mRedo.clear();
+    static std::atomic<uint64_t> serials{0};
     QuadRecord rec;
     rec.quad = quad;
+    rec.serial = serials.fetch_add(1, std::memory_order_relaxed) + 1;
     rec.cells.reserve(cells.size());
     const glm::ivec3 n = mFrame.cellCount();
     for (const glm::ivec3& c : cells)
@@ -172,6 +175,12 @@ const std::vector<openvdb::Coord>& CutMask::cellsOf(const QuadRef& ref) const
 {
     assert(ref.stroke >= 1 && ref.stroke <= mStrokes.size());
     return mStrokes[ref.stroke - 1].quads.at(ref.quad).cells;
+}
+
+uint64_t CutMask::quadSerial(const QuadRef& ref) const
+{
+    assert(ref.stroke >= 1 && ref.stroke <= mStrokes.size());
+    return mStrokes[ref.stroke - 1].quads.at(ref.quad).serial;
 }
 
 uint32_t CutMask::quadCount(uint32_t stroke) const

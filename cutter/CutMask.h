@@ -99,6 +99,12 @@ public:
     /// touches, new or not: cellsOf(ref).
     const std::vector<openvdb::Coord>& lastNewCells() const { return mLastNew; }
     const std::vector<openvdb::Coord>& cellsOf(const QuadRef& ref) const;
+    /// A number that only this quad (as added, with its cells) carries in the
+    /// process, kept through undo/redo and shared by copies of the mask: two
+    /// equal serials are the same quad and cells, so a consumer can tell an
+    /// unchanged quad in O(1) (CutRemesher::update). Unequal serials say
+    /// nothing (the same quad may have been added again).
+    uint64_t quadSerial(const QuadRef& ref) const;
     /// Memory of the grid and lists, bytes (approximate).
     size_t memoryBytes() const;
 
@@ -107,6 +113,7 @@ private:
     {
         Quad quad;
         std::vector<openvdb::Coord> cells;
+        uint64_t serial = 0; ///< quadSerial()
     };
     struct StrokeRecord
     {

@@ -3023,9 +3023,13 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     const bool sameSetting = mSeenKerf == mask.kerf() && mSeenFrame.origin == frame.origin &&
                              mSeenFrame.spacing == frame.spacing && mSeenFrame.dims == frame.dims;
     if (!sameSetting) mQuadCache.reset(new QuadGeomCache);
-    auto sameQuad = [](const SeenQuad& s, const Quad& q, const std::vector<Coord>& cells) {
+    // (The same serial is the same quad and cells: O(1) for the quads that
+    // did not change, which are nearly all of a long cut's.)
+    auto sameQuad = [&](const SeenQuad& s, const QuadRef& ref) {
+        if (s.serial == mask.quadSerial(ref)) return true;
+        const Quad& q = mask.quad(ref);
         return s.corners == cornerSignature(q) && s.normal == q.normal && s.cornerCount == q.cornerCount &&
-               s.degenerate == q.degenerate && s.cells == cells;
+               s.degenerate == q.degenerate && s.cells == mask.cellsOf(ref);
     };
     const uint32_t strokes = std::max<uint32_t>(mask.strokeCount(), uint32_t(mSeen.size()));
     std::vector<std::vector<char>> changedQuad(strokes);
@@ -3037,7 +3041,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         flags.assign(std::max(now, seen), 1);
         for (uint32_t q = 0; q < std::min(now, seen) && sameSetting; ++q) {
             const QuadRef ref{s, q};
-            flags[q] = !sameQuad(mSeen[s - 1][q], mask.quad(ref), mask.cellsOf(ref));
+            flags[q] = !sameQuad(mSeen[s - 1][q], ref);
         }
         for (char f : flags) anyQuad = anyQuad || f;
     }
@@ -3277,6 +3281,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             sq.cornerCount = quad.cornerCount;
             sq.degenerate = quad.degenerate;
             sq.cells = mask.cellsOf(ref);
+            sq.serial = mask.quadSerial(ref);
         }
     }
     mLastChanged = std::move(changedCells);

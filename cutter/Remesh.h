@@ -244,6 +244,7 @@ private:
         uint32_t cornerCount = 0;
         bool degenerate = false;
         std::vector<openvdb::Coord> cells;
+        uint64_t serial = 0; ///< CutMask::quadSerial
     };
     std::unique_ptr<KernelPool> mKernels; ///< update()'s re-meshing, one kernel per thread
     std::unique_ptr<PrismCache> mPrismCache;

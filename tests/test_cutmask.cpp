@@ -230,3 +230,43 @@ TEST(CutMask, InputThreadToGeometryThreadEqualsDirectBuild)
         expectSameMask(mask, rebuild(f, kerf, direct));
     }
 }
+
+// quadSerial: one per quad as added, through undo and redo and into copies;
+// the same quad added again gets a new one.
+TEST(CutMask, QuadSerialsTellQuadsApartAndSurviveUndoRedo)
+{
+    const IndexFrame f = smallFrame();
+    std::vector<Pose> poses;
+    for (int i = 0; i < 6; ++i) {
+        Pose p;
+        p.time = i * 0.001;
+        p.base = dvec3(-6.0 + 1.1 * i, 14.2, -2.0);
+        p.direction = dvec3(0, 0, -1);
+        p.length = 20.0;
+        poses.push_back(p);
+    }
+    const std::vector<Quad> quads = filterStroke(poses, f);
+    ASSERT_GE(quads.size(), 3u);
+    CutMask mask(f, 0.0);
+    mask.beginStroke();
+    for (const Quad& q : quads) mask.addQuad(q);
+    std::vector<uint64_t> serials;
+    for (uint32_t q = 0; q < mask.quadCount(1); ++q) serials.push_back(mask.quadSerial({1, q}));
+    for (size_t i = 0; i < serials.size(); ++i) {
+        EXPECT_NE(serials[i], 0u);
+        for (size_t j = 0; j < i; ++j) EXPECT_NE(serials[i], serials[j]);
+    }
+    // Undo to the first quad and redo: the same records, the same serials.
+    mask.undoToQuad(1);
+    ASSERT_TRUE(mask.redoStroke());
+    for (uint32_t q = 0; q < mask.quadCount(1); ++q) EXPECT_EQ(mask.quadSerial({1, q}), serials[q]);
+    const CutMask copy = mask;
+    EXPECT_EQ(copy.quadSerial({1, 0}), serials[0]);
+    // The same quad added again (after undo, or in another mask): a new serial.
+    mask.undoToQuad(uint32_t(quads.size()) - 1);
+    mask.addQuad(quads.back());
+    EXPECT_NE(mask.quadSerial({1, uint32_t(quads.size()) - 1}), serials.back());
+    CutMask other(f, 0.0);
+    other.addQuad(quads.front());
+    EXPECT_NE(other.quadSerial({1, 0}), serials.front());
+}
