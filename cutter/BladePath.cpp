@@ -107,6 +107,8 @@ void PathFilter::endStroke()
 {
     mSticks.clear();
     mRecentQuads.clear();
+    mQuadBlocks.clear();
+    mHugeQuads.clear();
     mPoseCount = 0;
     mHaveTime = false;
 }
@@ -166,11 +168,36 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
         }
         r.normal = glm::normalize(q.normal * mFrame.spacing); // the plane in index space
         r.hull = convexHullOrder(r.corners.data(), r.count, r.normal);
+        if (mOptions.retraceTolerance >= 0.0) {
+            const glm::ivec3 b0 = blockOf(r.lo - mOptions.retraceTolerance),
+                             b1 = blockOf(r.hi + mOptions.retraceTolerance);
+            const glm::dvec3 span = glm::dvec3(b1 - b0) + 1.0;
+            if (span.x * span.y * span.z > double(kRetraceMaxBlocks)) {
+                mHugeQuads.push_back(uint32_t(mRecentQuads.size())); // tested for every pose
+            } else {
+                for (int x = b0.x; x <= b1.x; ++x)
+                    for (int y = b0.y; y <= b1.y; ++y)
+                        for (int z = b0.z; z <= b1.z; ++z)
+                            mQuadBlocks[blockKey(glm::ivec3(x, y, z))].push_back(uint32_t(mRecentQuads.size()));
+            }
+        }
         mRecentQuads.push_back(std::move(r));
     }
-    if (mRecentQuads.size() > kRetraceQuads)
-        mRecentQuads.erase(mRecentQuads.begin(), mRecentQuads.end() - long(kRetraceQuads));
     return true;
+}
+
+glm::ivec3 PathFilter::blockOf(const glm::dvec3& indexPoint)
+{
+    // Clamped far outside any volume, so huge or far-away quads stay finite work.
+    const glm::dvec3 b = glm::clamp(glm::floor(indexPoint / double(kRetraceBlock)), glm::dvec3(-(1 << 20)),
+                                    glm::dvec3((1 << 20) - 1));
+    return glm::ivec3(b);
+}
+
+uint64_t PathFilter::blockKey(const glm::ivec3& b)
+{
+    auto field = [](int v) { return uint64_t(uint32_t(v + (1 << 20)) & 0x1fffff); };
+    return field(b.x) | field(b.y) << 21 | field(b.z) << 42;
 }
 
 bool PathFilter::retraces(const Stick& s) const
@@ -198,8 +225,16 @@ bool PathFilter::retraces(const Stick& s) const
     auto inBox = [&](const RecentQuad& r, const glm::dvec3& p) {
         return !glm::any(glm::lessThan(p, r.lo - tol)) && !glm::any(glm::greaterThan(p, r.hi + tol));
     };
-    for (const RecentQuad& r : mRecentQuads)
-        if (inBox(r, base) && inBox(r, tip) && near(r, base) && near(r, tip)) return true;
+    auto test = [&](uint32_t i) {
+        const RecentQuad& r = mRecentQuads[i];
+        return inBox(r, base) && inBox(r, tip) && near(r, base) && near(r, tip);
+    };
+    for (uint32_t i : mHugeQuads)
+        if (test(i)) return true;
+    auto it = mQuadBlocks.find(blockKey(blockOf(base)));
+    if (it == mQuadBlocks.end()) return false;
+    for (uint32_t i : it->second)
+        if (test(i)) return true;
     return false;
 }
 

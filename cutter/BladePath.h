@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <random>
+#include <unordered_map>
 #include <vector>
 
 namespace mtcut::cutter {
@@ -108,8 +109,8 @@ struct PathFilterOptions
     /// lies within planarTolerance * (quad extent + 1 mm) of the fitted plane.
     double planarTolerance = 1e-9;
     /// Retracing (rule 2b): a stick whose base and tip lie within this many
-    /// voxels of one of the last kRetraceQuads quads of the stroke (of its
-    /// plane, and inside its outline) is dropped. Negative: never dropped.
+    /// voxels of one of the stroke's quads (of its plane, and inside its
+    /// outline) is dropped. Negative: never dropped.
     double retraceTolerance = 0.25;
 };
 
@@ -127,14 +128,17 @@ struct PathFilterOptions
 ///    and the stroke ends at its last kept stick (base within one cell
 ///    diagonal of the last pose's base).
 /// 2b. Retracing: a pose whose stick lies within retraceTolerance voxels of
-///    one of the stroke's last kRetraceQuads quads (of its plane, and inside
-///    its outline) cuts nothing new, so it is dropped. A hand's tremor moving
-///    the base back into the cell it just left, or a saw stroke going back
-///    over its cut, would otherwise fold the strip onto itself: quads
+///    one of the stroke's quads (of its plane, and inside its outline) cuts
+///    nothing new, so it is dropped. A hand's tremor moving the base back
+///    into the cell it just left, or a saw going back and forth over its cut
+///    (however long), would otherwise fold the strip onto itself: quads
 ///    overlapping in one plane, which the re-mesher refuses. Bound: the swept
-///    surface misses only poses within that tolerance of it. Sawing back
-///    over more than kRetraceQuads quads still folds the strip (refused by
-///    the re-mesher, never silent).
+///    surface misses only poses within that tolerance of it. The quads are
+///    found through a grid of kRetraceBlock^3-voxel blocks over their
+///    bounding boxes, so a pose costs the quads near its base, not the
+///    stroke's length. (Another stroke over the cut is not filtered: a
+///    nearly coplanar crossing can still be refused by the re-mesher, never
+///    silent.)
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
@@ -151,12 +155,15 @@ struct PathFilterOptions
 /// 4. Poses outside the volume are kept (the geometry stays exact); the
 ///    voxelisation clips cut cells to the volume.
 ///
-/// Cost: O(1) per pose.
+/// Cost: O(1) per pose, plus rule 2b's test of the quads whose blocks hold
+/// the base (a few, unless the stroke passes the same place many times).
 class PathFilter
 {
 public:
-    /// How many of the stroke's last quads rule 2b looks at (O(1) per pose).
-    static constexpr size_t kRetraceQuads = 64;
+    /// Edge of rule 2b's blocks, voxels.
+    static constexpr int kRetraceBlock = 8;
+    /// A quad whose box spans more blocks than this is not indexed but tested for every pose.
+    static constexpr size_t kRetraceMaxBlocks = 4096;
 
     explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
 
@@ -186,13 +193,18 @@ private:
     };
     /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps s1.
     void appendQuads(const Stick& s1, std::vector<Quad>& quads);
-    /// Rule 2b: do the base and tip of s lie within the tolerance of one recent quad?
+    /// Rule 2b: do the base and tip of s lie within the tolerance of one of the stroke's quads?
     bool retraces(const Stick& s) const;
+    static glm::ivec3 blockOf(const glm::dvec3& indexPoint);
+    static uint64_t blockKey(const glm::ivec3& block);
 
     IndexFrame mFrame;
     PathFilterOptions mOptions;
     std::vector<Stick> mSticks;
-    std::vector<RecentQuad> mRecentQuads; ///< the stroke's last kRetraceQuads non-degenerate quads, oldest first
+    std::vector<RecentQuad> mRecentQuads; ///< the stroke's non-degenerate quads, oldest first
+    /// Rule 2b's index: block (packed) -> mRecentQuads whose box, grown by the tolerance, meets it.
+    std::unordered_map<uint64_t, std::vector<uint32_t>> mQuadBlocks;
+    std::vector<uint32_t> mHugeQuads; ///< quads over more than kRetraceMaxBlocks blocks
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;
     bool mHaveTime = false;

@@ -432,7 +432,7 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
                 ASSERT_EQ(quads.size(), quadsBefore);
                 // Dropped only when in the same cell as the last kept stick, or
                 // (retracing, rule 2b) when base and tip lie within the tolerance
-                // of one of the last quads (checked here by the plane distance
+                // of one of the stroke's quads (checked here by the plane distance
                 // and the outline's bounding box grown by the tolerance).
                 if (f.cellOf(f.toIndex(poses[i].base)) == f.cellOf(f.toIndex(filter.sticks().back().base))) continue;
                 ++retraced;
@@ -440,8 +440,7 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
                 const dvec3 b = f.toIndex(poses[i].base);
                 const dvec3 tip = f.toIndex(poses[i].base + poses[i].length * glm::normalize(poses[i].direction));
                 bool near = false;
-                for (size_t q = quads.size() > PathFilter::kRetraceQuads ? quads.size() - PathFilter::kRetraceQuads : 0;
-                     q < quads.size() && !near; ++q) {
+                for (size_t q = 0; q < quads.size() && !near; ++q) {
                     dvec3 c[4], nrm(0.0), lo(1e300), hi(-1e300);
                     for (uint32_t j = 0; j < quads[q].cornerCount; ++j) c[j] = f.toIndex(quads[q].corners[j]);
                     for (uint32_t j = 0; j < quads[q].cornerCount; ++j) {
@@ -576,6 +575,45 @@ TEST(PathFilter, RetracingTheLastQuadsCutsNothingNew)
     PathFilterOptions opt;
     opt.retraceTolerance = -1.0;
     EXPECT_GT(filterStroke(stroke(0.0), f, opt).size(), 16u);
+}
+
+// Rule 2b over the whole stroke: a saw going forth over 150 cells and back
+// over all of them (more than the 64 quads the rule used to look at) and
+// forth again makes the forward quads only; so does a stroke whose end comes
+// back over its start.
+TEST(PathFilter, RetracingAnyQuadOfTheStrokeCutsNothingNew)
+{
+    IndexFrame f;
+    f.spacing = dvec3(1.0);
+    f.dims = ivec3(200, 40, 40);
+    auto go = [&](std::vector<Pose>& poses, double x0, double x1) {
+        const int n = int(std::abs(x1 - x0) * 3);
+        for (int i = 0; i <= n; ++i) {
+            Pose p;
+            p.time = 0.001 * double(poses.size());
+            p.base = f.toWorld(dvec3(x0 + (x1 - x0) * i / n, 4.25, 20.5));
+            p.direction = dvec3(0.1, 1, 0);
+            p.length = 20.0;
+            poses.push_back(p);
+        }
+    };
+    std::vector<Pose> saw;
+    go(saw, 10.0, 160.0);
+    go(saw, 160.0, 10.0);
+    go(saw, 10.0, 160.0);
+    const std::vector<Quad> quads = filterStroke(saw, f);
+    EXPECT_EQ(quads.size(), 150u) << "one stick per cell on the way forth, none back";
+    PathFilterOptions off;
+    off.retraceTolerance = -1.0;
+    EXPECT_GT(filterStroke(saw, f, off).size(), 400u) << "without the rule the way back folds the strip";
+    // A stroke whose last poses jump back over its first 13 cells, 97 quads later.
+    std::vector<Pose> loop;
+    go(loop, 10.0, 120.0);
+    for (Pose p : std::vector<Pose>(loop.begin(), loop.begin() + 40)) {
+        p.time = 0.001 * double(loop.size());
+        loop.push_back(p); // the first 13 cells again, long after they were cut
+    }
+    EXPECT_EQ(filterStroke(loop, f).size(), 110u);
 }
 
 TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
