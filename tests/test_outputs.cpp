@@ -16,6 +16,7 @@
 #include <ImfInputPart.h>
 #include <ImfIntAttribute.h>
 #include <ImfMultiPartInputFile.h>
+#include <ImfThreading.h>
 #include <ImfPartType.h>
 #include <ImfStringAttribute.h>
 #include <ImfVecAttribute.h>
@@ -27,6 +28,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <regex>
 
@@ -421,6 +423,32 @@ TEST(SliceExr, PartsChannelsValuesAndAttributesReadBack)
     // Spot values: carved slab, kept ball, air.
     EXPECT_EQ(ref.getValue(Coord(20, 20, 20)), kAir);
     EXPECT_EQ(ref.getValue(Coord(16, 20, 20)), 1021.0f);
+}
+
+// setExrThreadCount sizes OpenEXR's global pool (the front ends give it every
+// core), and the file it writes is the same, byte for byte, on any number of
+// threads.
+TEST(SliceExr, ThreadCountSizesOpenExrsPoolAndKeepsTheBytes)
+{
+    const Scene s;
+    test::TempDir dir;
+    Volume carvedVolume = s.volume;
+    carvedVolume.grid = s.carved;
+    auto bytes = [](const std::string& path) {
+        std::ifstream in(path, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    };
+    const int before = Imf::globalThreadCount();
+    setExrThreadCount(0);
+    EXPECT_EQ(Imf::globalThreadCount(), 0);
+    writeSliceStack(dir.file("serial.exr"), carvedVolume, *s.mask, 300.0f);
+    setExrThreadCount(4);
+    EXPECT_EQ(Imf::globalThreadCount(), 4);
+    writeSliceStack(dir.file("threads.exr"), carvedVolume, *s.mask, 300.0f);
+    Imf::setGlobalThreadCount(before);
+    const std::string a = bytes(dir.file("serial.exr")), b = bytes(dir.file("threads.exr"));
+    EXPECT_GT(a.size(), 1000u);
+    EXPECT_TRUE(a == b) << "the threaded file differs (" << a.size() << " vs " << b.size() << " bytes)";
 }
 
 TEST(SliceExr, AnisotropicPixelsAndBadInput)
