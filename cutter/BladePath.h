@@ -138,7 +138,12 @@ struct PathFilterOptions
 ///    bounding boxes, so a pose costs the quads near its base, not the
 ///    stroke's length. (Another stroke over the cut is not filtered: a
 ///    nearly coplanar crossing can still be refused by the re-mesher, never
-///    silent.)
+///    silent.) Known gap: when the blade leaves the retraced cut into new
+///    bone, the next kept stick is joined to the last one kept before the
+///    retrace, so that quad is a chord across the retraced part (forth over
+///    x = 10..60 and back to 0: one quad from x = 60 to 9.7). For a straight
+///    cut it lies on the old one (with kerf 0 it overlaps the old quads and
+///    the re-mesher refuses it); after a curved one it cuts straight across.
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
