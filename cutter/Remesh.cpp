@@ -3224,7 +3224,8 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             rec.input = input;
             save(c);
             mRecords[c] = std::move(rec);
-            jobs.push_back({c, quads, &mCells[c], nullptr}); // map nodes: the pointer stays valid
+            jobs.push_back({c, std::move(quads), &mCells[c], nullptr}); // map nodes: the pointer stays valid
+            quads.clear(); // moved from: rebuilt for the next cell
         }
         // The kernel over the cells to re-mesh, in parallel (each cell's
         // geometry is a function of the cell, its quads and the volume; one
