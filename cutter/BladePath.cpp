@@ -106,7 +106,7 @@ PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options
 void PathFilter::endStroke()
 {
     mSticks.clear();
-    mRecentQuads.clear();
+    mStrokeQuads.clear();
     mQuadBlocks.clear();
     mHugeQuads.clear();
     mPoseCount = 0;
@@ -157,7 +157,7 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     for (size_t i = quadsBefore; i < quads.size(); ++i) {
         const Quad& q = quads[i];
         if (q.degenerate) continue;
-        RecentQuad r;
+        StrokeQuad r;
         r.count = q.cornerCount;
         r.lo = glm::dvec3(1e300);
         r.hi = glm::dvec3(-1e300);
@@ -173,15 +173,15 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
                              b1 = blockOf(r.hi + mOptions.retraceTolerance);
             const glm::dvec3 span = glm::dvec3(b1 - b0) + 1.0;
             if (span.x * span.y * span.z > double(kRetraceMaxBlocks)) {
-                mHugeQuads.push_back(uint32_t(mRecentQuads.size())); // tested for every pose
+                mHugeQuads.push_back(uint32_t(mStrokeQuads.size())); // tested for every pose
             } else {
                 for (int x = b0.x; x <= b1.x; ++x)
                     for (int y = b0.y; y <= b1.y; ++y)
                         for (int z = b0.z; z <= b1.z; ++z)
-                            mQuadBlocks[blockKey(glm::ivec3(x, y, z))].push_back(uint32_t(mRecentQuads.size()));
+                            mQuadBlocks[blockKey(glm::ivec3(x, y, z))].push_back(uint32_t(mStrokeQuads.size()));
             }
         }
-        mRecentQuads.push_back(std::move(r));
+        mStrokeQuads.push_back(std::move(r));
     }
     return true;
 }
@@ -205,7 +205,7 @@ bool PathFilter::retraces(const Stick& s) const
     const double tol = mOptions.retraceTolerance;
     const glm::dvec3 base = mFrame.toIndex(s.base), tip = mFrame.toIndex(s.tip());
     // Within tol of the quad's plane, and its projection within tol of the quad.
-    auto near = [&](const RecentQuad& r, const glm::dvec3& p) {
+    auto near = [&](const StrokeQuad& r, const glm::dvec3& p) {
         const double h = glm::dot(r.normal, p - r.corners[0]);
         if (!(std::abs(h) <= tol)) return false;
         const glm::dvec3 q = p - h * r.normal;
@@ -222,11 +222,11 @@ bool PathFilter::retraces(const Stick& s) const
         }
         return inside || nearest <= tol;
     };
-    auto inBox = [&](const RecentQuad& r, const glm::dvec3& p) {
+    auto inBox = [&](const StrokeQuad& r, const glm::dvec3& p) {
         return !glm::any(glm::lessThan(p, r.lo - tol)) && !glm::any(glm::greaterThan(p, r.hi + tol));
     };
     auto test = [&](uint32_t i) {
-        const RecentQuad& r = mRecentQuads[i];
+        const StrokeQuad& r = mStrokeQuads[i];
         return inBox(r, base) && inBox(r, tip) && near(r, base) && near(r, tip);
     };
     for (uint32_t i : mHugeQuads)

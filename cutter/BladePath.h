@@ -188,7 +188,7 @@ public:
 private:
     /// A quad of the stroke as rule 2b tests sticks against it (index space,
     /// made once when the quad is emitted).
-    struct RecentQuad
+    struct StrokeQuad
     {
         std::array<glm::dvec3, 4> corners{};
         uint32_t count = 0;
@@ -206,8 +206,8 @@ private:
     IndexFrame mFrame;
     PathFilterOptions mOptions;
     std::vector<Stick> mSticks;
-    std::vector<RecentQuad> mRecentQuads; ///< the stroke's non-degenerate quads, oldest first
-    /// Rule 2b's index: block (packed) -> mRecentQuads whose box, grown by the tolerance, meets it.
+    std::vector<StrokeQuad> mStrokeQuads; ///< the stroke's non-degenerate quads, oldest first
+    /// Rule 2b's index: block (packed) -> mStrokeQuads whose box, grown by the tolerance, meets it.
     std::unordered_map<uint64_t, std::vector<uint32_t>> mQuadBlocks;
     std::vector<uint32_t> mHugeQuads; ///< quads over more than kRetraceMaxBlocks blocks
     uint32_t mPoseCount = 0;
