@@ -111,6 +111,7 @@ void PathFilter::endStroke()
     mHugeQuads.clear();
     mPoseCount = 0;
     mHaveTime = false;
+    mHaveRetraced = false;
 }
 
 bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
@@ -150,9 +151,25 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     const Stick& s0 = mSticks.back();
     if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base)))
         return false;
-    // (2b) retracing the last quads cuts nothing new.
-    if (mOptions.retraceTolerance >= 0.0 && retraces(s1)) return false;
+    // (2b) retracing the stroke's quads cuts nothing new.
+    if (mOptions.retraceTolerance >= 0.0 && retraces(s1)) {
+        mRetraced = s1;
+        mHaveRetraced = true;
+        return false;
+    }
     const size_t quadsBefore = quads.size();
+    if (mHaveRetraced) {
+        // Leaving a retrace: the chord from the last kept stick is used only
+        // where the blade went (rule 2b's restart, BladePath.h).
+        std::vector<Quad> chord;
+        Stick kept;
+        makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), chord, kept);
+        if (!chordCovered(chord, mRetraced, s1)) {
+            mSticks.push_back(mRetraced);
+            ++mRestarts;
+        }
+        mHaveRetraced = false;
+    }
     appendQuads(s1, quads);
     for (size_t i = quadsBefore; i < quads.size(); ++i) {
         const Quad& q = quads[i];
@@ -200,34 +217,45 @@ uint64_t PathFilter::blockKey(const glm::ivec3& b)
     return field(b.x) | field(b.y) << 21 | field(b.z) << 42;
 }
 
+namespace {
+
+/// Is index point p within tol of the polygon r: of its plane, and its
+/// projection inside the outline or within tol of it?
+bool nearPolygon(const glm::dvec3* corners, const std::vector<int>& hull, const glm::dvec3& normal,
+                 const glm::dvec3& p, double tol)
+{
+    const double h = glm::dot(normal, p - corners[0]);
+    if (!(std::abs(h) <= tol)) return false;
+    const glm::dvec3 q = p - h * normal;
+    bool inside = true;
+    double nearest = 1e300; // distance to the outline
+    for (size_t i = 0; i < hull.size(); ++i) {
+        const glm::dvec3& a = corners[size_t(hull[i])];
+        const glm::dvec3 e = corners[size_t(hull[(i + 1) % hull.size()])] - a;
+        const double ee = glm::dot(e, e);
+        if (!(ee > 0.0)) continue;
+        inside = inside && glm::dot(glm::cross(e, q - a), normal) >= 0.0;
+        const double t = std::clamp(glm::dot(q - a, e) / ee, 0.0, 1.0);
+        nearest = std::min(nearest, glm::length(q - (a + t * e)));
+    }
+    return inside || nearest <= tol;
+}
+
+} // namespace
+
+bool PathFilter::near(const StrokeQuad& r, const glm::dvec3& p, double tol)
+{
+    if (glm::any(glm::lessThan(p, r.lo - tol)) || glm::any(glm::greaterThan(p, r.hi + tol))) return false;
+    return nearPolygon(r.corners.data(), r.hull, r.normal, p, tol);
+}
+
 bool PathFilter::retraces(const Stick& s) const
 {
     const double tol = mOptions.retraceTolerance;
     const glm::dvec3 base = mFrame.toIndex(s.base), tip = mFrame.toIndex(s.tip());
-    // Within tol of the quad's plane, and its projection within tol of the quad.
-    auto near = [&](const StrokeQuad& r, const glm::dvec3& p) {
-        const double h = glm::dot(r.normal, p - r.corners[0]);
-        if (!(std::abs(h) <= tol)) return false;
-        const glm::dvec3 q = p - h * r.normal;
-        bool inside = true;
-        double nearest = 1e300; // distance to the outline
-        for (size_t i = 0; i < r.hull.size(); ++i) {
-            const glm::dvec3& a = r.corners[size_t(r.hull[i])];
-            const glm::dvec3 e = r.corners[size_t(r.hull[(i + 1) % r.hull.size()])] - a;
-            const double ee = glm::dot(e, e);
-            if (!(ee > 0.0)) continue;
-            inside = inside && glm::dot(glm::cross(e, q - a), r.normal) >= 0.0;
-            const double t = std::clamp(glm::dot(q - a, e) / ee, 0.0, 1.0);
-            nearest = std::min(nearest, glm::length(q - (a + t * e)));
-        }
-        return inside || nearest <= tol;
-    };
-    auto inBox = [&](const StrokeQuad& r, const glm::dvec3& p) {
-        return !glm::any(glm::lessThan(p, r.lo - tol)) && !glm::any(glm::greaterThan(p, r.hi + tol));
-    };
     auto test = [&](uint32_t i) {
         const StrokeQuad& r = mStrokeQuads[i];
-        return inBox(r, base) && inBox(r, tip) && near(r, base) && near(r, tip);
+        return near(r, base, tol) && near(r, tip, tol);
     };
     for (uint32_t i : mHugeQuads)
         if (test(i)) return true;
@@ -238,10 +266,76 @@ bool PathFilter::retraces(const Stick& s) const
     return false;
 }
 
+bool PathFilter::chordCovered(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const
+{
+    const double tol = std::max(kChordTolerance, mOptions.retraceTolerance);
+    // The way the blade went from the last retracing stick to `next`: the two
+    // triangles between them (index space).
+    std::vector<StrokeQuad> way;
+    {
+        const glm::dvec3 c[4] = {mFrame.toIndex(retraced.base), mFrame.toIndex(retraced.tip()),
+                                 mFrame.toIndex(next.tip()), mFrame.toIndex(next.base)};
+        for (const std::array<int, 3>& t : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
+            StrokeQuad r;
+            r.count = 3;
+            r.lo = glm::dvec3(1e300);
+            r.hi = glm::dvec3(-1e300);
+            for (int k = 0; k < 3; ++k) {
+                r.corners[size_t(k)] = c[t[size_t(k)]];
+                r.lo = glm::min(r.lo, r.corners[size_t(k)]);
+                r.hi = glm::max(r.hi, r.corners[size_t(k)]);
+            }
+            const glm::dvec3 n = glm::cross(r.corners[1] - r.corners[0], r.corners[2] - r.corners[0]);
+            if (!(glm::length(n) > 1e-12)) continue; // degenerate: its neighbour or the old quads cover it
+            r.normal = glm::normalize(n);
+            r.hull = {0, 1, 2};
+            way.push_back(std::move(r));
+        }
+    }
+    auto covered = [&](const glm::dvec3& p) {
+        for (const StrokeQuad& r : way)
+            if (near(r, p, tol)) return true;
+        for (uint32_t i : mHugeQuads)
+            if (near(mStrokeQuads[i], p, tol)) return true;
+        // The quads are indexed by their box grown by retraceTolerance, so
+        // look in every block the box p +- tol meets.
+        const glm::ivec3 b0 = blockOf(p - tol), b1 = blockOf(p + tol);
+        for (int x = b0.x; x <= b1.x; ++x)
+            for (int y = b0.y; y <= b1.y; ++y)
+                for (int z = b0.z; z <= b1.z; ++z) {
+                    auto it = mQuadBlocks.find(blockKey(glm::ivec3(x, y, z)));
+                    if (it == mQuadBlocks.end()) continue;
+                    for (uint32_t i : it->second)
+                        if (near(mStrokeQuads[i], p, tol)) return true;
+                }
+        return false;
+    };
+    for (const Quad& q : chord) {
+        glm::dvec3 c[4];
+        for (uint32_t k = 0; k < q.cornerCount; ++k) c[k] = mFrame.toIndex(q.corners[k]);
+        for (uint32_t t = 0; t + 2 < q.cornerCount; ++t) {
+            // Samples kChordSampling voxels apart (at most 256 per edge) on the triangle (c0, c[t+1], c[t+2]).
+            const glm::dvec3 a = c[0], e1 = c[t + 1] - a, e2 = c[t + 2] - a;
+            const double longest = std::max({glm::length(e1), glm::length(e2), glm::length(e2 - e1)});
+            const int n = int(std::clamp(std::ceil(longest / kChordSampling), 1.0, 256.0));
+            for (int i = 0; i <= n; ++i)
+                for (int j = 0; i + j <= n; ++j)
+                    if (!covered(a + (double(i) / n) * e1 + (double(j) / n) * e2)) return false;
+        }
+    }
+    return true;
+}
+
 void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)
 {
-    const Stick& s0 = mSticks.back();
-    const uint32_t stickIndex = uint32_t(mSticks.size() - 1);
+    Stick kept;
+    makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), quads, kept);
+    mSticks.push_back(kept);
+}
+
+void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads,
+                           Stick& kept) const
+{
     auto quadOf = [&](const Stick& a, const Stick& b) {
         const glm::dvec3 c[4] = {a.base, a.tip(), b.tip(), b.base};
         return makeQuad(c, 4, stickIndex);
@@ -253,7 +347,7 @@ void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)
     // (a) already coplanar (includes collinear motion)
     Quad q = quadOf(s0, s1);
     if (planar(q)) {
-        mSticks.push_back(s1);
+        kept = s1;
         quads.push_back(q);
         return;
     }
@@ -274,7 +368,7 @@ void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)
             if (angle <= mOptions.maxTwist) {
                 const Quad qr = quadOf(s0, s1r);
                 if (planar(qr)) {
-                    mSticks.push_back(s1r);
+                    kept = s1r;
                     quads.push_back(qr);
                     return;
                 }
@@ -286,7 +380,7 @@ void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)
     const glm::dvec3 t1[3] = {s0.base, s1.tip(), s1.base};
     quads.push_back(makeQuad(t0, 3, stickIndex));
     quads.push_back(makeQuad(t1, 3, stickIndex));
-    mSticks.push_back(s1);
+    kept = s1;
 }
 
 std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame& frame,

@@ -138,12 +138,20 @@ struct PathFilterOptions
 ///    bounding boxes, so a pose costs the quads near its base, not the
 ///    stroke's length. (Another stroke over the cut is not filtered: a
 ///    nearly coplanar crossing can still be refused by the re-mesher, never
-///    silent.) Known gap: when the blade leaves the retraced cut into new
-///    bone, the next kept stick is joined to the last one kept before the
-///    retrace, so that quad is a chord across the retraced part (forth over
-///    x = 10..60 and back to 0: one quad from x = 60 to 9.7). For a straight
-///    cut it lies on the old one (with kerf 0 it overlaps the old quads and
-///    the re-mesher refuses it); after a curved one it cuts straight across.
+///    silent.) Leaving a retrace: the next kept stick would be joined to the
+///    last stick kept before the retrace, a chord across the retraced part
+///    (forth over x = 10..60 and back to 0: one quad from x = 60 to 9.7).
+///    The chord is kept only when the blade went there: every point of it
+///    (sampled kChordSampling voxels apart) lies within kChordTolerance
+///    voxels of the stroke's quads or of the way from the last retracing
+///    stick to the new one. So a straight saw cut, or tremor that steps back
+///    and forth, stays one strip (on a straight cut the chord lies on the old
+///    quads: with kerf 0 it overlaps them and the re-mesher refuses it, never
+///    silently). Otherwise (back along a curved cut and out of it) the strip
+///    restarts: the last retracing stick is kept and the new quad starts
+///    there, on the old cut, so nothing the blade never crossed is cut
+///    (restarts() counts these). The restarted quad is no junction of the
+///    quad before it (they share no edge).
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
@@ -156,7 +164,8 @@ struct PathFilterOptions
 ///    triangles {base0,tip0,tip1}, {base0,tip1,base1}.
 ///    Bound: every kept stick has the user's base and length, and a direction
 ///    within maxTwist of the user's; every emitted polygon is planar within
-///    planarTolerance; the strip has no gap (consecutive pieces share edges).
+///    planarTolerance; the strip has no gap (consecutive pieces share edges,
+///    except after a retrace restart (2b), whose first quad starts on the cut).
 /// 4. Poses outside the volume are kept (the geometry stays exact); the
 ///    voxelisation clips cut cells to the volume.
 ///
@@ -169,6 +178,12 @@ public:
     static constexpr int kRetraceBlock = 8;
     /// A quad whose box spans more blocks than this is not indexed but tested for every pose.
     static constexpr size_t kRetraceMaxBlocks = 4096;
+    /// Rule 2b, leaving a retrace: the chord is kept when every sample of it
+    /// lies within this many voxels (at least retraceTolerance) of where the
+    /// blade went (the order of rule 2's one stick per cell).
+    static constexpr double kChordTolerance = 1.0;
+    /// Spacing of the chord's samples, voxels.
+    static constexpr double kChordSampling = 0.5;
 
     explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
 
@@ -183,6 +198,8 @@ public:
     const std::vector<Stick>& sticks() const { return mSticks; }
     /// Poses pushed in the current stroke (kept or not).
     uint32_t posesSeen() const { return mPoseCount; }
+    /// Strip restarts after retraces (rule 2b) since the filter was made.
+    size_t restarts() const { return mRestarts; }
     const IndexFrame& frame() const { return mFrame; }
 
 private:
@@ -198,8 +215,17 @@ private:
     };
     /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps s1.
     void appendQuads(const Stick& s1, std::vector<Quad>& quads);
+    /// Rule 3 from s0 (stick number stickIndex) to s1: appends the quad(s) to
+    /// `quads` and sets `kept` to the stick to keep (s1, or s1 rotated).
+    void makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads,
+                   Stick& kept) const;
     /// Rule 2b: do the base and tip of s lie within the tolerance of one of the stroke's quads?
     bool retraces(const Stick& s) const;
+    /// Rule 2b, leaving a retrace: does every sample of `chord` lie within
+    /// kChordTolerance of the stroke's quads or of the way from `retraced` to `next`?
+    bool chordCovered(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const;
+    /// Is index point p within tol of r (its plane, and inside or near its outline)?
+    static bool near(const StrokeQuad& r, const glm::dvec3& p, double tol);
     static glm::ivec3 blockOf(const glm::dvec3& indexPoint);
     static uint64_t blockKey(const glm::ivec3& block);
 
@@ -210,6 +236,9 @@ private:
     /// Rule 2b's index: block (packed) -> mStrokeQuads whose box, grown by the tolerance, meets it.
     std::unordered_map<uint64_t, std::vector<uint32_t>> mQuadBlocks;
     std::vector<uint32_t> mHugeQuads; ///< quads over more than kRetraceMaxBlocks blocks
+    Stick mRetraced;            ///< the last stick rule 2b dropped since the last kept one
+    bool mHaveRetraced = false; ///< whether mRetraced is set
+    size_t mRestarts = 0;
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;
     bool mHaveTime = false;

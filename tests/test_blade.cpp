@@ -415,7 +415,7 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
     const IndexFrame f = testFrame();
     std::mt19937_64 rng(2024);
     const PathFilterOptions opt;
-    size_t kept = 0, dropped = 0, retraced = 0, adjusted = 0, split = 0, quadsTotal = 0;
+    size_t kept = 0, dropped = 0, retraced = 0, adjusted = 0, split = 0, quadsTotal = 0, restarts = 0;
     double maxAdjust = 0;
     for (int s = 0; s < 60; ++s) {
         const double twist = s % 3 == 0 ? 0.001 : (s % 3 == 1 ? 0.02 : 0.2);
@@ -423,9 +423,16 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
         PathFilter filter(f, opt);
         std::vector<Quad> quads;
         for (size_t i = 0; i < poses.size(); ++i) {
-            const size_t before = filter.sticks().size();
+            size_t before = filter.sticks().size();
             const size_t quadsBefore = quads.size();
+            const size_t restartsBefore = filter.restarts();
             const bool k = filter.push(poses[i], quads);
+            // Leaving a retrace may restart the strip at the last retracing
+            // stick (rule 2b): kept before the new one; the quads join the two.
+            const size_t restarted = filter.restarts() - restartsBefore;
+            ASSERT_LE(restarted, k ? 1u : 0u);
+            restarts += restarted;
+            before += restarted;
             ASSERT_EQ(filter.sticks().size(), before + (k ? 1 : 0));
             if (!k) {
                 ++dropped;
@@ -475,8 +482,11 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
                 continue;
             }
             const Stick& s0 = filter.sticks()[before - 1];
-            // One stick per cell: consecutive sticks in different cells.
-            ASSERT_NE(f.cellOf(f.toIndex(s0.base)), f.cellOf(f.toIndex(st.base)));
+            // One stick per cell: consecutive sticks in different cells (but
+            // a restart's stick may share the new stick's cell).
+            if (!restarted) {
+                ASSERT_NE(f.cellOf(f.toIndex(s0.base)), f.cellOf(f.toIndex(st.base)));
+            }
             const size_t made = quads.size() - quadsBefore;
             ASSERT_TRUE(made == 1 || made == 2);
             if (made == 2) ++split;
@@ -514,7 +524,8 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
         }
         quadsTotal += quads.size();
     }
-    std::printf("kept %zu, dropped %zu (%zu retracing), adjusted %zu, split %zu\n", kept, dropped, retraced, adjusted, split);
+    std::printf("kept %zu, dropped %zu (%zu retracing), adjusted %zu, split %zu, %zu restarts\n", kept, dropped, retraced,
+                adjusted, split, restarts);
     EXPECT_GT(kept, 10000u);
     EXPECT_GT(dropped, 1000u);
     EXPECT_GT(adjusted, 100u); // case (b) exercised
@@ -614,6 +625,88 @@ TEST(PathFilter, RetracingAnyQuadOfTheStrokeCutsNothingNew)
         loop.push_back(p); // the first 13 cells again, long after they were cut
     }
     EXPECT_EQ(filterStroke(loop, f).size(), 110u);
+}
+
+// Rule 2b, leaving a retrace: forth along an arc, back along it to its
+// start and on past the start. Joining the first stick past the start to the
+// last one kept (at the far end of the arc) would cut straight across the
+// circle; the strip restarts at the last retracing stick instead, so every
+// quad spans one step of the way the blade went. A straight saw going back
+// and out past its start keeps its chord (it lies on the cut) and a saw that
+// comes back to its end and goes on restarts nothing.
+TEST(PathFilter, LeavingARetracedCurveCutsNoChord)
+{
+    IndexFrame f;
+    f.spacing = dvec3(1.0);
+    f.dims = ivec3(200, 200, 40);
+    const dvec3 centre(100.3, 100.2, 5.5);
+    const double radius = 60.0;
+    auto arc = [&](std::vector<Pose>& poses, double a0, double a1) {
+        const int n = int(std::abs(a1 - a0) * radius * 3); // a third of a voxel per pose
+        for (int i = 0; i <= n; ++i) {
+            const double a = a0 + (a1 - a0) * i / n;
+            Pose p;
+            p.time = 0.001 * double(poses.size());
+            p.base = f.toWorld(centre + radius * dvec3(std::cos(a), std::sin(a), 0.0));
+            p.direction = dvec3(0.1 * std::cos(a), 0.1 * std::sin(a), 1.0);
+            p.length = 30.0;
+            poses.push_back(p);
+        }
+    };
+    auto longestStep = [&](const std::vector<Quad>& quads) {
+        double longest = 0.0;
+        for (const Quad& q : quads) // corners {base0, tip0, tip1, base1} or a triangle of them
+            for (uint32_t i = 0; i < q.cornerCount; ++i)
+                for (uint32_t j = 0; j < i; ++j) {
+                    const dvec3 a = f.toIndex(q.corners[i]), b = f.toIndex(q.corners[j]);
+                    if (std::abs(a.z - b.z) < 1.0) longest = std::max(longest, glm::length(a - b)); // base or tip edges
+                }
+        return longest;
+    };
+    std::vector<Pose> out;
+    arc(out, 0.0, M_PI);
+    arc(out, M_PI, 0.0);
+    arc(out, 0.0, -0.3);
+    PathFilter filter(f);
+    std::vector<Quad> quads;
+    for (const Pose& p : out) filter.push(p, quads);
+    EXPECT_EQ(filter.restarts(), 1u);
+    EXPECT_LT(longestStep(quads), 3.0) << "a quad spans more than a step of the blade: a chord";
+    // About one quad per cell along the arc (pi * 60 + 18 voxels), none back.
+    EXPECT_GT(quads.size(), 150u);
+    EXPECT_LT(quads.size(), 300u); // the way back would double it
+
+    // Forth, back to the middle and forth past the end: the chord from the
+    // end lies on the cut; no restart.
+    std::vector<Pose> saw;
+    arc(saw, 0.0, M_PI);
+    arc(saw, M_PI, 0.5 * M_PI);
+    arc(saw, 0.5 * M_PI, M_PI + 0.3);
+    PathFilter again(f);
+    quads.clear();
+    for (const Pose& p : saw) again.push(p, quads);
+    EXPECT_EQ(again.restarts(), 0u);
+    EXPECT_LT(longestStep(quads), 3.0);
+
+    // A straight saw back and out past its start: the chord lies on the cut.
+    std::vector<Pose> line;
+    for (double x : {10.0, 150.0, 5.0}) {
+        const double x0 = line.empty() ? x : f.toIndex(line.back().base).x;
+        const int n = line.empty() ? 0 : int(std::abs(x - x0) * 3);
+        for (int i = line.empty() ? 0 : 1; i <= n; ++i) {
+            Pose p;
+            p.time = 0.001 * double(line.size());
+            p.base = f.toWorld(dvec3(n ? x0 + (x - x0) * i / n : x, 30.25, 5.5));
+            p.direction = dvec3(0.1, 0.2, 1.0);
+            p.length = 30.0;
+            line.push_back(p);
+        }
+    }
+    PathFilter straight(f);
+    quads.clear();
+    for (const Pose& p : line) straight.push(p, quads);
+    EXPECT_EQ(straight.restarts(), 0u);
+    EXPECT_GT(longestStep(quads), 100.0) << "the chord from x = 150 to 4.7";
 }
 
 TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)

@@ -1038,6 +1038,21 @@ std::vector<std::pair<std::string, std::vector<std::vector<Pose>>>> handStrokes(
     out.push_back({"curved", {curve([=](double a) { return C + dvec3(r * std::cos(a), r * std::sin(a), 0.15 * E.z); },
                                     [=](double a) { return dvec3(-0.3 * std::cos(a), -0.3 * std::sin(a), -1); },
                                     0.3 * E.z, -0.2 * M_PI, 1.2 * M_PI)}});
+    // Sawing back over the curve to its start and on past it (rule 2b's
+    // restart: no chord from the far end across the bone).
+    {
+        const auto arcBase = [=](double a) { return C + dvec3(r * std::cos(a), r * std::sin(a), 0.15 * E.z); };
+        const auto arcDir = [=](double a) { return dvec3(-0.3 * std::cos(a), -0.3 * std::sin(a), -1); };
+        std::vector<Pose> poses = curve(arcBase, arcDir, 0.3 * E.z, -0.2 * M_PI, 0.6 * M_PI);
+        for (const auto& [a0, a1] : {std::pair<double, double>{0.6 * M_PI, -0.2 * M_PI}, {-0.2 * M_PI, -0.45 * M_PI}}) {
+            const std::vector<Pose> more = curve(arcBase, arcDir, 0.3 * E.z, a0, a1);
+            for (size_t i = 1; i < more.size(); ++i) {
+                poses.push_back(more[i]);
+                poses.back().time = 0.001 * double(poses.size());
+            }
+        }
+        out.push_back({"curved, back over it and out past its start", {poses}});
+    }
     out.push_back({"self-crossing figure eight",
                    {curve([=](double t) {
                               return C + dvec3(0.3 * E.x * std::sin(t), 0.25 * E.y * std::sin(t) * std::cos(t), 0.1 * E.z);
