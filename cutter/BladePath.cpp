@@ -525,9 +525,34 @@ void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
     }
     const int o1 = (inner + 1) % 3, o2 = (inner + 2) % 3;
     const int outer = std::min(o1, o2), middle = std::max(o1, o2);
+    // The axes that do not involve the inner coordinate (K_q's outline seen
+    // along the inner axis) bound the middle coordinate of each row, so a
+    // long thin quad across the box costs its own cells, not its box's
+    // columns. Same slab solve as below; touchesCell decides every cell.
+    glm::dvec3 rowAxes[64];
+    double rowLo[64], rowHi[64];
+    int rowAxisCount = 0;
+    for (const Axis& ax : mAxes) {
+        const double a1 = std::abs(ax.a.x) + std::abs(ax.a.y) + std::abs(ax.a.z);
+        if (ax.a[inner] != 0.0 || !(std::abs(ax.a[middle]) > 1e-9 * a1) || rowAxisCount == 64) continue;
+        rowAxes[rowAxisCount] = ax.a;
+        rowLo[rowAxisCount] = ax.lo;
+        rowHi[rowAxisCount] = ax.hi;
+        ++rowAxisCount;
+    }
     glm::ivec3 c;
-    for (c[outer] = lo[outer]; c[outer] <= hi[outer]; ++c[outer])
-        for (c[middle] = lo[middle]; c[middle] <= hi[middle]; ++c[middle]) {
+    for (c[outer] = lo[outer]; c[outer] <= hi[outer]; ++c[outer]) {
+        int mLo = lo[middle], mHi = hi[middle];
+        for (int r = 0; r < rowAxisCount && mLo <= mHi; ++r) {
+            const glm::dvec3& a = rowAxes[r];
+            const double rest = a[outer] * (c[outer] + 0.5);
+            double x0 = (rowLo[r] - rest) / a[middle] - 0.5;
+            double x1 = (rowHi[r] - rest) / a[middle] - 0.5;
+            if (x0 > x1) std::swap(x0, x1);
+            mLo = std::max(mLo, int(std::clamp(std::floor(x0) - 1.0, double(lo[middle]), double(hi[middle]) + 1.0)));
+            mHi = std::min(mHi, int(std::clamp(std::ceil(x1) + 1.0, double(lo[middle]) - 1.0, double(hi[middle]))));
+        }
+        for (c[middle] = mLo; c[middle] <= mHi; ++c[middle]) {
             int kLo = lo[inner], kHi = hi[inner];
             if (havePlane && nrm[inner] != 0.0) {
                 // dot(nrm, centre) in [lo, hi] solved for the inner coordinate.
@@ -545,6 +570,7 @@ void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
             for (c[inner] = kLo; c[inner] <= kHi; ++c[inner])
                 if (touchesCell(c)) cells.push_back(c);
         }
+    }
 }
 
 void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,

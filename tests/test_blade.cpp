@@ -240,6 +240,43 @@ TEST(Voxelize, RandomQuadsMatchBruteForce)
     EXPECT_LT(stats.ambiguous, stats.cells / 1000 + 5);
 }
 
+// appendCells skips the rows and columns that the region's outline (seen
+// along the inner axis) cannot reach: it must still list exactly the cells
+// touchesCell accepts. Long thin quads (a blade across the volume swept by
+// about a voxel, any direction, any kerf) are where the skipping matters.
+TEST(Voxelize, LongThinQuadsListExactlyTheTouchedCells)
+{
+    const IndexFrame f = testFrame();
+    std::mt19937_64 rng(4321);
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
+    const ivec3 n = f.cellCount();
+    const dvec3 size = f.toWorld(dvec3(f.dims - 1)) - f.toWorld(dvec3(0.0));
+    size_t listed = 0;
+    for (int i = 0; i < 300; ++i) {
+        const dvec3 base = f.toWorld(dvec3(0.0)) + size * dvec3(uni(rng), uni(rng), uni(rng));
+        const dvec3 dir = randomUnit(rng), move = glm::normalize(glm::cross(dir, randomUnit(rng)));
+        const double length = 5.0 + 40.0 * uni(rng), sweep = 0.2 + 1.5 * uni(rng);
+        const dvec3 c[4] = {base, base + length * dir, base + length * dir + sweep * move, base + sweep * move};
+        const Quad q = makeQuad(c, i % 5 == 0 ? 3 : 4, 0);
+        const double kerf = (i % 3 == 0) ? 0.0 : (i % 3 == 1 ? 0.3 : 1.5);
+        const QuadRegion region = cutRegion(q, kerf, f);
+        std::vector<ivec3> got;
+        region.appendCells(got);
+        std::vector<ivec3> all;
+        ivec3 cell;
+        for (cell.x = 0; cell.x < n.x; ++cell.x)
+            for (cell.y = 0; cell.y < n.y; ++cell.y)
+                for (cell.z = 0; cell.z < n.z; ++cell.z)
+                    if (region.touchesCell(cell)) all.push_back(cell);
+        auto lex = [](const ivec3& a, const ivec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); };
+        std::vector<ivec3> sorted = got;
+        std::sort(sorted.begin(), sorted.end(), lex);
+        ASSERT_EQ(sorted, all) << "quad " << i;
+        listed += got.size();
+    }
+    EXPECT_GT(listed, 300u * 20);
+}
+
 TEST(Voxelize, QuadsOnGridPlanesCutBothLayers)
 {
     const IndexFrame f = testFrame();
