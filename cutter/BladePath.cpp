@@ -106,12 +106,25 @@ PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options
 void PathFilter::endStroke()
 {
     mSticks.clear();
-    mStrokeQuads.clear();
-    mQuadBlocks.clear();
-    mHugeQuads.clear();
+    // Forget the stroke's own quads (the tail of mQuads and of every index list).
+    for (size_t i = mEarlierCount; i < mQuads.size(); ++i) {
+        glm::ivec3 b0, b1;
+        if (!indexedBlocks(mQuads[i], b0, b1)) continue;
+        for (int x = b0.x; x <= b1.x; ++x)
+            for (int y = b0.y; y <= b1.y; ++y)
+                for (int z = b0.z; z <= b1.z; ++z) {
+                    auto it = mQuadBlocks.find(blockKey(glm::ivec3(x, y, z)));
+                    if (it == mQuadBlocks.end()) continue;
+                    while (!it->second.empty() && it->second.back() >= mEarlierCount) it->second.pop_back();
+                    if (it->second.empty()) mQuadBlocks.erase(it);
+                }
+    }
+    while (!mHugeQuads.empty() && mHugeQuads.back() >= mEarlierCount) mHugeQuads.pop_back();
+    mQuads.resize(mEarlierCount);
+    mLastQuads.clear();
     mPoseCount = 0;
     mHaveTime = false;
-    mHaveRetraced = false;
+    mHaveRetraced = mHaveRetracedInside = false;
 }
 
 bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
@@ -151,54 +164,138 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     const Stick& s0 = mSticks.back();
     if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base)))
         return false;
-    // (2b) retracing the stroke's quads cuts nothing new.
-    if (mOptions.retraceTolerance >= 0.0 && retraces(s1)) {
+    // (2b) retracing the cut cuts nothing new.
+    bool inside = false;
+    if (mOptions.retraceTolerance >= 0.0 && retraces(s1, &inside)) {
         mRetraced = s1;
         mHaveRetraced = true;
+        if (inside) {
+            mRetracedInside = s1;
+            mHaveRetracedInside = true;
+        }
         return false;
     }
     const size_t quadsBefore = quads.size();
     if (mHaveRetraced) {
-        // Leaving a retrace: the chord from the last kept stick is used only
-        // where the blade went (rule 2b's restart, BladePath.h).
+        // Leaving a retrace (rule 2b): the chord from the last kept stick only
+        // when the blade came back to it; otherwise the strip restarts at the
+        // last retracing stick.
+        // The restart stick: the last one inside the cut's outline when the
+        // blade left from near it, so the restarted quad reaches into the cut
+        // instead of leaving a sliver (up to the tolerance) between them.
+        auto close = [&](const Stick& a, const Stick& b) {
+            return glm::length(mFrame.toIndex(a.base) - mFrame.toIndex(b.base)) <= 2.0 * kChordTolerance &&
+                   glm::length(mFrame.toIndex(a.tip()) - mFrame.toIndex(b.tip())) <= 2.0 * kChordTolerance;
+        };
+        const Stick& from = mHaveRetracedInside && close(mRetracedInside, mRetraced) ? mRetracedInside : mRetraced;
         std::vector<Quad> chord;
         Stick kept;
         makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), chord, kept);
-        if (!chordCovered(chord, mRetraced, s1)) {
-            mSticks.push_back(mRetraced);
+        if (!chordFollowsBlade(chord, from, s1)) {
+            mSticks.push_back(from);
+            mLastQuads.clear();
             ++mRestarts;
         }
-        mHaveRetraced = false;
+        mHaveRetraced = mHaveRetracedInside = false;
     }
     appendQuads(s1, quads);
-    for (size_t i = quadsBefore; i < quads.size(); ++i) {
-        const Quad& q = quads[i];
-        if (q.degenerate) continue;
-        StrokeQuad r;
-        r.count = q.cornerCount;
+    mLastQuads.clear();
+    for (size_t i = quadsBefore; i < quads.size(); ++i)
+        if (indexQuad(quads[i])) mLastQuads.push_back(mQuads.back());
+    return true;
+}
+
+void PathFilter::addEarlierQuad(const Quad& quad)
+{
+    if (!mSticks.empty()) throw std::logic_error("PathFilter::addEarlierQuad: a stroke is in progress (call endStroke first)");
+    if (indexQuad(quad)) mEarlierCount = mQuads.size();
+}
+
+void PathFilter::clearEarlierQuads()
+{
+    if (!mSticks.empty()) throw std::logic_error("PathFilter::clearEarlierQuads: a stroke is in progress (call endStroke first)");
+    mQuads.clear();
+    mQuadBlocks.clear();
+    mHugeQuads.clear();
+    mEarlierCount = 0;
+}
+
+bool PathFilter::indexedBlocks(const RetraceQuad& r, glm::ivec3& b0, glm::ivec3& b1) const
+{
+    b0 = blockOf(r.lo - mOptions.retraceTolerance);
+    b1 = blockOf(r.hi + mOptions.retraceTolerance);
+    const glm::dvec3 span = glm::dvec3(b1 - b0) + 1.0;
+    return span.x * span.y * span.z <= double(kRetraceMaxBlocks);
+}
+
+bool PathFilter::indexQuad(const Quad& q)
+{
+    if (q.degenerate || mOptions.retraceTolerance < 0.0) return false;
+    RetraceQuad r;
+    r.count = q.cornerCount;
+    r.lo = glm::dvec3(1e300);
+    r.hi = glm::dvec3(-1e300);
+    for (uint32_t c = 0; c < r.count; ++c) {
+        r.corners[c] = mFrame.toIndex(q.corners[c]);
+        r.lo = glm::min(r.lo, r.corners[c]);
+        r.hi = glm::max(r.hi, r.corners[c]);
+    }
+    r.normal = glm::normalize(q.normal * mFrame.spacing); // the plane in index space
+    r.hull = convexHullOrder(r.corners.data(), r.count, r.normal);
+    const uint32_t index = uint32_t(mQuads.size());
+    glm::ivec3 b0, b1;
+    if (!indexedBlocks(r, b0, b1)) {
+        mHugeQuads.push_back(index); // tested for every pose
+    } else {
+        for (int x = b0.x; x <= b1.x; ++x)
+            for (int y = b0.y; y <= b1.y; ++y)
+                for (int z = b0.z; z <= b1.z; ++z) mQuadBlocks[blockKey(glm::ivec3(x, y, z))].push_back(index);
+    }
+    mQuads.push_back(std::move(r));
+    return true;
+}
+
+bool PathFilter::chordFollowsBlade(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const
+{
+    const double tol = kChordTolerance;
+    // Where the blade went lately: the last step's quads (ending at the last
+    // kept stick) and the two triangles from the last retracing stick to `next`.
+    std::vector<RetraceQuad> recent = mLastQuads;
+    const glm::dvec3 c[4] = {mFrame.toIndex(retraced.base), mFrame.toIndex(retraced.tip()), mFrame.toIndex(next.tip()),
+                             mFrame.toIndex(next.base)};
+    for (const std::array<int, 3>& t : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
+        RetraceQuad r;
+        r.count = 3;
         r.lo = glm::dvec3(1e300);
         r.hi = glm::dvec3(-1e300);
-        for (uint32_t c = 0; c < r.count; ++c) {
-            r.corners[c] = mFrame.toIndex(q.corners[c]);
-            r.lo = glm::min(r.lo, r.corners[c]);
-            r.hi = glm::max(r.hi, r.corners[c]);
+        for (size_t k = 0; k < 3; ++k) {
+            r.corners[k] = c[t[k]];
+            r.lo = glm::min(r.lo, r.corners[k]);
+            r.hi = glm::max(r.hi, r.corners[k]);
         }
-        r.normal = glm::normalize(q.normal * mFrame.spacing); // the plane in index space
-        r.hull = convexHullOrder(r.corners.data(), r.count, r.normal);
-        if (mOptions.retraceTolerance >= 0.0) {
-            const glm::ivec3 b0 = blockOf(r.lo - mOptions.retraceTolerance),
-                             b1 = blockOf(r.hi + mOptions.retraceTolerance);
-            const glm::dvec3 span = glm::dvec3(b1 - b0) + 1.0;
-            if (span.x * span.y * span.z > double(kRetraceMaxBlocks)) {
-                mHugeQuads.push_back(uint32_t(mStrokeQuads.size())); // tested for every pose
-            } else {
-                for (int x = b0.x; x <= b1.x; ++x)
-                    for (int y = b0.y; y <= b1.y; ++y)
-                        for (int z = b0.z; z <= b1.z; ++z)
-                            mQuadBlocks[blockKey(glm::ivec3(x, y, z))].push_back(uint32_t(mStrokeQuads.size()));
-            }
+        const glm::dvec3 n = glm::cross(r.corners[1] - r.corners[0], r.corners[2] - r.corners[0]);
+        if (!(glm::length(n) > 1e-12)) continue; // degenerate: the other triangle or the last quads cover it
+        r.normal = glm::normalize(n);
+        r.hull = {0, 1, 2};
+        recent.push_back(std::move(r));
+    }
+    auto covered = [&](const glm::dvec3& p) {
+        for (const RetraceQuad& r : recent)
+            if (near(r, p, tol)) return true;
+        return false;
+    };
+    for (const Quad& q : chord) {
+        glm::dvec3 u[4];
+        for (uint32_t k = 0; k < q.cornerCount; ++k) u[k] = mFrame.toIndex(q.corners[k]);
+        for (uint32_t t = 0; t + 2 < q.cornerCount; ++t) {
+            // Samples kChordSampling voxels apart (at most 256 per edge) on the triangle (u0, u[t+1], u[t+2]).
+            const glm::dvec3 a = u[0], e1 = u[t + 1] - a, e2 = u[t + 2] - a;
+            const double longest = std::max({glm::length(e1), glm::length(e2), glm::length(e2 - e1)});
+            const int n = int(std::clamp(std::ceil(longest / kChordSampling), 1.0, 256.0));
+            for (int i = 0; i <= n; ++i)
+                for (int j = 0; i + j <= n; ++j)
+                    if (!covered(a + (double(i) / n) * e1 + (double(j) / n) * e2)) return false;
         }
-        mStrokeQuads.push_back(std::move(r));
     }
     return true;
 }
@@ -217,113 +314,49 @@ uint64_t PathFilter::blockKey(const glm::ivec3& b)
     return field(b.x) | field(b.y) << 21 | field(b.z) << 42;
 }
 
-namespace {
-
-/// Is index point p within tol of the polygon r: of its plane, and its
-/// projection inside the outline or within tol of it?
-bool nearPolygon(const glm::dvec3* corners, const std::vector<int>& hull, const glm::dvec3& normal,
-                 const glm::dvec3& p, double tol)
+bool PathFilter::near(const RetraceQuad& r, const glm::dvec3& p, double tol, bool* inside)
 {
-    const double h = glm::dot(normal, p - corners[0]);
+    if (glm::any(glm::lessThan(p, r.lo - tol)) || glm::any(glm::greaterThan(p, r.hi + tol))) return false;
+    // Within tol of the quad's plane, and its projection inside the outline or within tol of it.
+    const double h = glm::dot(r.normal, p - r.corners[0]);
     if (!(std::abs(h) <= tol)) return false;
-    const glm::dvec3 q = p - h * normal;
-    bool inside = true;
+    const glm::dvec3 q = p - h * r.normal;
+    bool in = true;
     double nearest = 1e300; // distance to the outline
-    for (size_t i = 0; i < hull.size(); ++i) {
-        const glm::dvec3& a = corners[size_t(hull[i])];
-        const glm::dvec3 e = corners[size_t(hull[(i + 1) % hull.size()])] - a;
+    for (size_t i = 0; i < r.hull.size(); ++i) {
+        const glm::dvec3& a = r.corners[size_t(r.hull[i])];
+        const glm::dvec3 e = r.corners[size_t(r.hull[(i + 1) % r.hull.size()])] - a;
         const double ee = glm::dot(e, e);
         if (!(ee > 0.0)) continue;
-        inside = inside && glm::dot(glm::cross(e, q - a), normal) >= 0.0;
+        in = in && glm::dot(glm::cross(e, q - a), r.normal) >= 0.0;
         const double t = std::clamp(glm::dot(q - a, e) / ee, 0.0, 1.0);
         nearest = std::min(nearest, glm::length(q - (a + t * e)));
     }
-    return inside || nearest <= tol;
+    if (inside) *inside = in;
+    return in || nearest <= tol;
 }
 
-} // namespace
-
-bool PathFilter::near(const StrokeQuad& r, const glm::dvec3& p, double tol)
-{
-    if (glm::any(glm::lessThan(p, r.lo - tol)) || glm::any(glm::greaterThan(p, r.hi + tol))) return false;
-    return nearPolygon(r.corners.data(), r.hull, r.normal, p, tol);
-}
-
-bool PathFilter::retraces(const Stick& s) const
+bool PathFilter::retraces(const Stick& s, bool* inside) const
 {
     const double tol = mOptions.retraceTolerance;
     const glm::dvec3 base = mFrame.toIndex(s.base), tip = mFrame.toIndex(s.tip());
-    auto test = [&](uint32_t i) {
-        const StrokeQuad& r = mStrokeQuads[i];
-        return near(r, base, tol) && near(r, tip, tol);
+    bool found = false;
+    *inside = false;
+    auto test = [&](uint32_t i) { // true: done (retracing, inside a quad's outline)
+        const RetraceQuad& r = mQuads[i];
+        bool inBase = false, inTip = false;
+        if (!near(r, base, tol, &inBase) || !near(r, tip, tol, &inTip)) return false;
+        found = true;
+        *inside = inBase && inTip;
+        return *inside;
     };
     for (uint32_t i : mHugeQuads)
         if (test(i)) return true;
     auto it = mQuadBlocks.find(blockKey(blockOf(base)));
-    if (it == mQuadBlocks.end()) return false;
-    for (uint32_t i : it->second)
-        if (test(i)) return true;
-    return false;
-}
-
-bool PathFilter::chordCovered(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const
-{
-    const double tol = std::max(kChordTolerance, mOptions.retraceTolerance);
-    // The way the blade went from the last retracing stick to `next`: the two
-    // triangles between them (index space).
-    std::vector<StrokeQuad> way;
-    {
-        const glm::dvec3 c[4] = {mFrame.toIndex(retraced.base), mFrame.toIndex(retraced.tip()),
-                                 mFrame.toIndex(next.tip()), mFrame.toIndex(next.base)};
-        for (const std::array<int, 3>& t : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
-            StrokeQuad r;
-            r.count = 3;
-            r.lo = glm::dvec3(1e300);
-            r.hi = glm::dvec3(-1e300);
-            for (int k = 0; k < 3; ++k) {
-                r.corners[size_t(k)] = c[t[size_t(k)]];
-                r.lo = glm::min(r.lo, r.corners[size_t(k)]);
-                r.hi = glm::max(r.hi, r.corners[size_t(k)]);
-            }
-            const glm::dvec3 n = glm::cross(r.corners[1] - r.corners[0], r.corners[2] - r.corners[0]);
-            if (!(glm::length(n) > 1e-12)) continue; // degenerate: its neighbour or the old quads cover it
-            r.normal = glm::normalize(n);
-            r.hull = {0, 1, 2};
-            way.push_back(std::move(r));
-        }
-    }
-    auto covered = [&](const glm::dvec3& p) {
-        for (const StrokeQuad& r : way)
-            if (near(r, p, tol)) return true;
-        for (uint32_t i : mHugeQuads)
-            if (near(mStrokeQuads[i], p, tol)) return true;
-        // The quads are indexed by their box grown by retraceTolerance, so
-        // look in every block the box p +- tol meets.
-        const glm::ivec3 b0 = blockOf(p - tol), b1 = blockOf(p + tol);
-        for (int x = b0.x; x <= b1.x; ++x)
-            for (int y = b0.y; y <= b1.y; ++y)
-                for (int z = b0.z; z <= b1.z; ++z) {
-                    auto it = mQuadBlocks.find(blockKey(glm::ivec3(x, y, z)));
-                    if (it == mQuadBlocks.end()) continue;
-                    for (uint32_t i : it->second)
-                        if (near(mStrokeQuads[i], p, tol)) return true;
-                }
-        return false;
-    };
-    for (const Quad& q : chord) {
-        glm::dvec3 c[4];
-        for (uint32_t k = 0; k < q.cornerCount; ++k) c[k] = mFrame.toIndex(q.corners[k]);
-        for (uint32_t t = 0; t + 2 < q.cornerCount; ++t) {
-            // Samples kChordSampling voxels apart (at most 256 per edge) on the triangle (c0, c[t+1], c[t+2]).
-            const glm::dvec3 a = c[0], e1 = c[t + 1] - a, e2 = c[t + 2] - a;
-            const double longest = std::max({glm::length(e1), glm::length(e2), glm::length(e2 - e1)});
-            const int n = int(std::clamp(std::ceil(longest / kChordSampling), 1.0, 256.0));
-            for (int i = 0; i <= n; ++i)
-                for (int j = 0; i + j <= n; ++j)
-                    if (!covered(a + (double(i) / n) * e1 + (double(j) / n) * e2)) return false;
-        }
-    }
-    return true;
+    if (it != mQuadBlocks.end())
+        for (uint32_t i : it->second)
+            if (test(i)) return true;
+    return found;
 }
 
 void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)

@@ -128,30 +128,34 @@ struct PathFilterOptions
 ///    and the stroke ends at its last kept stick (base within one cell
 ///    diagonal of the last pose's base).
 /// 2b. Retracing: a pose whose stick lies within retraceTolerance voxels of
-///    one of the stroke's quads (of its plane, and inside its outline) cuts
-///    nothing new, so it is dropped. A hand's tremor moving the base back
-///    into the cell it just left, or a saw going back and forth over its cut
-///    (however long), would otherwise fold the strip onto itself: quads
-///    overlapping in one plane, which the re-mesher refuses. Bound: the swept
-///    surface misses only poses within that tolerance of it. The quads are
-///    found through a grid of kRetraceBlock^3-voxel blocks over their
-///    bounding boxes, so a pose costs the quads near its base, not the
-///    stroke's length. (Another stroke over the cut is not filtered: a
-///    nearly coplanar crossing can still be refused by the re-mesher, never
-///    silent.) Leaving a retrace: the next kept stick would be joined to the
-///    last stick kept before the retrace, a chord across the retraced part
-///    (forth over x = 10..60 and back to 0: one quad from x = 60 to 9.7).
-///    The chord is kept only when the blade went there: every point of it
-///    (sampled kChordSampling voxels apart) lies within kChordTolerance
-///    voxels of the stroke's quads or of the way from the last retracing
-///    stick to the new one. So a straight saw cut, or tremor that steps back
-///    and forth, stays one strip (on a straight cut the chord lies on the old
-///    quads: with kerf 0 it overlaps them and the re-mesher refuses it, never
-///    silently). Otherwise (back along a curved cut and out of it) the strip
-///    restarts: the last retracing stick is kept and the new quad starts
-///    there, on the old cut, so nothing the blade never crossed is cut
-///    (restarts() counts these). The restarted quad is no junction of the
-///    quad before it (they share no edge).
+///    one of the stroke's quads, or of a quad of an earlier stroke given with
+///    addEarlierQuad (of its plane, and inside its outline), cuts nothing
+///    new, so it is dropped. A hand's tremor moving the base back into the
+///    cell it just left, a saw going back and forth over its cut (however
+///    long), or a second stroke going back into the cut would otherwise fold
+///    the cut onto itself: quads overlapping in one plane, which the
+///    re-mesher refuses (or, a few micrometres apart, thin slivers of bone
+///    between two passes). Bound: the swept surface misses only poses within
+///    that tolerance of it. The quads are found through a grid of
+///    kRetraceBlock^3-voxel blocks over their bounding boxes, so a pose costs
+///    the quads near its base, not the stroke's length.
+///    Leaving a retrace: the next quad would join the last kept stick K to
+///    the new stick N. That chord is kept when the blade went there lately:
+///    every point of it (sampled kChordSampling voxels apart) lies within
+///    kChordTolerance voxels of the quads that end at K or of the way from
+///    the last retracing stick R to N (tremor; a saw that came back to where
+///    it was). Otherwise the strip restarts at R: R is kept, with no quad
+///    from K, and the next quad joins R to N. (R is the last retracing stick
+///    whose base and tip project inside a quad's outline, when it is within
+///    2 kChordTolerance of the last retracing one: a stick only near the
+///    outline would leave a sliver up to the tolerance wide between the
+///    cuts, which then would not separate.) So no quad spans ground the
+///    blade did not just sweep: back along a curved cut and out past its
+///    start, joining K would cut a chord straight across the bone; back
+///    along a straight one it would overlap the whole cut. restarts() counts
+///    these. A restarted quad starts on the old cut and overlaps it by up to
+///    a step: where both lie exactly in one plane (a scripted path, not a
+///    hand's) the re-mesher refuses that with kerf 0.
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
@@ -165,7 +169,7 @@ struct PathFilterOptions
 ///    Bound: every kept stick has the user's base and length, and a direction
 ///    within maxTwist of the user's; every emitted polygon is planar within
 ///    planarTolerance; the strip has no gap (consecutive pieces share edges,
-///    except after a retrace restart (2b), whose first quad starts on the cut).
+///    except at a retrace restart (2b), whose quad starts on the cut).
 /// 4. Poses outside the volume are kept (the geometry stays exact); the
 ///    voxelisation clips cut cells to the volume.
 ///
@@ -179,8 +183,8 @@ public:
     /// A quad whose box spans more blocks than this is not indexed but tested for every pose.
     static constexpr size_t kRetraceMaxBlocks = 4096;
     /// Rule 2b, leaving a retrace: the chord is kept when every sample of it
-    /// lies within this many voxels (at least retraceTolerance) of where the
-    /// blade went (the order of rule 2's one stick per cell).
+    /// lies within this many voxels of where the blade went lately (the
+    /// order of rule 2's one stick per cell).
     static constexpr double kChordTolerance = 1.0;
     /// Spacing of the chord's samples, voxels.
     static constexpr double kChordSampling = 0.5;
@@ -191,8 +195,20 @@ public:
     /// (0, 1 or 2) to `quads`. Returns true when the pose was kept as a stick.
     /// Throws InputError on a bad pose (the filter state is unchanged).
     bool push(const Pose& pose, std::vector<Quad>& quads);
-    /// Ends the current stroke; the next push starts a new one.
+    /// Ends the current stroke; the next push starts a new one. The stroke's
+    /// quads are forgotten (a caller that keeps them hands them back with
+    /// addEarlierQuad).
     void endStroke();
+    /// Rule 2b also drops poses that retrace `quad`, a quad of an earlier
+    /// stroke already in the cut. Only between strokes (throws
+    /// std::logic_error while one is in progress); kept until
+    /// clearEarlierQuads. Degenerate quads are ignored.
+    void addEarlierQuad(const Quad& quad);
+    /// Forgets the earlier strokes' quads (after an undo, before handing
+    /// back those that remain). Only between strokes.
+    void clearEarlierQuads();
+    /// How many earlier quads rule 2b tests against.
+    size_t earlierQuadCount() const { return mEarlierCount; }
 
     /// Sticks kept in the current stroke, in order.
     const std::vector<Stick>& sticks() const { return mSticks; }
@@ -203,9 +219,9 @@ public:
     const IndexFrame& frame() const { return mFrame; }
 
 private:
-    /// A quad of the stroke as rule 2b tests sticks against it (index space,
-    /// made once when the quad is emitted).
-    struct StrokeQuad
+    /// A quad as rule 2b tests sticks against it (index space, made once when
+    /// the quad is emitted or handed in).
+    struct RetraceQuad
     {
         std::array<glm::dvec3, 4> corners{};
         uint32_t count = 0;
@@ -219,25 +235,37 @@ private:
     /// `quads` and sets `kept` to the stick to keep (s1, or s1 rotated).
     void makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads,
                    Stick& kept) const;
-    /// Rule 2b: do the base and tip of s lie within the tolerance of one of the stroke's quads?
-    bool retraces(const Stick& s) const;
+    /// Rule 2b: do the base and tip of s lie within the tolerance of one quad
+    /// (the stroke's or an earlier one)? *inside: of one whose outline holds both projections.
+    bool retraces(const Stick& s, bool* inside) const;
     /// Rule 2b, leaving a retrace: does every sample of `chord` lie within
-    /// kChordTolerance of the stroke's quads or of the way from `retraced` to `next`?
-    bool chordCovered(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const;
-    /// Is index point p within tol of r (its plane, and inside or near its outline)?
-    static bool near(const StrokeQuad& r, const glm::dvec3& p, double tol);
+    /// kChordTolerance of mLastQuads or of the way from `retraced` to `next`?
+    bool chordFollowsBlade(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const;
+    /// Adds a non-degenerate quad to mQuads and the block index; false (nothing added) otherwise.
+    bool indexQuad(const Quad& quad);
+    /// The blocks r is listed in; false when it is one of mHugeQuads instead.
+    bool indexedBlocks(const RetraceQuad& r, glm::ivec3& b0, glm::ivec3& b1) const;
+    /// Is index point p within tol of r (its plane, and inside or near its
+    /// outline)? *inside: whether its projection is inside the outline.
+    static bool near(const RetraceQuad& r, const glm::dvec3& p, double tol, bool* inside = nullptr);
     static glm::ivec3 blockOf(const glm::dvec3& indexPoint);
     static uint64_t blockKey(const glm::ivec3& block);
 
     IndexFrame mFrame;
     PathFilterOptions mOptions;
     std::vector<Stick> mSticks;
-    std::vector<StrokeQuad> mStrokeQuads; ///< the stroke's non-degenerate quads, oldest first
-    /// Rule 2b's index: block (packed) -> mStrokeQuads whose box, grown by the tolerance, meets it.
+    /// Rule 2b's quads: the earlier strokes' (the first mEarlierCount), then
+    /// the stroke's own, non-degenerate, oldest first.
+    std::vector<RetraceQuad> mQuads;
+    size_t mEarlierCount = 0;
+    std::vector<RetraceQuad> mLastQuads; ///< the quads that end at the last kept stick (none after a restart)
+    /// Rule 2b's index: block (packed) -> mQuads whose box, grown by the tolerance, meets it (ascending).
     std::unordered_map<uint64_t, std::vector<uint32_t>> mQuadBlocks;
     std::vector<uint32_t> mHugeQuads; ///< quads over more than kRetraceMaxBlocks blocks
     Stick mRetraced;            ///< the last stick rule 2b dropped since the last kept one
     bool mHaveRetraced = false; ///< whether mRetraced is set
+    Stick mRetracedInside;      ///< the last of those inside a quad's outline
+    bool mHaveRetracedInside = false;
     size_t mRestarts = 0;
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;

@@ -159,6 +159,13 @@ bool CutMask::redoStroke()
     return true;
 }
 
+void setEarlierQuads(const CutMask& mask, PathFilter& filter)
+{
+    filter.clearEarlierQuads();
+    for (uint32_t stroke = 1; stroke <= mask.strokeCount(); ++stroke)
+        for (uint32_t q = 0; q < mask.quadCount(stroke); ++q) filter.addEarlierQuad(mask.quad(QuadRef{stroke, q}));
+}
+
 const std::vector<QuadRef>* CutMask::quadsAt(const openvdb::Coord& cell) const
 {
     auto it = mCells.find(cell);

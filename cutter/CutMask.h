@@ -147,6 +147,11 @@ private:
     std::vector<openvdb::Coord> mLastNew;
 };
 
+/// Hands every quad of `mask`'s strokes to filter.addEarlierQuad (after
+/// filter.clearEarlierQuads()), so the next stroke through `filter` drops
+/// the poses that retrace the cut so far (PathFilter rule 2b). Between strokes only.
+void setEarlierQuads(const CutMask& mask, PathFilter& filter);
+
 /// Geometry thread: applies every CutInfo ready in `queue` to `mask`, in
 /// order, without waiting (returns when the queue is momentarily empty). A
 /// quad with quadIndex 0 begins a new mask stroke; quads without cells

@@ -668,9 +668,9 @@ TEST(PathFilter, RetracingAnyQuadOfTheStrokeCutsNothingNew)
 // start and on past the start. Joining the first stick past the start to the
 // last one kept (at the far end of the arc) would cut straight across the
 // circle; the strip restarts at the last retracing stick instead, so every
-// quad spans one step of the way the blade went. A straight saw going back
-// and out past its start keeps its chord (it lies on the cut) and a saw that
-// comes back to its end and goes on restarts nothing.
+// quad spans one step of the way the blade went. So does a straight saw going
+// back and out past its start (its chord would lie on the cut, overlapping
+// it); a saw that comes back to its end and goes on restarts nothing.
 TEST(PathFilter, LeavingARetracedCurveCutsNoChord)
 {
     IndexFrame f;
@@ -729,7 +729,7 @@ TEST(PathFilter, LeavingARetracedCurveCutsNoChord)
     std::vector<Pose> line;
     for (double x : {10.0, 150.0, 5.0}) {
         const double x0 = line.empty() ? x : f.toIndex(line.back().base).x;
-        const int n = line.empty() ? 0 : int(std::abs(x - x0) * 3);
+        const int n = line.empty() ? 0 : int(std::abs(x - x0) / 0.3); // a pose lands 0.2 voxel outside the start
         for (int i = line.empty() ? 0 : 1; i <= n; ++i) {
             Pose p;
             p.time = 0.001 * double(line.size());
@@ -742,8 +742,93 @@ TEST(PathFilter, LeavingARetracedCurveCutsNoChord)
     PathFilter straight(f);
     quads.clear();
     for (const Pose& p : line) straight.push(p, quads);
-    EXPECT_EQ(straight.restarts(), 0u);
-    EXPECT_GT(longestStep(quads), 100.0) << "the chord from x = 150 to 4.7";
+    EXPECT_EQ(straight.restarts(), 1u);
+    EXPECT_LT(longestStep(quads), 3.0) << "no chord from x = 150 to 4.7";
+    // The restart starts inside the old cut (at x = 10, not at the last pose
+    // near it, 9.80): the base lines of the quads cover x = 5..150 with no gap.
+    std::vector<std::pair<double, double>> spans;
+    for (const Quad& q : quads) {
+        double lo = 1e300, hi = -1e300;
+        for (uint32_t i = 0; i < q.cornerCount; ++i) {
+            const dvec3 c = f.toIndex(q.corners[i]);
+            if (std::abs(c.z - 5.5) > 1e-9) continue; // a tip
+            lo = std::min(lo, c.x);
+            hi = std::max(hi, c.x);
+        }
+        if (lo <= hi) spans.push_back({lo, hi});
+    }
+    std::sort(spans.begin(), spans.end());
+    double reach = spans.front().second;
+    for (const auto& [lo, hi] : spans) {
+        EXPECT_LE(lo, reach) << "a gap in the cut from x = " << reach << " to " << lo;
+        reach = std::max(reach, hi);
+    }
+    EXPECT_NEAR(reach, 150.0, 1e-9);
+    EXPECT_LT(spans.front().first, 6.0); // the last kept stick (one per cell)
+}
+
+// Rule 2b across strokes: quads of earlier strokes handed in with
+// addEarlierQuad are retraced like the stroke's own. The same stroke again
+// adds nothing; a stroke that goes back into the cut and on past its end adds
+// only the part past the end (restarting at the last pose on the cut, so no
+// quad spans the old cut); the stroke's own quads are forgotten at endStroke,
+// the earlier ones only by clearEarlierQuads; both only between strokes.
+TEST(PathFilter, EarlierStrokesAreRetracedToo)
+{
+    IndexFrame f;
+    f.spacing = dvec3(1.0);
+    f.dims = ivec3(200, 60, 40);
+    auto line = [&](double x0, double x1, double jitter, uint32_t seed) {
+        std::mt19937_64 rng(seed);
+        std::uniform_real_distribution<double> j(-jitter, jitter);
+        std::vector<Pose> poses;
+        const int n = int(std::abs(x1 - x0) * 3);
+        for (int i = 0; i <= n; ++i) {
+            Pose p;
+            p.time = 0.001 * i;
+            p.base = f.toWorld(dvec3(x0 + (x1 - x0) * i / n + j(rng), 10.25 + j(rng), 5.5 + j(rng)));
+            p.direction = dvec3(0.1 + 0.01 * j(rng), 1.0, 0.2);
+            p.length = 30.0;
+            poses.push_back(p);
+        }
+        return poses;
+    };
+    auto run = [&](PathFilter& filter, const std::vector<Pose>& poses) {
+        std::vector<Quad> quads;
+        for (const Pose& p : poses) filter.push(p, quads);
+        filter.endStroke();
+        return quads;
+    };
+    for (double jitter : {0.0, 0.05}) {
+        PathFilter filter(f);
+        const std::vector<Quad> first = run(filter, line(20.0, 120.0, jitter, 1));
+        ASSERT_GT(first.size(), 90u);
+        for (const Quad& q : first) filter.addEarlierQuad(q);
+        EXPECT_EQ(filter.earlierQuadCount(), first.size());
+        EXPECT_TRUE(run(filter, line(20.0, 120.0, jitter, 2)).empty()) << "the same stroke again, jitter " << jitter;
+        EXPECT_TRUE(run(filter, line(120.0, 20.0, jitter, 3)).empty()) << "back over it, jitter " << jitter;
+        // On past the end: quads from x ~ 120 only.
+        const std::vector<Quad> more = run(filter, line(20.0, 160.0, jitter, 4));
+        EXPECT_GE(more.size(), 38u);
+        EXPECT_LE(more.size(), 46u);
+        for (const Quad& q : more)
+            for (uint32_t c = 0; c < q.cornerCount; ++c) EXPECT_GT(f.toIndex(q.corners[c]).x, 118.0) << jitter;
+        EXPECT_EQ(filter.restarts(), 1u) << jitter;
+        // Without the earlier quads the same strokes cut again.
+        filter.clearEarlierQuads();
+        EXPECT_EQ(filter.earlierQuadCount(), 0u);
+        EXPECT_GT(run(filter, line(20.0, 120.0, jitter, 2)).size(), 90u);
+    }
+    // Only between strokes.
+    PathFilter filter(f);
+    std::vector<Quad> quads;
+    const std::vector<Pose> poses = line(20.0, 30.0, 0.0, 1);
+    filter.push(poses[0], quads);
+    Quad q = makeQuad(std::array<dvec3, 4>{dvec3(0, 0, 0), dvec3(0, 1, 0), dvec3(1, 1, 0), dvec3(1, 0, 0)}.data(), 4, 0);
+    EXPECT_THROW(filter.addEarlierQuad(q), std::logic_error);
+    EXPECT_THROW(filter.clearEarlierQuads(), std::logic_error);
+    filter.endStroke();
+    EXPECT_NO_THROW(filter.addEarlierQuad(q));
 }
 
 TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <regex>
 #include <set>
+#include <random>
 #include <sstream>
 
 using namespace mtcut;
@@ -242,6 +243,44 @@ TEST(CutCli, KerfCutThroughABallRemovesTheSlab)
 // A blade that passes beside the ball cuts cells but no solid: the outputs
 // are the uncut ball (one fragment, clean), and the user is told nothing was
 // cut instead of being left to find out from the files.
+// A second stroke over the first (a saw put back into its cut: exactly, as a
+// script would, and a second pass with 0.05 mm of tremor) adds nothing: the
+// fragments are byte for byte those of the single stroke. Before, the exact
+// repeat was refused (coplanar overlapping quads, kerf 0), and the tremulous
+// one cut a layer of bone crumbs between the two passes.
+TEST(CutCli, StrokeGoingBackIntoTheCutAddsNothing)
+{
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string once = writeStraightPath(dir);
+    const std::string twice = dir.file("twice.csv"), shaky = dir.file("shaky.csv");
+    {
+        const std::string stroke = readText(once);
+        std::ofstream(twice) << stroke << "\n" << stroke;
+        std::ofstream out(shaky);
+        out << stroke << "\nstroke\n";
+        std::mt19937_64 rng(7);
+        std::uniform_real_distribution<double> j(-0.05, 0.05);
+        for (int i = 0; i <= 200; ++i)
+            out << 0.001 * i << "," << -25.0 + 50.0 * i / 200 + j(rng) << "," << 0.37 + j(rng) << "," << 22 + j(rng)
+                << "," << j(rng) / 45 << "," << j(rng) / 45 << ",-1,45\n"; // the tip within 0.05 mm too
+    }
+    for (const double kerf : {0.0, 0.5}) {
+        const std::string k = " --kerf " + std::to_string(kerf);
+        const auto a = runMtcut("cut " + ball + " --iso 0 --path " + once + k + " -o " + dir.file("a") + " --check");
+        ASSERT_EQ(a.exitCode, 0) << a.output;
+        for (const std::string& path : {twice, shaky}) {
+            const auto b = runMtcut("cut " + ball + " --iso 0 --path " + path + k + " -o " + dir.file("b") + " --check");
+            ASSERT_EQ(b.exitCode, 0) << path << k << ": " << b.output;
+            EXPECT_EQ(filesIn(dir.file("b")), filesIn(dir.file("a"))) << path << k;
+            for (const char* f : {"fragment_000.stl", "fragment_001.stl"})
+                EXPECT_EQ(readText(dir.file("b") + "/" + f), readText(dir.file("a") + "/" + f)) << path << k << " " << f;
+            fs::remove_all(dir.file("b"));
+        }
+        fs::remove_all(dir.file("a"));
+    }
+}
+
 TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
 {
     openvdb::initialize();
@@ -272,10 +311,14 @@ TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
     EXPECT_EQ(r2.output.find("warning"), std::string::npos) << r2.output;
 }
 
-// The same straight stroke twice: with a zero-width blade the two strokes'
-// quads are coplanar and overlap, which the re-mesher refuses. The error
-// names the cell and where it is in world mm, suggests a saw width, and
-// nothing is written; with --kerf 0.5 the same path cuts the ball in two.
+// The straight stroke, then again along the same base line with the blade
+// tilted by 0.02 rad (its tip 0.9 mm off the first cut, beyond the path
+// filter's retrace tolerance): with a zero-width blade the two strokes'
+// quads meet along the base line nearly in one plane, which the re-mesher
+// refuses. The error names the cell and where it is in world mm, suggests a
+// saw width, and nothing is written; with --kerf 0.5 the same path cuts the
+// ball in two. (The same stroke exactly twice adds nothing since the filter
+// knows the earlier strokes: StrokeGoingBackIntoTheCutAddsNothing.)
 TEST(CutCli, RefusedStrokeNamesTheCellInWorldMmAndWritesNothing)
 {
     openvdb::initialize();
@@ -285,7 +328,8 @@ TEST(CutCli, RefusedStrokeNamesTheCellInWorldMmAndWritesNothing)
     const std::string path = dir.file("twice.csv");
     {
         std::ofstream f(path);
-        f << once << "\nstroke\n" << once;
+        f << once << "\nstroke\n";
+        for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",0.37,22,0.02,0,-1,45\n";
     }
     const std::string out = dir.file("out");
     const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out);

@@ -100,11 +100,21 @@ std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile)
 size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes)
 {
     size_t count = 0;
+    // One filter for all strokes, knowing the cut so far: a stroke that goes
+    // back into the cut adds nothing there (rule 2b).
+    cutter::PathFilter filter(mask.frame());
+    cutter::setEarlierQuads(mask, filter);
+    std::vector<cutter::Quad> quads;
     for (const std::vector<cutter::Pose>& stroke : strokes) {
-        const std::vector<cutter::Quad> quads = cutter::filterStroke(stroke, mask.frame());
+        quads.clear();
+        for (const cutter::Pose& p : stroke) filter.push(p, quads);
+        filter.endStroke();
         if (quads.empty()) continue;
         mask.beginStroke();
-        for (const cutter::Quad& q : quads) mask.addQuad(q);
+        for (const cutter::Quad& q : quads) {
+            mask.addQuad(q);
+            filter.addEarlierQuad(q);
+        }
         count += quads.size();
     }
     return count;

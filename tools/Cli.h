@@ -95,7 +95,10 @@ cutter::Mesh extractSurface(const vdb::Volume& vol, float iso);
 std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile);
 
 /// Adds each stroke's filtered quads to `mask` as a stroke of its own (a stroke
-/// that never leaves its first cell adds nothing). Returns the quads added.
+/// that never leaves its first cell, or only retraces the cut so far, adds
+/// nothing). One path filter runs over all strokes and knows the cut (the
+/// mask's quads, then each stroke's), so a stroke going back into the cut
+/// adds nothing there (PathFilter rule 2b). Returns the quads added.
 size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes);
 
 } // namespace mtcut::cli

@@ -444,6 +444,7 @@ void CutSession::beginStroke()
               if (!s.remesher) return;
               endLiveStroke();
               s.filter->endStroke();
+              cutter::setEarlierQuads(*s.mask, *s.filter); // the cut as it is now (after any undo)
               s.live = true;
               s.liveInMask = s.broken = s.haveBlade = false;
               s.goodQuads = 0;
@@ -488,8 +489,12 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
               endLiveStroke();
               const auto t0 = Clock::now();
               size_t added = 0, quads = 0;
+              cutter::PathFilter filter(s.frame); // knows the cut: strokes going back into it add nothing there
+              cutter::setEarlierQuads(*s.mask, filter);
               for (size_t i = 0; i < strokes.size(); ++i) {
-                  const std::vector<cutter::Quad> stroke = cutter::filterStroke(strokes[i], s.frame);
+                  std::vector<cutter::Quad> stroke;
+                  for (const cutter::Pose& p : strokes[i]) filter.push(p, stroke);
+                  filter.endStroke();
                   if (stroke.empty()) continue;
                   s.mask->beginStroke();
                   for (const cutter::Quad& q : stroke) s.mask->addQuad(q);
@@ -497,6 +502,7 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
                       s.remesher->update(*s.mask);
                       ++added;
                       quads += stroke.size();
+                      for (const cutter::Quad& q : stroke) filter.addEarlierQuad(q);
                   } catch (const std::runtime_error& e) {
                       s.mask->undoStroke();
                       s.remesher->update(*s.mask);
