@@ -281,6 +281,40 @@ TEST(CutCli, StrokeGoingBackIntoTheCutAddsNothing)
     }
 }
 
+// A blade that just grazes the ball's top (a horizontal cut 0.03 mm below the
+// highest grid-edge crossing at z = 14.98) cuts off a closed crumb of about
+// 0.019 mm^3. The fragment list prints it with two significant digits (one
+// decimal would print 0.0), summary.json has the full value, and --check
+// finds it closed.
+TEST(CutCli, CrumbIsListedWithTwoSignificantDigits)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = dir.file("cap.csv");
+    {
+        std::ofstream f(path);
+        for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",-22,14.97,0,1,0,45\n";
+    }
+    const std::string out = dir.file("out");
+    const auto r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(filesIn(out), (std::vector<std::string>{"cut.vdb", "fragment_000.stl", "fragment_001.stl", "slices.exr",
+                                                      "summary.json"}));
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(fragment_001\.stl +([0-9.e+-]+) mm\^3 +([0-9.e+-]+) mm\^2)")))
+        << r.output;
+    const std::string printed = m[1];
+    EXPECT_EQ(printed, "0.019") << r.output;
+    const std::string json = readText(out + "/summary.json");
+    const size_t at = json.find("\"fragment_001.stl\"");
+    ASSERT_NE(at, std::string::npos) << json;
+    const double volume = jsonValue(json.substr(at), "volume_mm3");
+    EXPECT_GT(volume, 0.0185) << json;
+    EXPECT_LT(volume, 0.0195) << json;
+    EXPECT_NEAR(std::stod(printed), volume, 0.0005);
+}
+
 TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
 {
     openvdb::initialize();
