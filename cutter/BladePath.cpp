@@ -178,11 +178,10 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     const size_t quadsBefore = quads.size();
     if (mHaveRetraced) {
         // Leaving a retrace (rule 2b): the chord from the last kept stick only
-        // when the blade came back to it; otherwise the strip restarts at the
-        // last retracing stick.
-        // The restart stick: the last one inside the cut's outline when the
-        // blade left from near it, so the restarted quad reaches into the cut
-        // instead of leaving a sliver (up to the tolerance) between them.
+        // where the blade just went; otherwise the strip restarts on the cut,
+        // at the last retracing stick inside a quad's outline when the blade
+        // left from near it (a stick only near the outline would leave an
+        // uncut sliver up to the tolerance wide between the cuts).
         auto close = [&](const Stick& a, const Stick& b) {
             return glm::length(mFrame.toIndex(a.base) - mFrame.toIndex(b.base)) <= 2.0 * kChordTolerance &&
                    glm::length(mFrame.toIndex(a.tip()) - mFrame.toIndex(b.tip())) <= 2.0 * kChordTolerance;
