@@ -415,6 +415,19 @@ void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex
     kept = s1;
 }
 
+std::vector<Quad> PathFilter::pushStroke(const std::vector<Pose>& poses)
+{
+    std::vector<Quad> quads;
+    try {
+        for (const Pose& p : poses) push(p, quads);
+    } catch (...) {
+        endStroke();
+        throw;
+    }
+    endStroke();
+    return quads;
+}
+
 std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame& frame,
                                const PathFilterOptions& options, std::vector<Stick>* sticks)
 {

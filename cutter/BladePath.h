@@ -195,6 +195,9 @@ public:
     /// (0, 1 or 2) to `quads`. Returns true when the pose was kept as a stick.
     /// Throws InputError on a bad pose (the filter state is unchanged).
     bool push(const Pose& pose, std::vector<Quad>& quads);
+    /// Feeds a whole stroke (push for each pose, then endStroke) and returns
+    /// its quads. Throws InputError on a bad pose (the stroke is then ended).
+    std::vector<Quad> pushStroke(const std::vector<Pose>& poses);
     /// Ends the current stroke; the next push starts a new one. The stroke's
     /// quads are forgotten (a caller that keeps them hands them back with
     /// addEarlierQuad).

@@ -793,12 +793,7 @@ TEST(PathFilter, EarlierStrokesAreRetracedToo)
         }
         return poses;
     };
-    auto run = [&](PathFilter& filter, const std::vector<Pose>& poses) {
-        std::vector<Quad> quads;
-        for (const Pose& p : poses) filter.push(p, quads);
-        filter.endStroke();
-        return quads;
-    };
+    auto run = [&](PathFilter& filter, const std::vector<Pose>& poses) { return filter.pushStroke(poses); };
     for (double jitter : {0.0, 0.05}) {
         PathFilter filter(f);
         const std::vector<Quad> first = run(filter, line(20.0, 120.0, jitter, 1));
@@ -828,6 +823,11 @@ TEST(PathFilter, EarlierStrokesAreRetracedToo)
     EXPECT_THROW(filter.addEarlierQuad(q), std::logic_error);
     EXPECT_THROW(filter.clearEarlierQuads(), std::logic_error);
     filter.endStroke();
+    EXPECT_NO_THROW(filter.addEarlierQuad(q));
+    // pushStroke ends the stroke even when a pose is bad.
+    std::vector<Pose> bad = line(20.0, 30.0, 0.0, 1);
+    bad[5].length = -1.0;
+    EXPECT_THROW(filter.pushStroke(bad), mtcut::InputError);
     EXPECT_NO_THROW(filter.addEarlierQuad(q));
 }
 

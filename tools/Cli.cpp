@@ -104,11 +104,8 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
     // back into the cut adds nothing there (rule 2b).
     cutter::PathFilter filter(mask.frame());
     cutter::setEarlierQuads(mask, filter);
-    std::vector<cutter::Quad> quads;
     for (const std::vector<cutter::Pose>& stroke : strokes) {
-        quads.clear();
-        for (const cutter::Pose& p : stroke) filter.push(p, quads);
-        filter.endStroke();
+        const std::vector<cutter::Quad> quads = filter.pushStroke(stroke);
         if (quads.empty()) continue;
         mask.beginStroke();
         for (const cutter::Quad& q : quads) {

@@ -492,9 +492,7 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
               cutter::PathFilter filter(s.frame); // knows the cut: strokes going back into it add nothing there
               cutter::setEarlierQuads(*s.mask, filter);
               for (size_t i = 0; i < strokes.size(); ++i) {
-                  std::vector<cutter::Quad> stroke;
-                  for (const cutter::Pose& p : strokes[i]) filter.push(p, stroke);
-                  filter.endStroke();
+                  const std::vector<cutter::Quad> stroke = filter.pushStroke(strokes[i]);
                   if (stroke.empty()) continue;
                   s.mask->beginStroke();
                   for (const cutter::Quad& q : stroke) s.mask->addQuad(q);
