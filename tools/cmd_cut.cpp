@@ -223,9 +223,10 @@ std::vector<std::string> cutOptions()
 
 const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--check]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
-                            "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. Only "
-                            "--kerf: saw width in mm (0: a zero-width blade, the carved volume equals the input); --check: exit 1 "
-                            "on any mesh defect",
+                            "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
+                            "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
+                            "going back into the cut adds nothing there. --kerf: saw width in mm (0: a zero-width blade, the "
+                            "carved volume equals the input); --check: exit 1 on any mesh defect",
                             cutOptions(), {"check"}, 1, 1, runCut});
 
 } // namespace
