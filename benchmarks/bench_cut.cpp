@@ -29,7 +29,9 @@
 //          world-mm float positions and indices (what a renderer uploads).
 //   whole: a fresh remesher's update() over the whole mask, and + fusedMesh().
 //   noop:  update() when nothing changed (the per-update O(cut cells) scan).
-//   kernel: remeshCell() over every cut cell, from outside (kernel alone).
+//   kernel: remeshCell() over every cut cell, from outside: a kernel and the
+//          quads' geometry made anew per cell, no caches (with kerf > 0 each
+//          prism per cell, so it can take longer than the whole update()).
 // Times are medians of --runs repeats (steps: runs x kSteps samples).
 //
 // The stroke (benchmarks/BenchCuts.h, shared with bench_render): in a
