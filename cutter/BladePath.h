@@ -174,7 +174,9 @@ struct PathFilterOptions
 ///    voxelisation clips cut cells to the volume.
 ///
 /// Cost: O(1) per pose, plus rule 2b's test of the quads whose blocks hold
-/// the base (a few, unless the stroke passes the same place many times).
+/// the base (a few, unless the cut passes the same place many times), and
+/// on leaving a retrace the chord's samples against a few quads (its area
+/// in quarter voxels: a few hundred for a short step).
 class PathFilter
 {
 public:
