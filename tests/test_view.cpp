@@ -6,7 +6,8 @@
 // `mtcut cut`'s files and pass checkMesh. Bad scripts: an unknown action
 // stops with its line number and a non-zero exit before the window opens; a
 // missing file is a message and the session goes on. A scripted mouse drag
-// cuts through the mouse's code path and undoes exactly.
+// cuts through the mouse's code path and undoes exactly. A path file loaded
+// twice cuts what it cut once.
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 #include "cutter/MeshCheck.h"
@@ -30,7 +31,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
+#include <string>
 
 using namespace mtcut;
 namespace fs = std::filesystem;
@@ -268,6 +271,39 @@ TEST_F(ViewScript, AMouseStrokeCutsAndUndoes)
     ASSERT_NE(at, std::string::npos) << summary;
     EXPECT_GT(std::stoul(summary.substr(at + 13)), 100u) << summary;
     EXPECT_NE(summary.find("\"defects\": 0"), std::string::npos) << summary;
+}
+
+// A path file loaded a second time goes back into the cut: the viewer's
+// path filter knows the cut, so the second load adds nothing and the
+// exported fragments are byte for byte those of one load. With kerf 0 the
+// repeat used to be refused (coplanar overlapping quads).
+TEST_F(ViewScript, ThePathLoadedTwiceCutsWhatItCutOnce)
+{
+    test::TempDir dir;
+    const std::string one = dir.file("one.csv"), two = dir.file("two.csv");
+    writePaths(one, two);
+    auto session = [&](const std::string& name, int loads) {
+        std::string script = "iso 400\n";
+        for (int i = 0; i < loads; ++i) script += "path " + one + "\n";
+        script += "export " + dir.file(name) + "\nquit\n";
+        writeText(dir.file(name + ".txt"), script);
+        const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file(name + ".txt"));
+        EXPECT_EQ(r.exitCode, 0) << r.output;
+        EXPECT_EQ(r.output.find("error"), std::string::npos) << r.output;
+        EXPECT_EQ(r.output.find("refused"), std::string::npos) << r.output;
+    };
+    session("once", 1);
+    session("twice", 2);
+    auto fragmentFiles = [&](const std::string& name) {
+        std::set<std::string> files;
+        for (const fs::directory_entry& e : fs::directory_iterator(dir.file(name)))
+            if (e.path().filename().string().rfind("fragment_", 0) == 0) files.insert(e.path().filename().string());
+        return files;
+    };
+    const std::set<std::string> files = fragmentFiles("once");
+    EXPECT_GT(files.size(), 1u);
+    EXPECT_EQ(fragmentFiles("twice"), files);
+    for (const std::string& f : files) EXPECT_EQ(readBytes(dir.file("twice/" + f)), readBytes(dir.file("once/" + f))) << f;
 }
 
 // Ctrl+click (`pick`) selects the fragment under the cursor: the one whose
