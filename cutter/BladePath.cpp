@@ -192,7 +192,6 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
         makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), chord, kept);
         if (!chordFollowsBlade(chord, from, s1)) {
             mSticks.push_back(from);
-            mLastQuads.clear();
             ++mRestarts;
         }
         mHaveRetraced = mHaveRetracedInside = false;
