@@ -103,8 +103,18 @@ PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options
 {
 }
 
-void PathFilter::endStroke()
+void PathFilter::finishStroke(std::vector<Quad>& quads)
 {
+    if (!mHavePending || mSticks.empty()) return;
+    mHavePending = false;
+    const Stick& k = mSticks.back();
+    if (glm::length(mFrame.toIndex(mPending.base) - mFrame.toIndex(k.base)) > kMinFinalStep) place(mPending, quads);
+}
+
+std::vector<Quad> PathFilter::endStroke()
+{
+    std::vector<Quad> quads;
+    finishStroke(quads);
     mSticks.clear();
     // Forget the stroke's own quads (the tail of mQuads and of every index list).
     for (size_t i = mEarlierCount; i < mQuads.size(); ++i) {
@@ -125,6 +135,8 @@ void PathFilter::endStroke()
     mPoseCount = 0;
     mHaveTime = false;
     mHaveRetraced = mHaveRetracedInside = false;
+    mLastKeptNear = mLastKeptInside = mEntering = mHavePending = false;
+    return quads;
 }
 
 bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
@@ -158,15 +170,49 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     s1.poseIndex = poseIndex;
 
     if (mSticks.empty()) {
+        bool inside = false;
         mSticks.push_back(s1);
+        mLastKeptNear = mOptions.retraceTolerance >= 0.0 && retraces(s1, &inside);
+        mLastKeptInside = mLastKeptNear && inside;
+        mEntering = mHavePending = false;
         return true;
     }
     const Stick& s0 = mSticks.back();
-    if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base)))
+    if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base))) {
+        mPending = s1; // the stroke's last pose, if no other comes (finishStroke)
+        mHavePending = true;
         return false;
-    // (2b) retracing the cut cuts nothing new.
+    }
+    mHavePending = false;
+    return place(s1, quads);
+}
+
+bool PathFilter::place(const Stick& s1, std::vector<Quad>& quads)
+{
     bool inside = false;
-    if (mOptions.retraceTolerance >= 0.0 && retraces(s1, &inside)) {
+    // (2b) retracing the cut cuts nothing new.
+    bool older = false;
+    if (mOptions.retraceTolerance >= 0.0 && retraces(s1, &inside, &older)) {
+        if (older && !mLastKeptInside && (!mHaveRetraced || mEntering)) {
+            // Coming into the cut from fresh bone (or from the cut's edge):
+            // the step sweeps bone up to the cut unless it lies in the cut.
+            std::vector<Quad> entry;
+            Stick kept;
+            makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), entry, kept);
+            if (!coveredByCut(entry, !mLastKeptNear || mEntering)) {
+                const size_t quadsBefore = quads.size();
+                quads.insert(quads.end(), entry.begin(), entry.end());
+                mSticks.push_back(kept);
+                mLastQuads.clear();
+                for (size_t i = quadsBefore; i < quads.size(); ++i)
+                    if (indexQuad(quads[i])) mLastQuads.push_back(mQuads.back());
+                mLastKeptNear = true;
+                mLastKeptInside = inside;
+                mEntering = !inside;
+                mHaveRetraced = mHaveRetracedInside = false;
+                return true;
+            }
+        }
         mRetraced = s1;
         mHaveRetraced = true;
         if (inside) {
@@ -200,6 +246,7 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     mLastQuads.clear();
     for (size_t i = quadsBefore; i < quads.size(); ++i)
         if (indexQuad(quads[i])) mLastQuads.push_back(mQuads.back());
+    mLastKeptNear = mLastKeptInside = mEntering = false;
     return true;
 }
 
@@ -240,6 +287,11 @@ bool PathFilter::indexQuad(const Quad& q)
     }
     r.normal = glm::normalize(q.normal * mFrame.spacing); // the plane in index space
     r.hull = convexHullOrder(r.corners.data(), r.count, r.normal);
+    if (r.count == 4) // corners {base0, tip0, tip1, base1}: the sticks are corners 0-1 and 2-3
+        for (size_t i = 0; i < r.hull.size(); ++i) {
+            const int a = r.hull[i], b = r.hull[(i + 1) % r.hull.size()];
+            if (std::min(a, b) / 2 == std::max(a, b) / 2 && std::abs(a - b) == 1) r.stickEdges |= uint8_t(1u << i);
+        }
     const uint32_t index = uint32_t(mQuads.size());
     glm::ivec3 b0, b1;
     if (!indexedBlocks(r, b0, b1)) {
@@ -277,12 +329,16 @@ bool PathFilter::chordFollowsBlade(const std::vector<Quad>& chord, const Stick& 
         r.hull = {0, 1, 2};
         recent.push_back(std::move(r));
     }
-    auto covered = [&](const glm::dvec3& p) {
+    return everySample(chord, [&](const glm::dvec3& p) {
         for (const RetraceQuad& r : recent)
             if (near(r, p, tol)) return true;
         return false;
-    };
-    for (const Quad& q : chord) {
+    });
+}
+
+bool PathFilter::everySample(const std::vector<Quad>& quads, const std::function<bool(const glm::dvec3&)>& test) const
+{
+    for (const Quad& q : quads) {
         glm::dvec3 u[4];
         for (uint32_t k = 0; k < q.cornerCount; ++k) u[k] = mFrame.toIndex(q.corners[k]);
         for (uint32_t t = 0; t + 2 < q.cornerCount; ++t) {
@@ -292,10 +348,25 @@ bool PathFilter::chordFollowsBlade(const std::vector<Quad>& chord, const Stick& 
             const int n = int(std::clamp(std::ceil(longest / kChordSampling), 1.0, 256.0));
             for (int i = 0; i <= n; ++i)
                 for (int j = 0; i + j <= n; ++j)
-                    if (!covered(a + (double(i) / n) * e1 + (double(j) / n) * e2)) return false;
+                    if (!test(a + (double(i) / n) * e1 + (double(j) / n) * e2)) return false;
         }
     }
     return true;
+}
+
+bool PathFilter::coveredByCut(const std::vector<Quad>& quads, bool sticksExact) const
+{
+    const double tol = mOptions.retraceTolerance;
+    auto test = [&](uint32_t i, const glm::dvec3& p) { return near(mQuads[i], p, tol, nullptr, sticksExact); };
+    return everySample(quads, [&](const glm::dvec3& p) {
+        for (uint32_t i : mHugeQuads)
+            if (test(i, p)) return true;
+        auto it = mQuadBlocks.find(blockKey(blockOf(p)));
+        if (it != mQuadBlocks.end())
+            for (uint32_t i : it->second)
+                if (test(i, p)) return true;
+        return false;
+    });
 }
 
 glm::ivec3 PathFilter::blockOf(const glm::dvec3& indexPoint)
@@ -312,7 +383,7 @@ uint64_t PathFilter::blockKey(const glm::ivec3& b)
     return field(b.x) | field(b.y) << 21 | field(b.z) << 42;
 }
 
-bool PathFilter::near(const RetraceQuad& r, const glm::dvec3& p, double tol, bool* inside)
+bool PathFilter::near(const RetraceQuad& r, const glm::dvec3& p, double tol, bool* inside, bool sticksExact)
 {
     if (glm::any(glm::lessThan(p, r.lo - tol)) || glm::any(glm::greaterThan(p, r.hi + tol))) return false;
     // Within tol of the quad's plane, and its projection inside the outline or within tol of it.
@@ -326,7 +397,12 @@ bool PathFilter::near(const RetraceQuad& r, const glm::dvec3& p, double tol, boo
         const glm::dvec3 e = r.corners[size_t(r.hull[(i + 1) % r.hull.size()])] - a;
         const double ee = glm::dot(e, e);
         if (!(ee > 0.0)) continue;
-        in = in && glm::dot(glm::cross(e, q - a), r.normal) >= 0.0;
+        const double side = glm::dot(glm::cross(e, q - a), r.normal);
+        if (sticksExact && (r.stickEdges >> i & 1u) && side < -1e-9 * std::sqrt(ee)) {
+            if (inside) *inside = false;
+            return false; // beyond a stick: no tolerance there
+        }
+        in = in && side >= 0.0;
         const double t = std::clamp(glm::dot(q - a, e) / ee, 0.0, 1.0);
         nearest = std::min(nearest, glm::length(q - (a + t * e)));
     }
@@ -334,19 +410,22 @@ bool PathFilter::near(const RetraceQuad& r, const glm::dvec3& p, double tol, boo
     return in || nearest <= tol;
 }
 
-bool PathFilter::retraces(const Stick& s, bool* inside) const
+bool PathFilter::retraces(const Stick& s, bool* inside, bool* older) const
 {
     const double tol = mOptions.retraceTolerance;
     const glm::dvec3 base = mFrame.toIndex(s.base), tip = mFrame.toIndex(s.tip());
+    const size_t recent = mQuads.size() - std::min(mQuads.size() - mEarlierCount, kRecentQuads);
     bool found = false;
     *inside = false;
-    auto test = [&](uint32_t i) { // true: done (retracing, inside a quad's outline)
+    if (older) *older = false;
+    auto test = [&](uint32_t i) { // true: done (retracing, inside a quad's outline, and older when asked)
         const RetraceQuad& r = mQuads[i];
         bool inBase = false, inTip = false;
         if (!near(r, base, tol, &inBase) || !near(r, tip, tol, &inTip)) return false;
         found = true;
-        *inside = inBase && inTip;
-        return *inside;
+        *inside = *inside || (inBase && inTip);
+        if (older && i < recent) *older = true;
+        return *inside && (!older || *older);
     };
     for (uint32_t i : mHugeQuads)
         if (test(i)) return true;
@@ -420,10 +499,11 @@ std::vector<Quad> PathFilter::pushStroke(const std::vector<Pose>& poses)
     try {
         for (const Pose& p : poses) push(p, quads);
     } catch (...) {
-        endStroke();
+        (void)endStroke();
         throw;
     }
-    endStroke();
+    const std::vector<Quad> last = endStroke();
+    quads.insert(quads.end(), last.begin(), last.end());
     return quads;
 }
 
@@ -433,6 +513,7 @@ std::vector<Quad> filterStroke(const std::vector<Pose>& poses, const IndexFrame&
     PathFilter filter(frame, options);
     std::vector<Quad> quads;
     for (const Pose& p : poses) filter.push(p, quads);
+    filter.finishStroke(quads);
     if (sticks) *sticks = filter.sticks();
     return quads;
 }

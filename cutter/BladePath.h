@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <random>
 #include <unordered_map>
 #include <vector>
@@ -124,9 +125,12 @@ struct PathFilterOptions
 ///    kept). So consecutive sticks never share a cell; a stroke that returns
 ///    to a cell later (sawing back and forth) gets a new stick there. What this
 ///    changes: the swept surface follows the kept sticks only, so a blade that
-///    pivots about its base without the base leaving the cell cuts nothing new,
-///    and the stroke ends at its last kept stick (base within one cell
-///    diagonal of the last pose's base).
+///    pivots about its base without the base leaving the cell cuts nothing new.
+///    The stroke's last pose is the exception (finishStroke, called by
+///    endStroke): when rule 2 dropped it, it is placed anyway (rules 2b and
+///    3), so the cut ends where the blade stopped, not up to a cell short of
+///    it (two strokes meeting end to end would otherwise leave a bridge of
+///    bone between them).
 /// 2b. Retracing: a pose whose stick lies within retraceTolerance voxels of
 ///    one of the stroke's quads, or of a quad of an earlier stroke given with
 ///    addEarlierQuad (of its plane, and inside its outline), cuts nothing
@@ -139,6 +143,21 @@ struct PathFilterOptions
 ///    that tolerance of it. The quads are found through a grid of
 ///    kRetraceBlock^3-voxel blocks over their bounding boxes, so a pose costs
 ///    the quads near its base, not the stroke's length.
+///    Coming into the cut (a pose that retraces a quad other than the
+///    stroke's last kRecentQuads: an earlier stroke's, or the stroke's own
+///    start closing a loop; the last few quads are a tremor's): the first
+///    retracing pose after a kept stick that
+///    does not itself lie inside the cut is kept, with its quad, unless every
+///    sample of that quad (kChordSampling apart) lies within the tolerance of
+///    the cut's quads (a tremor back over the step just cut), where from a
+///    stick that does not retrace at all, or that came into the cut, there is
+///    no tolerance across the quads' sticks (a stroke's end): the step sweeps
+///    bone up to the cut, and dropping it would leave a bridge up to a step
+///    wide where a second stroke meets the first (or a loop its own start). While the kept stick lies only near the cut
+///    (within the tolerance of an outline, not inside), the retracing poses
+///    after it are tested the same way, so no sliver is left between the
+///    cuts; a step back over the stroke's own last quads is covered by them
+///    and never kept (it would fold the strip).
 ///    Leaving a retrace: the next quad would join the last kept stick K to
 ///    the new stick N. That chord is kept when the blade went there lately:
 ///    every point of it (sampled kChordSampling voxels apart) lies within
@@ -190,6 +209,12 @@ public:
     static constexpr double kChordTolerance = 1.0;
     /// Spacing of the chord's samples, voxels.
     static constexpr double kChordSampling = 0.5;
+    /// Rule 2b: a pose that retraces only the stroke's last this many quads
+    /// is not coming into the cut (a tremor).
+    static constexpr size_t kRecentQuads = 4;
+    /// finishStroke: a last pose whose base lies within this many voxels of
+    /// the last kept stick's base adds nothing.
+    static constexpr double kMinFinalStep = 0.01;
 
     explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
 
@@ -198,12 +223,20 @@ public:
     /// Throws InputError on a bad pose (the filter state is unchanged).
     bool push(const Pose& pose, std::vector<Quad>& quads);
     /// Feeds a whole stroke (push for each pose, then endStroke) and returns
-    /// its quads. Throws InputError on a bad pose (the stroke is then ended).
+    /// its quads, endStroke's last. Throws InputError on a bad pose (the stroke is then ended).
     std::vector<Quad> pushStroke(const std::vector<Pose>& poses);
-    /// Ends the current stroke; the next push starts a new one. The stroke's
-    /// quads are forgotten (a caller that keeps them hands them back with
-    /// addEarlierQuad).
-    void endStroke();
+    /// Rule 2's last pose: when the stroke's last pose pushed was dropped
+    /// because its base shares the last kept stick's cell, places it (as a
+    /// pose of a new cell would be: rules 2b and 3) and appends its quads, so
+    /// the cut reaches where the blade stopped; nothing when it lies within
+    /// kMinFinalStep voxels of that stick's base (the blade pivoted on it), or
+    /// when the last pose was kept or dropped by rule 2b. The stroke stays open.
+    void finishStroke(std::vector<Quad>& quads);
+    /// Ends the current stroke: finishStroke, then the next push starts a new
+    /// one. Returns finishStroke's quads (0, 1 or 2), which belong to the
+    /// stroke. The stroke's quads are forgotten (a caller that keeps them
+    /// hands them back with addEarlierQuad).
+    [[nodiscard]] std::vector<Quad> endStroke();
     /// Rule 2b also drops poses that retrace `quad`, a quad of an earlier
     /// stroke already in the cut. Only between strokes (throws
     /// std::logic_error while one is in progress); kept until
@@ -233,7 +266,11 @@ private:
         glm::dvec3 normal{0.0}; ///< unit
         glm::dvec3 lo{0.0}, hi{0.0};
         std::vector<int> hull; ///< convexHullOrder of the corners
+        uint8_t stickEdges = 0; ///< bit i: hull edge i (hull[i] to hull[i+1]) is a stick (quads, not triangles)
     };
+    /// Rules 2b and 3 for a validated stick s1 whose base is in another cell
+    /// than the last kept stick's (or the stroke's last pose): push's result.
+    bool place(const Stick& s1, std::vector<Quad>& quads);
     /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps s1.
     void appendQuads(const Stick& s1, std::vector<Quad>& quads);
     /// Rule 3 from s0 (stick number stickIndex) to s1: appends the quad(s) to
@@ -242,17 +279,27 @@ private:
                    Stick& kept) const;
     /// Rule 2b: do the base and tip of s lie within the tolerance of one quad
     /// (the stroke's or an earlier one)? *inside: of one whose outline holds both projections.
-    bool retraces(const Stick& s, bool* inside) const;
+    bool retraces(const Stick& s, bool* inside, bool* older = nullptr) const;
     /// Rule 2b, leaving a retrace: does every sample of `chord` lie within
     /// kChordTolerance of mLastQuads or of the way from `retraced` to `next`?
     bool chordFollowsBlade(const std::vector<Quad>& chord, const Stick& retraced, const Stick& next) const;
+    /// Does `test` hold at every sample of `quads` (index space, kChordSampling apart)?
+    bool everySample(const std::vector<Quad>& quads, const std::function<bool(const glm::dvec3&)>& test) const;
+    /// Rule 2b, coming into the cut: does every sample of `quads` lie within
+    /// the retrace tolerance of the quads (the stroke's and the earlier ones;
+    /// near() with sticksExact)?
+    bool coveredByCut(const std::vector<Quad>& quads, bool sticksExact) const;
     /// Adds a non-degenerate quad to mQuads and the block index; false (nothing added) otherwise.
     bool indexQuad(const Quad& quad);
     /// The blocks r is listed in; false when it is one of mHugeQuads instead.
     bool indexedBlocks(const RetraceQuad& r, glm::ivec3& b0, glm::ivec3& b1) const;
     /// Is index point p within tol of r (its plane, and inside or near its
     /// outline)? *inside: whether its projection is inside the outline.
-    static bool near(const RetraceQuad& r, const glm::dvec3& p, double tol, bool* inside = nullptr);
+    /// sticksExact: no tolerance across r's sticks (stickEdges), only across
+    /// its base and tip lines (coming into the cut, the step beyond a
+    /// stroke's end stick is fresh bone however short).
+    static bool near(const RetraceQuad& r, const glm::dvec3& p, double tol, bool* inside = nullptr,
+                     bool sticksExact = false);
     static glm::ivec3 blockOf(const glm::dvec3& indexPoint);
     static uint64_t blockKey(const glm::ivec3& block);
 
@@ -271,6 +318,14 @@ private:
     bool mHaveRetraced = false; ///< whether mRetraced is set
     Stick mRetracedInside;      ///< the last of those inside a quad's outline
     bool mHaveRetracedInside = false;
+    /// The last kept stick retraces the cut (rule 2b), and does so inside a quad's outline.
+    bool mLastKeptNear = false;
+    bool mLastKeptInside = false;
+    /// The last kept stick came into the cut (rule 2b) and lies only near it,
+    /// not inside: the retracing poses after it are tested as it was.
+    bool mEntering = false;
+    Stick mPending;             ///< the last pose pushed, when rule 2 dropped it (finishStroke)
+    bool mHavePending = false;
     size_t mRestarts = 0;
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;

@@ -154,14 +154,32 @@ void InputThread::run()
     uint32_t stroke = 0;
     uint32_t quadIndex = 0;
     const std::string source = mSource->name();
+    double lastTime = 0.0;       // of the last pose pushed
+    uint64_t lastPoseLine = 0;   // its line
+    auto emit = [&](const std::vector<Quad>& made, uint64_t atLine, double time) {
+        for (const Quad& q : made) {
+            CutInfo info;
+            info.kind = CutInfo::Kind::Quad;
+            info.stroke = stroke;
+            info.quadIndex = quadIndex++;
+            info.line = atLine;
+            info.time = time;
+            info.quad = q;
+            if (mOptions.voxelize) voxelizeCut(q, mOptions.kerfMm, mFrame, info.cells);
+            mQueue.push(std::move(info));
+            mQuads.fetch_add(1, std::memory_order_relaxed);
+        }
+    };
     auto endStroke = [&] {
         if (filter.posesSeen() == 0) return;
+        const std::vector<Quad> last = filter.endStroke(); // the cut reaches the last pose
+        if (!last.empty()) mSticks.fetch_add(1, std::memory_order_relaxed);
+        emit(last, lastPoseLine, lastTime);
         CutInfo info;
         info.kind = CutInfo::Kind::StrokeEnd;
         info.stroke = stroke;
         info.line = lineNumber;
         mQueue.push(std::move(info));
-        filter.endStroke();
         ++stroke;
         quadIndex = 0;
     };
@@ -184,18 +202,9 @@ void InputThread::run()
                 throw InputError(source + ":" + std::to_string(lineNumber) + ": " + e.what());
             }
             if (kept) mSticks.fetch_add(1, std::memory_order_relaxed);
-            for (const Quad& q : quads) {
-                CutInfo info;
-                info.kind = CutInfo::Kind::Quad;
-                info.stroke = stroke;
-                info.quadIndex = quadIndex++;
-                info.line = lineNumber;
-                info.time = pl.pose.time;
-                info.quad = q;
-                if (mOptions.voxelize) voxelizeCut(q, mOptions.kerfMm, mFrame, info.cells);
-                mQueue.push(std::move(info));
-                mQuads.fetch_add(1, std::memory_order_relaxed);
-            }
+            lastTime = pl.pose.time;
+            lastPoseLine = lineNumber;
+            emit(quads, lineNumber, pl.pose.time);
         } catch (const InputError& e) {
             CutInfo info;
             info.kind = CutInfo::Kind::Error;

@@ -767,6 +767,74 @@ TEST(PathFilter, LeavingARetracedCurveCutsNoChord)
     EXPECT_LT(spans.front().first, 6.0); // the last kept stick (one per cell)
 }
 
+// Rule 2's exception and rule 2b coming into the cut: the cut reaches where
+// the blade stopped. A stroke whose last poses share the last kept stick's
+// cell ends at its last pose (not up to a cell short), unless the blade only
+// pivoted there; a second stroke coming back to the first one's end keeps
+// its step into the first cut, so the two strokes' base lines cover the
+// whole way with no gap (before: a gap of 0.6 voxel).
+TEST(PathFilter, TheCutReachesWhereTheBladeStopped)
+{
+    IndexFrame f;
+    f.spacing = dvec3(1.0);
+    f.dims = ivec3(200, 60, 40);
+    auto line = [&](double x0, double x1, int n) {
+        std::vector<Pose> poses;
+        for (int i = 0; i <= n; ++i) {
+            Pose p;
+            p.time = 0.001 * i;
+            p.base = f.toWorld(dvec3(x0 + (x1 - x0) * i / n, 10.25, 5.5));
+            p.direction = dvec3(0.0, 0.2, 1.0);
+            p.length = 20.0;
+            poses.push_back(p);
+        }
+        return poses;
+    };
+    auto baseSpan = [&](const std::vector<Quad>& quads) {
+        double lo = 1e300, hi = -1e300;
+        for (const Quad& q : quads)
+            for (uint32_t c = 0; c < q.cornerCount; ++c) {
+                const dvec3 x = f.toIndex(q.corners[c]);
+                if (std::abs(x.z - 5.5) > 1e-9) continue; // a tip
+                lo = std::min(lo, x.x);
+                hi = std::max(hi, x.x);
+            }
+        return std::make_pair(lo, hi);
+    };
+    // 20.5 to 60.2 a third of a voxel apart, then the blade stops at 60.9: the
+    // last pose shares the last kept stick's cell (60) and lies 0.7 voxel on.
+    std::vector<Pose> a = line(20.5, 60.2, 119);
+    a.push_back(a.back());
+    a.back().time += 0.001;
+    a.back().base = f.toWorld(dvec3(60.9, 10.25, 5.5));
+    std::vector<Stick> sticks;
+    const std::vector<Quad> quads = filterStroke(a, f, {}, &sticks);
+    EXPECT_DOUBLE_EQ(baseSpan(quads).second, 60.9) << "the cut ends at the last pose";
+    EXPECT_DOUBLE_EQ(f.toIndex(sticks.back().base).x, 60.9);
+    PathFilter filter(f);
+    const std::vector<Quad> viaEnd = filter.pushStroke(a);
+    EXPECT_EQ(viaEnd.size(), quads.size()) << "pushStroke and endStroke place the last pose too";
+    // A blade that only pivots on its last stick's base adds nothing.
+    std::vector<Pose> pivot = line(20.5, 60.2, 119);
+    pivot.push_back(pivot.back());
+    pivot.back().time += 0.001;
+    pivot.back().direction = dvec3(0.3, 0.2, 1.0);
+    const std::vector<Quad> pivoted = filterStroke(pivot, f);
+    EXPECT_DOUBLE_EQ(baseSpan(pivoted).second, 60.2);
+    EXPECT_EQ(pivoted.size(), quads.size() - 1);
+
+    // Two strokes meeting: the first 20.5 -> 60.9, the second from 100.2 to
+    // the first one's end, and to 0.6 voxel inside the first cut.
+    for (const double end : {60.9, 60.3}) {
+        for (const Quad& q : quads) filter.addEarlierQuad(q);
+        const std::vector<Quad> b = filter.pushStroke(line(100.2, end, int(std::round((100.2 - end) / 0.33))));
+        const auto span = baseSpan(b);
+        EXPECT_LE(span.first, 60.9 + 1e-9) << "no gap between the strokes, ending at " << end;
+        EXPECT_GE(span.first, end - 1.0) << end;
+        filter.clearEarlierQuads();
+    }
+}
+
 // Rule 2b across strokes: quads of earlier strokes handed in with
 // addEarlierQuad are retraced like the stroke's own. The same stroke again
 // adds nothing; a stroke that goes back into the cut and on past its end adds
@@ -822,7 +890,7 @@ TEST(PathFilter, EarlierStrokesAreRetracedToo)
     Quad q = makeQuad(std::array<dvec3, 4>{dvec3(0, 0, 0), dvec3(0, 1, 0), dvec3(1, 1, 0), dvec3(1, 0, 0)}.data(), 4, 0);
     EXPECT_THROW(filter.addEarlierQuad(q), std::logic_error);
     EXPECT_THROW(filter.clearEarlierQuads(), std::logic_error);
-    filter.endStroke();
+    EXPECT_TRUE(filter.endStroke().empty()); // one pose: no last quad
     EXPECT_NO_THROW(filter.addEarlierQuad(q));
     // pushStroke ends the stroke even when a pose is bad.
     std::vector<Pose> bad = line(20.0, 30.0, 0.0, 1);

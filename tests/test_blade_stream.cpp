@@ -94,6 +94,8 @@ TEST(PoseStream, UdpLoopbackDeliversLinesInOrder)
             std::this_thread::sleep_for(std::chrono::microseconds(200));
         }
     }
+    // The blade stops at x = 55.9, in the last kept stick's cell (55).
+    datagram += "0.2,55.9,20.5,40.5,0,0.2,-1,10\n";
     sendUdpLoopback(port, datagram + "end\n");
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     std::vector<CutInfo> items;
@@ -107,7 +109,7 @@ TEST(PoseStream, UdpLoopbackDeliversLinesInOrder)
     input.stop();
     input.join();
     ASSERT_TRUE(input.queue().closed()) << "timed out";
-    EXPECT_EQ(input.posesRead(), uint64_t(kPoses));
+    EXPECT_EQ(input.posesRead(), uint64_t(kPoses + 1));
     EXPECT_EQ(input.errors(), 0u);
     // One stick per cell: the base moves 0.25 mm per pose = a quarter cell.
     size_t quads = 0;
@@ -116,8 +118,13 @@ TEST(PoseStream, UdpLoopbackDeliversLinesInOrder)
             EXPECT_EQ(items[i].quadIndex, quads);
             ++quads;
         }
-    // x from 5.5 to 55.25 crosses the 50 cell borders 6..55: one quad each.
-    EXPECT_EQ(quads, 50u);
+    // x from 5.5 to 55.9 crosses the 50 cell borders 6..55: one quad each,
+    // and one more to the last pose (55.9, in the last stick's cell) when the
+    // stream ends (PathFilter::finishStroke).
+    EXPECT_EQ(quads, 51u);
+    ASSERT_GE(items.size(), 2u);
+    EXPECT_EQ(items.back().kind, CutInfo::Kind::StrokeEnd);
+    EXPECT_EQ(items[items.size() - 2].quad.corners[3].x, 55.9) << "the last quad ends at the last pose";
 }
 
 TEST(PoseStream, UdpStopEndsAnIdleSource)

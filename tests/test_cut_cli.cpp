@@ -281,6 +281,62 @@ TEST(CutCli, StrokeGoingBackIntoTheCutAddsNothing)
     }
 }
 
+// Two strokes meeting in the middle of the ball, the second coming from the
+// other side, cut it in two as the single stroke does. A script's exact meet
+// (both end on the stick x = 0.1) and a hand's (0.05 mm of tremor, ending
+// 0.6 mm inside the first cut), with a 0.5 mm saw. Before, the filter left
+// bone between them and the ball came out whole: rule 2 dropped each
+// stroke's last poses (up to a cell short of where the blade stopped), and
+// rule 2b dropped the second stroke's step into the first cut. With kerf 0
+// the exact meet is refused (two coplanar quads end to end: never silent); a
+// hand's meet with a zero-width blade leaves a sheet of bone between two
+// parallel cuts micrometres apart, which is what such a blade does.
+TEST(CutCli, TwoStrokesMeetingInTheMiddleSeparateTheBall)
+{
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    auto stroke = [](std::ostream& out, double x0, double x1, int n, double jitter, uint64_t seed) {
+        std::mt19937_64 rng(seed);
+        std::uniform_real_distribution<double> j(-jitter, jitter);
+        for (int i = 0; i <= n; ++i)
+            out << 0.001 * i << "," << x0 + (x1 - x0) * i / n + j(rng) << "," << 0.37 + j(rng) << "," << 22 + j(rng)
+                << "," << j(rng) / 45 << "," << j(rng) / 45 << ",-1,45\n";
+    };
+    auto fragments = [&](const std::string& out) {
+        size_t n = 0;
+        while (fs::exists(out + "/fragment_00" + std::to_string(n) + ".stl")) ++n;
+        return n;
+    };
+    const std::string single = writeStraightPath(dir);
+    const auto a = runMtcut("cut " + ball + " --iso 0 --path " + single + " --kerf 0.5 -o " + dir.file("a") + " --check");
+    ASSERT_EQ(a.exitCode, 0) << a.output;
+    ASSERT_EQ(fragments(dir.file("a")), 2u);
+    const double whole = jsonValue(readText(dir.file("a") + "/summary.json"), "volume_mm3");
+    for (uint64_t seed = 0; seed < 4; ++seed) {
+        const std::string path = dir.file("meet.csv");
+        {
+            std::ofstream out(path);
+            stroke(out, -25.0, 0.1, 100, 0.0, 0);
+            out << "stroke\n";
+            if (seed == 0) stroke(out, 25.0, 0.1, 100, 0.0, 0);
+            else stroke(out, 25.0, -0.5, 102, 0.05, seed);
+        }
+        const std::string out = dir.file("b");
+        const auto b = runMtcut("cut " + ball + " --iso 0 --path " + path + " --kerf 0.5 -o " + out + " --check");
+        ASSERT_EQ(b.exitCode, 0) << seed << ": " << b.output;
+        EXPECT_EQ(fragments(out), 2u) << (seed ? "a hand's meet, seed " + std::to_string(seed) : "the exact meet");
+        // The largest fragment is the single stroke's, within the tremor's reach (0.05 mm x 30 mm x 30 mm).
+        EXPECT_NEAR(jsonValue(readText(out + "/summary.json"), "volume_mm3"), whole, seed ? 50.0 : 0.5) << seed;
+        if (seed == 0) {
+            const auto z = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + dir.file("z"));
+            EXPECT_EQ(z.exitCode, 1) << z.output;
+            EXPECT_NE(z.output.find("the re-mesher refuses"), std::string::npos) << z.output;
+            EXPECT_TRUE(filesIn(dir.file("z")).empty());
+        }
+        fs::remove_all(out);
+    }
+}
+
 // A blade that just grazes the ball's top (a horizontal cut 0.03 mm below the
 // highest grid-edge crossing at z = 14.98) cuts off a closed crumb of about
 // 0.019 mm^3. The fragment list prints it with two significant digits (one

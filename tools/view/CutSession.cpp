@@ -356,7 +356,14 @@ void CutSession::endLiveStroke()
 {
     State& s = *mState;
     if (!s.live) return;
-    if (s.filter) s.filter->endStroke();
+    if (s.filter) {
+        // The cut reaches the stroke's last pose (PathFilter::finishStroke).
+        const std::vector<cutter::Quad> last = s.filter->endStroke();
+        if (!s.broken && !last.empty()) {
+            addLiveQuads(last);
+            updateCut(); // while the stroke is live: a refusal undoes only these quads
+        }
+    }
     s.live = s.haveBlade = false;
     s.sceneDirty = s.fragmentsDirty = true;
 }
@@ -443,7 +450,7 @@ void CutSession::beginStroke()
               State& s = *mState;
               if (!s.remesher) return;
               endLiveStroke();
-              s.filter->endStroke();
+              (void)s.filter->endStroke(); // already ended: nothing pending
               cutter::setEarlierQuads(*s.mask, *s.filter); // the cut as it is now (after any undo)
               s.live = true;
               s.liveInMask = s.broken = s.haveBlade = false;
@@ -463,17 +470,23 @@ void CutSession::addPose(const cutter::Pose& pose)
               if (s.broken) return;
               std::vector<cutter::Quad> quads;
               s.filter->push(pose, quads);
-              for (const cutter::Quad& q : quads) {
-                  if (!s.liveInMask) {
-                      s.mask->beginStroke();
-                      s.liveInMask = true;
-                      s.goodQuads = 0;
-                      s.pathFile.clear(); // the cut is no longer just a path file's
-                  }
-                  s.mask->addQuad(q);
-                  s.cutDirty = true;
-              }
+              addLiveQuads(quads);
           }});
+}
+
+void CutSession::addLiveQuads(const std::vector<cutter::Quad>& quads)
+{
+    State& s = *mState;
+    for (const cutter::Quad& q : quads) {
+        if (!s.liveInMask) {
+            s.mask->beginStroke();
+            s.liveInMask = true;
+            s.goodQuads = 0;
+            s.pathFile.clear(); // the cut is no longer just a path file's
+        }
+        s.mask->addQuad(q);
+        s.cutDirty = true;
+    }
 }
 
 void CutSession::endStroke()

@@ -149,6 +149,7 @@ private:
     void setTaskName(const std::string& name);
     void resetCut();      ///< worker: a new mask (kerf kept) and remesher on the current surface
     void endLiveStroke(); ///< worker: ends the live stroke, if any
+    void addLiveQuads(const std::vector<cutter::Quad>& quads); ///< worker: appends quads to the live stroke in the mask
     /// Worker: a new remesher for `surface` at `iso` brought up to `mask`
     /// (null: the current mask) becomes current with them; when the
     /// re-mesher refuses, throws InputError(refusal + ": why") and keeps the old state.
