@@ -1,4 +1,4 @@
-// 2-D polygon helpers of the re-meshing kernel (Remesh.cpp): the cap and
+// 2-D polygon helpers of the re-meshing kernel (RemeshKernel.cpp): the cap and
 // iso regions of a tetrahedron are loops on their supporting plane, in that
 // plane's 2-D coordinates, triangulated here. Plain double arithmetic with
 // the relative tolerances stated per function. No GL, no OpenVDB.

@@ -130,7 +130,7 @@ struct CutCellGeometry
     }
 };
 
-struct KernelPool; // one RemeshKernel per thread (Remesh.cpp)
+struct KernelPool; // one re-meshing kernel per thread (Remesh.cpp; the kernel: RemeshKernel.cpp)
 struct PrismCache; // kerf > 0: rim planes per quad (Remesh.cpp)
 struct QuadGeomCache; // zero kerf: each quad's index-space geometry, built once per quad (Remesh.cpp)
 

@@ -1,0 +1,1771 @@
+// The per-cell re-meshing kernel (DESIGN invariants 2 and 5-10): per tet
+// of the cell, the arrangement of the isosurface pieces and the blade's
+// planes, classified, merged into regions and triangulated; vertices named by
+// their planes (CutVertexId) so neighbouring cells and tets weld by name.
+// The front end (Remesh.cpp) builds the quads' geometry and calls it.
+#include "cutter/RemeshKernel.h"
+
+#include "cutter/Isosurface.h"
+#include "cutter/Polygon2.h"
+
+#include <boost/container/small_vector.hpp>
+
+#include <cassert>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace mtcut::cutter::remesh_detail {
+
+namespace {
+
+/// Kerf > 0: where the removed region's boundary has several fans at one
+/// vertex inside a tet (the union of the prisms, or the solid left between
+/// them, touches itself at that point: a blade pivoting on a corner), every
+/// fan but the first gets its own copy of the vertex, so the surface is a
+/// 2-manifold that touches itself there.
+void splitPinches(const openvdb::Coord& cell, CutCellGeometry& out);
+
+} // namespace
+
+std::string cellText(const Coord& c)
+{
+    std::ostringstream os;
+    os << "(" << c.x() << ", " << c.y() << ", " << c.z() << ")";
+    return os.str();
+}
+
+
+using poly2::bestTriangulation;
+using poly2::bridgeHoles;
+using poly2::cross2;
+using poly2::earClip;
+using poly2::signedArea;
+using poly2::Vec2;
+
+/// Inline-storage vectors for the kernel's short per-vertex and per-polygon
+/// lists (a few entries each), so building them allocates nothing.
+template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
+using PlaneList = SmallVector<uint64_t, 8>;
+
+class RemeshKernel
+{
+public:
+    RemeshKernel(const vdb::Volume& volume, float iso)
+        : mAcc(volume.grid->tree()), mIso(iso), mDims(volume.dims), mBackground(volume.grid->background())
+    {
+    }
+
+    /// prism: the quads are kerf > 0 prisms (makePrismGeom), else zero-kerf quads.
+    void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
+
+private:
+    // ---- per tet state
+    struct Vert
+    {
+        CutVertexId key; // planes only, no tags
+        dvec3 pos;
+        uint8_t support = 0; // tet-local vertices of the smallest simplex holding it
+        SmallVector<std::pair<uint64_t, int8_t>, 8> signs;
+        int8_t member = 2; // P membership cache (2 = unknown)
+        bool steiner = false; // a Steiner point: always a corner
+    };
+    struct Poly
+    {
+        SmallVector<int, 8> v;
+        SmallVector<uint64_t, 8> lab; // lab[i]: edge v[i] -> v[i+1]
+    };
+    struct Support
+    {
+        dvec3 p[4];
+        uint64_t id[4];
+        float value[4];
+        bool inside[4];
+    };
+
+    float value(const Coord& c) { return mAcc.getValue(c); }
+
+    // Tet-level data.
+    Coord mCell;
+    int mTet = 0;
+    Support mT;
+    std::vector<Vert> mVerts;
+    /// CutVertexIdHash of each mVerts[i].key: makeVertex's search for an
+    /// existing name compares these first (a cell where many quads pivot has
+    /// thousands of vertices per tet; comparing whole keys was most of its time).
+    std::vector<uint64_t> mVertHash;
+    /// Past kIndexFrom vertices, an index over mVertHash: per hash the first
+    /// and last vertex holding it, chained in ascending order through
+    /// mNextSameHash, so findVertex still returns the lowest match.
+    static constexpr size_t kIndexFrom = 64;
+    std::unordered_map<uint64_t, std::pair<int, int>> mHashChain;
+    std::vector<int> mNextSameHash;
+    bool mHashIndexed = false;
+    /// Also past kIndexFrom: the tet-inside, non-Steiner vertices by position,
+    /// in buckets of kNearCell voxels (far above mergeTolerance), for
+    /// makeVertex's merge of one point made by different planes.
+    static constexpr double kNearCell = 1e-5;
+    std::unordered_map<uint64_t, SmallVector<int, 2>> mNear;
+    static uint64_t nearKey(int64_t x, int64_t y, int64_t z)
+    {
+        uint64_t h = uint64_t(x) * 0x9e3779b97f4a7c15ull;
+        h ^= uint64_t(y) * 0xc2b2ae3d27d4eb4full + (h << 6) + (h >> 2);
+        h ^= uint64_t(z) * 0x165667b19e3779f9ull + (h << 6) + (h >> 2);
+        return h;
+    }
+    static double mergeTolerance(const dvec3& p)
+    {
+        return 1e-11 * (1.0 + std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}));
+    }
+    /// The lowest tet-inside, non-Steiner vertex with this feature within
+    /// mergeTolerance of `p`, or -1.
+    int mergeCandidate(const std::array<uint64_t, 3>& feature, const dvec3& p) const
+    {
+        auto fits = [&](const Vert& o) {
+            return o.key.dim == 3 && !o.steiner && o.key.feature == feature && glm::length(o.pos - p) <= mergeTolerance(p);
+        };
+        if (!mHashIndexed) {
+            for (size_t i = 0; i < mVerts.size(); ++i)
+                if (fits(mVerts[i])) return int(i);
+            return -1;
+        }
+        const int64_t bx = int64_t(std::floor(p.x / kNearCell)), by = int64_t(std::floor(p.y / kNearCell)),
+                      bz = int64_t(std::floor(p.z / kNearCell));
+        int best = -1;
+        for (int64_t dx = -1; dx <= 1; ++dx)
+            for (int64_t dy = -1; dy <= 1; ++dy)
+                for (int64_t dz = -1; dz <= 1; ++dz) {
+                    auto it = mNear.find(nearKey(bx + dx, by + dy, bz + dz));
+                    if (it == mNear.end()) continue;
+                    for (int i : it->second)
+                        if ((best < 0 || i < best) && fits(mVerts[size_t(i)])) best = i;
+                }
+        return best;
+    }
+    void indexVertex(int i)
+    {
+        const Vert& v = mVerts[size_t(i)];
+        if (v.key.dim == 3 && !v.steiner)
+            mNear[nearKey(int64_t(std::floor(v.pos.x / kNearCell)), int64_t(std::floor(v.pos.y / kNearCell)),
+                          int64_t(std::floor(v.pos.z / kNearCell)))]
+                .push_back(i);
+        mNextSameHash.push_back(-1);
+        auto [it, fresh] = mHashChain.try_emplace(mVertHash[size_t(i)], i, i);
+        if (!fresh) {
+            mNextSameHash[size_t(it->second.second)] = i;
+            it->second.second = i;
+        }
+    }
+    void rebuildHashIndex()
+    {
+        mHashChain.clear();
+        mNextSameHash.clear();
+        mNear.clear();
+        for (size_t i = 0; i < mVerts.size(); ++i) indexVertex(int(i));
+        mHashIndexed = true;
+    }
+    /// The lowest vertex named `key` (hash: its CutVertexIdHash), or -1.
+    int findVertex(const CutVertexId& key, uint64_t hash) const
+    {
+        if (!mHashIndexed) {
+            for (size_t i = 0; i < mVerts.size(); ++i)
+                if (mVertHash[i] == hash && mVerts[i].key == key) return int(i);
+            return -1;
+        }
+        auto it = mHashChain.find(hash);
+        for (int i = it == mHashChain.end() ? -1 : it->second.first; i >= 0; i = mNextSameHash[size_t(i)])
+            if (mVerts[size_t(i)].key == key) return i;
+        return -1;
+    }
+    void pushVertex(Vert&& v, uint64_t hash)
+    {
+        mVerts.push_back(std::move(v));
+        mVertHash.push_back(hash);
+        if (mHashIndexed) indexVertex(int(mVerts.size() - 1));
+        else if (mVerts.size() >= kIndexFrom) rebuildHashIndex();
+    }
+    /// sign() memo, one column per plane of mPlanes (a plane's signs over
+    /// the vertices are contiguous: splitting pieces asks one plane about many
+    /// nearby vertices): entry pidx * mSignCap + vi; 2 = not yet known. Ids
+    /// not in mPlanes use Vert::signs. Reset per tet.
+    std::vector<int8_t> mSignTab;
+    size_t mSignStride = 0; ///< mPlanes.size() once mPlanes is final; 0 before
+    size_t mSignCap = 0;    ///< vertices per column
+    int8_t& signSlot(size_t vi, size_t pidx)
+    {
+        if (vi >= mSignCap) {
+            size_t cap = std::max<size_t>(64, mSignCap);
+            while (cap <= vi) cap *= 2;
+            std::vector<int8_t> grown(mSignStride * cap, int8_t(2));
+            for (size_t p = 0; p < mSignStride && mSignCap; ++p)
+                std::copy_n(mSignTab.begin() + std::ptrdiff_t(p * mSignCap), mSignCap, grown.begin() + std::ptrdiff_t(p * cap));
+            mSignTab.swap(grown);
+            mSignCap = cap;
+        }
+        return mSignTab[pidx * mSignCap + vi];
+    }
+    void forgetSigns(size_t vi)
+    {
+        mVerts[vi].signs.clear();
+        if (vi < mSignCap)
+            for (size_t p = 0; p < mSignStride; ++p) mSignTab[p * mSignCap + vi] = 2;
+    }
+    // remeshTet's scratch, kept between tets for its capacity.
+    std::vector<int> mNodeHead, mNodeNext, mParent, mEdgeOrder;
+    std::vector<Poly> mPieces, mNextPieces;
+    std::vector<int> mOnLine;
+    using Tags = SmallVector<uint64_t, 4>;
+    struct Node // a vertex of a region loop: the vertex and its side tags
+    {
+        int vert;
+        Tags tags;
+    };
+    std::vector<Node> mNodes;
+    std::vector<Vec2> mTriangulatePts;
+    std::vector<int> mTriangulateNodes;
+    std::vector<std::array<int, 4>> mEdgeUses, mEdgeSorted;
+    std::vector<std::vector<std::array<int64_t, 3>>> mRegionEdges;
+    std::vector<std::pair<int, int>> mBoundaryKeys;
+    std::vector<const QuadGeom*> mQuads;             // quads crossing this tet
+    std::vector<std::pair<uint64_t, Plane>> mPlanes; // sorted by id: ISO_A, ISO_B, quad planes and sides
+    int mTriCount = 0;
+    Plane mTriPlane[2];
+    std::vector<int> mTriVerts[2];
+    int mFaceTri[4];      // which iso triangle has its edge on tet face f (opposite vertex f), -1 none
+    std::vector<uint8_t> mTriEdgeMasks[2]; // tet-local vertex masks of the grid edges of each iso triangle's corners
+    /// Does iso triangle k (kIsoA + k) hold the MT geometry of the face or edge `support`?
+    bool triOwns(int k, uint8_t support) const
+    {
+        if (mTriCount < 2) return true;
+        if (bits(support) == 3) {
+            int f = 0;
+            while (support >> f & 1) ++f;
+            return mFaceTri[f] == k;
+        }
+        return std::find(mTriEdgeMasks[k].begin(), mTriEdgeMasks[k].end(), support) != mTriEdgeMasks[k].end();
+    }
+    bool mFoldConvex = true;
+    bool mPrism = false; ///< kerf > 0: quads are closed prisms, no slits, tags or Steiner points
+
+    const Plane* planeById(uint64_t id) const
+    {
+        if (mSignStride) {
+            const size_t i = planeIndex(id);
+            return i == SIZE_MAX ? nullptr : &mPlanes[i].second;
+        }
+        auto it = std::lower_bound(mPlanes.begin(), mPlanes.end(), id,
+                                   [](const std::pair<uint64_t, Plane>& a, uint64_t b) { return a.first < b; });
+        return it != mPlanes.end() && it->first == id ? &it->second : nullptr;
+    }
+    /// Once mPlanes is final: an open-addressing table id -> index in mPlanes
+    /// (sign() and planeById() ask it millions of times in a cell where many
+    /// quads pivot; a binary search over mPlanes was half of sign()).
+    std::vector<std::pair<uint64_t, uint32_t>> mPlaneSlots; ///< (id, index); index UINT32_MAX = empty
+    static size_t slotHash(uint64_t id) { return size_t((id * 0x9e3779b97f4a7c15ull) >> 32); }
+    void buildPlaneSlots()
+    {
+        size_t n = 16;
+        while (n < 2 * mPlanes.size()) n *= 2;
+        mPlaneSlots.assign(n, {0, UINT32_MAX});
+        for (size_t i = 0; i < mPlanes.size(); ++i) {
+            size_t h = slotHash(mPlanes[i].first) & (n - 1);
+            while (mPlaneSlots[h].second != UINT32_MAX) h = (h + 1) & (n - 1);
+            mPlaneSlots[h] = {mPlanes[i].first, uint32_t(i)};
+        }
+    }
+    /// Index of plane `id` in mPlanes once it is final; SIZE_MAX when absent or before.
+    size_t planeIndex(uint64_t id) const
+    {
+        if (!mSignStride) return SIZE_MAX;
+        const size_t mask = mPlaneSlots.size() - 1;
+        for (size_t h = slotHash(id) & mask;; h = (h + 1) & mask) {
+            const auto& s = mPlaneSlots[h];
+            if (s.second == UINT32_MAX) return SIZE_MAX;
+            if (s.first == id) return s.second;
+        }
+    }
+
+    static int bits(uint8_t m) { return (m & 1) + (m >> 1 & 1) + (m >> 2 & 1) + (m >> 3 & 1); }
+
+    // Grid data for features.
+    dvec3 mtPoint(int a, int b) const // tet-local vertices, MT crossing point
+    {
+        int lo = a, hi = b;
+        if (mT.id[hi] < mT.id[lo]) std::swap(lo, hi);
+        const double t = edgeCrossing(mT.value[lo], mT.value[hi], mIso);
+        return mT.p[lo] + t * (mT.p[hi] - mT.p[lo]);
+    }
+    /// Face (tet-local vertex mask, 3 bits): canonical iso line p1, p2 and inside sign; false when not crossed.
+    bool faceIsoLine(uint8_t mask, dvec3& p1, dvec3& p2, dvec3& normal, double& inSign) const
+    {
+        int v[3], n = 0;
+        for (int i = 0; i < 4; ++i)
+            if (mask >> i & 1) v[n++] = i;
+        std::sort(v, v + 3, [&](int a, int b) { return mT.id[a] < mT.id[b]; });
+        const int ni = int(mT.inside[v[0]]) + int(mT.inside[v[1]]) + int(mT.inside[v[2]]);
+        if (ni == 0 || ni == 3) return false;
+        const int ends[3][2] = {{v[0], v[1]}, {v[0], v[2]}, {v[1], v[2]}};
+        int k = 0;
+        dvec3 pts[2];
+        for (const auto& e : ends)
+            if (mT.inside[e[0]] != mT.inside[e[1]]) pts[k++] = mtPoint(e[0], e[1]);
+        p1 = pts[0];
+        p2 = pts[1];
+        normal = glm::cross(mT.p[v[1]] - mT.p[v[0]], mT.p[v[2]] - mT.p[v[0]]);
+        const int in = mT.inside[v[0]] ? v[0] : mT.inside[v[1]] ? v[1] : v[2];
+        inSign = glm::dot(glm::cross(p2 - p1, mT.p[in] - p1), normal) > 0 ? 1.0 : -1.0;
+        return true;
+    }
+    /// Signed in-plane distance to the face's iso line (+ inside), or +-1e300 when uncrossed.
+    double faceIsoDistance(uint8_t mask, const dvec3& x) const
+    {
+        dvec3 p1, p2, nrm;
+        double s;
+        if (!faceIsoLine(mask, p1, p2, nrm, s)) {
+            int any = 0;
+            while (!(mask >> any & 1)) ++any;
+            return mT.inside[any] ? 1e300 : -1e300;
+        }
+        const double l = glm::length(p2 - p1) * glm::length(nrm);
+        return s * glm::dot(glm::cross(p2 - p1, x - p1), nrm) / l;
+    }
+    double edgeIsoDistance(uint8_t mask, const dvec3& x) const
+    {
+        int a = -1, b = -1;
+        for (int i = 0; i < 4; ++i)
+            if (mask >> i & 1) (a < 0 ? a : b) = i;
+        if (mT.id[b] < mT.id[a]) std::swap(a, b);
+        if (mT.inside[a] == mT.inside[b]) return mT.inside[a] ? 1e300 : -1e300;
+        const dvec3 e = mT.p[b] - mT.p[a];
+        const double len = glm::length(e);
+        const double t = glm::dot(x - mT.p[a], e) / (len * len);
+        const double ti = edgeCrossing(mT.value[a], mT.value[b], mIso);
+        return (mT.inside[a] ? (ti - t) : (t - ti)) * len;
+    }
+
+    CutVertexId featureKey(uint8_t support) const
+    {
+        CutVertexId k;
+        const int n = bits(support);
+        k.dim = uint8_t(n - 1);
+        if (n == 4) {
+            k.feature = {gridVertexId(mCell.x(), mCell.y(), mCell.z()), uint64_t(mTet), 0};
+            return k;
+        }
+        int m = 0;
+        for (int i = 0; i < 4; ++i)
+            if (support >> i & 1) k.feature[size_t(m++)] = mT.id[i];
+        std::sort(k.feature.begin(), k.feature.begin() + n);
+        return k;
+    }
+
+    dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
+    int makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
+    /// The first of `planes` (in order; those with a plane in this tet)
+    /// whose normals are independent, at most three: three fix one point.
+    PlaneList independentPlanes(const PlaneList& planes) const
+    {
+        PlaneList chosen;
+        dvec3 n0(0.0), n1(0.0);
+        for (uint64_t id : planes) {
+            const Plane* pl = planeById(id);
+            if (!pl) continue;
+            const dvec3& n = pl->n;
+            const bool independent = chosen.empty()       ? glm::length(n) > 0.5
+                                     : chosen.size() == 1 ? glm::length(glm::cross(n0, n)) > 1e-6
+                                                          : std::abs(glm::dot(glm::cross(n0, n1), n)) > 1e-6;
+            if (!independent) continue;
+            (chosen.empty() ? n0 : n1) = n;
+            chosen.push_back(id);
+            if (chosen.size() == 3) break;
+        }
+        return chosen;
+    }
+    int makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos);
+    /// A slit chord of quad r between two rim points on different rim lines:
+    /// the two sides of the slit need a tagged vertex on it.
+    bool needsMidpoint(int u, int v, const QuadGeom& r)
+    {
+        if (mPrism) return false;
+        if (sign(u, r.id) != 0 || sign(v, r.id) != 0) return false;
+        if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) || (inSlitOpen(v, r) && !onStripRim(v, r))) return false;
+        for (const auto& sd : r.sides)
+            if (sd.partner < 0 && sign(u, sd.id) == 0 && sign(v, sd.id) == 0) return false;
+        return true;
+    }
+    /// Side of vertex v on plane planeId: 1, -1, or 0 on it (by name, or
+    /// within the tie rule); memoised.
+    int sign(int v, uint64_t planeId)
+    {
+        const size_t pidx = planeIndex(planeId);
+        if (pidx != SIZE_MAX && size_t(v) < mSignCap) {
+            const int8_t known = mSignTab[pidx * mSignCap + size_t(v)];
+            if (known != 2) return known;
+        }
+        return signSlow(v, planeId, pidx);
+    }
+    int signSlow(int v, uint64_t planeId, size_t pidx);
+    int member(int v);
+    bool inExtentClosed(int v, const QuadGeom& q)
+    {
+        for (const auto& s : q.sides)
+            if (s.orient * sign(v, s.id) < 0) return false;
+        return true;
+    }
+    bool inSlitOpen(int v, const QuadGeom& q)
+    {
+        for (const auto& s : q.sides) {
+            const double o = s.orient * sign(v, s.id);
+            if (s.partner >= 0 ? o < 0 : o <= 0) return false;
+        }
+        return true;
+    }
+    /// On the rim of a neighbouring quad of r's strip (a strip corner that r
+    /// touches only at a point)? Then the point is rim for r too.
+    bool onStripRim(int v, const QuadGeom& r)
+    {
+        for (const QuadGeom* o : mQuads) {
+            if (o == &r || (o->id >> 36) != (r.id >> 36)) continue;
+            const int64_t dq = int64_t((o->id >> 4) & 0xffffffff) - int64_t((r.id >> 4) & 0xffffffff);
+            if (dq < -2 || dq > 2 || sign(v, o->id) != 0 || !inExtentClosed(v, *o)) continue;
+            for (const auto& sd : o->sides)
+                if (sd.partner < 0 && sign(v, sd.id) == 0) return true;
+        }
+        return false;
+    }
+    const QuadGeom* quadById(uint64_t id) const
+    {
+        for (const QuadGeom* q : mQuads)
+            if (q->id == id) return q;
+        return nullptr;
+    }
+
+    /// Appends the pieces of `in` on either side of plane p to `out` (`in`
+    /// itself, moved, when p does not cross it).
+    void splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
+    /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
+    void pushSimple(Poly o, std::vector<Poly>& out);
+    void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
+
+    openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
+    float mIso;
+    Coord mDims;
+    float mBackground;
+    const std::vector<QuadGeom>* mCellQuads = nullptr;
+};
+
+dvec3 RemeshKernel::canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const
+{
+    if (key.dim == 0) {
+        for (int i = 0; i < 4; ++i)
+            if (support >> i & 1) return mT.p[i];
+    }
+    if (key.dim == 3) return pos0;
+    for (int i = 0; i < key.planeCount; ++i)
+        if (key.planes[size_t(i)] == kMid || key.planes[size_t(i)] == kCentroid) return pos0;
+    auto planeOf = [&](uint64_t id) -> const Plane* { return planeById(id); };
+    if (key.dim == 1) {
+        int a = -1, b = -1;
+        for (int i = 0; i < 4; ++i)
+            if (support >> i & 1) (a < 0 ? a : b) = i;
+        if (mT.id[b] < mT.id[a]) std::swap(a, b);
+        if (key.planes[0] == kIso) return mtPoint(a, b);
+        for (int i = 0; i < key.planeCount; ++i) {
+            const Plane* p = planeOf(key.planes[size_t(i)]);
+            if (!p) continue;
+            const double ha = p->h(mT.p[a]), hb = p->h(mT.p[b]);
+            if (!(std::abs(ha - hb) > 1e-12)) continue;
+            const double t = std::clamp(ha / (ha - hb), 0.0, 1.0);
+            return mT.p[a] + t * (mT.p[b] - mT.p[a]);
+        }
+        return pos0;
+    }
+    // dim 2: a face.
+    if (key.planes[0] == kIso) {
+        dvec3 p1, p2, nrm;
+        double s;
+        if (faceIsoLine(support, p1, p2, nrm, s)) {
+            const double len = glm::length(p2 - p1);
+            for (int i = 1; i < key.planeCount; ++i) {
+                const Plane* p = planeOf(key.planes[size_t(i)]);
+                if (!p) continue;
+                const double h1 = p->h(p1), h2 = p->h(p2);
+                if (!(std::abs(h1 - h2) > 1e-9 * len)) continue;
+                const double u = h1 / (h1 - h2);
+                return p1 + u * (p2 - p1);
+            }
+        }
+        return pos0;
+    }
+    int v[3], n = 0;
+    for (int i = 0; i < 4; ++i)
+        if (support >> i & 1) v[n++] = i;
+    std::sort(v, v + 3, [&](int a, int b) { return mT.id[a] < mT.id[b]; });
+    const dvec3 A = mT.p[v[0]], e1 = mT.p[v[1]] - A, e2 = mT.p[v[2]] - A;
+    for (int i = 0; i < key.planeCount; ++i)
+        for (int j = i + 1; j < key.planeCount; ++j) {
+            const Plane* p = planeOf(key.planes[size_t(i)]);
+            const Plane* q = planeOf(key.planes[size_t(j)]);
+            if (!p || !q) continue;
+            const double a11 = glm::dot(p->n, e1), a12 = glm::dot(p->n, e2), b1 = -p->h(A);
+            const double a21 = glm::dot(q->n, e1), a22 = glm::dot(q->n, e2), b2 = -q->h(A);
+            const double det = a11 * a22 - a12 * a21;
+            if (!(std::abs(det) > 1e-9)) continue;
+            const double s = (b1 * a22 - a12 * b2) / det, t = (a11 * b2 - b1 * a21) / det;
+            return A + s * e1 + t * e2;
+        }
+    return pos0;
+}
+
+int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0)
+{
+    CutVertexId key = featureKey(support);
+    const double eps = epsAt(pos0);
+    // The name is the set of ACTIVE planes through the point (the iso surface,
+    // quads holding it); the planes that happened to make it (in this tet's
+    // arrangement) are used only when the active ones do not fix the point.
+    PlaneList planes;
+    for (uint64_t& p : defining) {
+        // An iso triangle's plane is the iso surface only on the faces and
+        // edges that hold that triangle's MT geometry; elsewhere (a fold's
+        // plane extended over the other triangle's face) it is a tet-local plane.
+        if (key.dim < 3 && (p == kIsoA || p == kIsoB) && triOwns(int(p - kIsoA), support)) p = kIso;
+        if (p <= kIsoB) planes.push_back(p);
+    }
+    if (key.dim < 3) {
+        if (key.dim == 2 && std::abs(faceIsoDistance(support, pos0)) <= eps) planes.push_back(kIso);
+        if (key.dim == 1 && std::abs(edgeIsoDistance(support, pos0)) <= eps) planes.push_back(kIso);
+    }
+    // Active quad planes: on the plane and in the closed quad; sides on which it lies.
+    // Prisms (kerf > 0): on the closed prism's boundary, every bounding plane it lies on.
+    for (const QuadGeom* q : mQuads) {
+        if (!mPrism) continue;
+        bool in = true, onAny = false;
+        for (const auto& s : q->sides) {
+            const double h = s.orient * s.plane.h(pos0);
+            in = in && h >= -eps;
+            onAny = onAny || std::abs(h) <= eps;
+        }
+        if (!in || !onAny) continue;
+        for (const auto& s : q->sides)
+            if (std::abs(s.plane.h(pos0)) <= eps) planes.push_back(s.id);
+    }
+    for (const QuadGeom* q : mQuads) {
+        if (mPrism) break;
+        if (!(std::abs(q->pi.h(pos0)) <= eps)) continue;
+        bool in = true;
+        for (const auto& s : q->sides) in = in && s.orient * s.plane.h(pos0) >= -eps;
+        if (!in) continue;
+        planes.push_back(q->id);
+        for (const auto& s : q->sides)
+            if (std::abs(s.plane.h(pos0)) <= eps) planes.push_back(s.id);
+    }
+    // Junctions: a point on a junction plane and on either quad's plane is on
+    // both (the three meet in one line, the stick, whether or not the point is
+    // inside the quads); at the ends of the shared edge, on either rim side is
+    // on both. `on`: the planes the point lies on (made by them, or within eps).
+    std::sort(planes.begin(), planes.end());
+    planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    PlaneList on(defining.begin(), defining.end());
+    for (const auto& pl : mPlanes)
+        if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
+    on.insert(on.end(), planes.begin(), planes.end());
+    std::sort(on.begin(), on.end());
+    on.erase(std::unique(on.begin(), on.end()), on.end());
+    // Prisms: the offset planes of two quads meet on their mitre (it bisects
+    // them), so a point on the mitre and on one quad's offset plane is on the
+    // partner's same-side offset plane too.
+    for (const QuadGeom* q : mQuads) {
+        if (!mPrism) break;
+        auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
+        for (const auto& sd : q->sides) {
+            if (sd.partnerId == 0 || !has(sd.id)) continue;
+            for (int kind : {kPlusKind, kMinusKind}) {
+                const uint64_t mine = (q->id & ~uint64_t(15)) | uint64_t(kind);
+                const uint64_t theirs = (sd.partnerId & ~uint64_t(15)) | uint64_t(kind);
+                if (has(mine) || has(theirs)) {
+                    planes.push_back(sd.id);
+                    planes.push_back(mine);
+                    planes.push_back(theirs);
+                }
+            }
+        }
+    }
+    if (mPrism) {
+        std::sort(planes.begin(), planes.end());
+        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    }
+    for (int round = 0; round < 4 && !mPrism; ++round) {
+        PlaneList add;
+        auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
+        for (const QuadGeom* q : mQuads) {
+            for (const auto& s : q->sides) {
+                if (s.partner < 0 || !has(s.id) || !(has(q->id) || has(s.partnerId)) || !quadById(s.partnerId)) continue;
+                add.push_back(s.id);
+                add.push_back(q->id);
+                add.push_back(s.partnerId);
+                for (const auto& cs : s.cornerSides) {
+                    if (cs.first && cs.second && (has(cs.first) || has(cs.second))) {
+                        add.push_back(cs.first);
+                        add.push_back(cs.second);
+                    }
+                }
+            }
+        }
+        if (add.empty()) break;
+        const size_t before = on.size();
+        on.insert(on.end(), add.begin(), add.end());
+        std::sort(on.begin(), on.end());
+        on.erase(std::unique(on.begin(), on.end()), on.end());
+        planes.insert(planes.end(), add.begin(), add.end());
+        std::sort(planes.begin(), planes.end());
+        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+        if (on.size() == before) break;
+    }
+    // A face needs two planes, an edge one, the inside three; inside the tet
+    // the three must also be independent. Prisms: a mitre and the two offset
+    // planes it bisects meet in one line, so a point on that line is named
+    // by the three and nothing else when its other plane is not active
+    // (outside that prism): two points of the line would share the name.
+    // The planes that made it complete the name (inside points are named
+    // only in this tet, so the union is the same whichever pair made it).
+    if (int(planes.size()) < int(key.dim) || (key.dim == 3 && independentPlanes(planes).size() < 3)) {
+        planes.insert(planes.end(), defining.begin(), defining.end());
+        std::sort(planes.begin(), planes.end());
+        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    }
+    if (planes.size() > key.planes.size() && key.dim == 3) {
+        // A point inside the tet on more planes than a name holds (a blade
+        // pivoting exactly about it: every stick, so every mitre and quad
+        // plane, passes through it). No other tet or cell names it and its
+        // position is pos0, so any of its planes that fix the point name it
+        // uniquely: three with independent normals (the lowest ids that are),
+        // then the lowest others. The same plane set always gives the same
+        // name; the dropped planes still hold it (sign() finds it on them).
+        PlaneList chosen = independentPlanes(planes);
+        if (chosen.size() == 3) {
+            for (uint64_t id : planes)
+                if (chosen.size() < key.planes.size() && std::find(chosen.begin(), chosen.end(), id) == chosen.end())
+                    chosen.push_back(id);
+            std::sort(chosen.begin(), chosen.end());
+            planes = chosen;
+        }
+    }
+    if (planes.size() > key.planes.size()) {
+        throw std::runtime_error("remesh: a point lies on more than 8 blade planes in cell " + cellText(mCell));
+    }
+    key.planeCount = uint8_t(planes.size());
+    for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
+    const uint64_t hash = CutVertexIdHash()(key);
+    if (const int found = findVertex(key, hash); found >= 0) return found;
+    // Inside the tet (no other tet or cell ever names it), one point made by
+    // different planes (two pieces of one region split by the planes of two
+    // joined quads whose rims are coplanar) is one vertex: its name is the
+    // union of the planes, so the pieces share it and merge.
+    if (const int i = key.dim == 3 ? mergeCandidate(key.feature, pos0) : -1; i >= 0) {
+        Vert& o = mVerts[size_t(i)];
+        std::vector<uint64_t> all(o.key.planes.begin(), o.key.planes.begin() + o.key.planeCount);
+        all.insert(all.end(), planes.begin(), planes.end());
+        std::sort(all.begin(), all.end());
+        all.erase(std::unique(all.begin(), all.end()), all.end());
+        if (all.size() <= o.key.planes.size()) {
+            o.key.planeCount = uint8_t(all.size());
+            for (size_t k = 0; k < all.size(); ++k) o.key.planes[k] = all[k];
+            mVertHash[size_t(i)] = CutVertexIdHash()(o.key);
+            if (mHashIndexed) rebuildHashIndex();
+            forgetSigns(size_t(i));
+            o.member = 2;
+            return i;
+        }
+    }
+    Vert v;
+    v.key = key;
+    v.support = support;
+    v.pos = canonicalPosition(key, support, pos0);
+    pushVertex(std::move(v), hash);
+    return int(mVerts.size() - 1);
+}
+
+int RemeshKernel::makeSteiner(uint8_t support, PlaneList planes, const dvec3& pos)
+{
+    CutVertexId key = featureKey(support);
+    std::sort(planes.begin(), planes.end());
+    key.planeCount = uint8_t(planes.size());
+    for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
+    const uint64_t hash = CutVertexIdHash()(key);
+    if (const int found = findVertex(key, hash); found >= 0) return found;
+    Vert v;
+    v.key = key;
+    v.support = support;
+    v.pos = pos;
+    v.steiner = true;
+    pushVertex(std::move(v), hash);
+    return int(mVerts.size() - 1);
+}
+
+int RemeshKernel::signSlow(int vi, uint64_t id, size_t pidx)
+{
+    int8_t* slot = nullptr; // in mSignTab
+    if (pidx != SIZE_MAX) {
+        slot = &signSlot(size_t(vi), pidx);
+        if (*slot != 2) return *slot;
+    }
+    Vert& v = mVerts[size_t(vi)];
+    for (const auto& s : v.signs)
+        if (s.first == id) return s.second;
+    int r;
+    const bool inKey = std::binary_search(v.key.planes.begin(), v.key.planes.begin() + v.key.planeCount, id);
+    if (inKey) {
+        r = 0;
+    } else if ((id == kIsoA || id == kIsoB) && v.key.planeCount > 0 && v.key.planes[0] == kIso &&
+               (v.key.dim == 1 || v.key.dim == 2)) {
+        const int tri = int(id - kIsoA);
+        bool on = false;
+        if (v.key.dim == 1) {
+            for (int c : mTriVerts[tri]) on = on || c == vi;
+            // MT corner of this triangle with extra planes in its key: compare positions.
+            if (!on)
+                for (int c : mTriVerts[tri]) on = on || mVerts[size_t(c)].key.feature == v.key.feature;
+        } else {
+            int f = 0;
+            while (v.support >> f & 1) ++f;
+            on = mFaceTri[f] == tri;
+        }
+        if (on) {
+            r = 0;
+        } else {
+            const double h = planeById(id)->h(v.pos);
+            r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
+        }
+    } else {
+        const Plane* p = planeById(id);
+        assert(p);
+        const double h = p->h(v.pos);
+        r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
+    }
+    if (slot) *slot = int8_t(r);
+    else v.signs.push_back({id, int8_t(r)});
+    return r;
+}
+
+int RemeshKernel::member(int vi)
+{
+    Vert& v = mVerts[size_t(vi)];
+    if (v.member != 2) return v.member;
+    int r;
+    const bool onIso = v.key.planeCount > 0 && v.key.planes[0] == kIso;
+    if (v.key.dim == 0) {
+        int i = 0;
+        while (!(v.support >> i & 1)) ++i;
+        r = mT.inside[i] ? 1 : -1;
+    } else if (v.key.dim < 3) {
+        if (onIso) {
+            r = 0;
+        } else {
+            const double d = v.key.dim == 1 ? edgeIsoDistance(v.support, v.pos) : faceIsoDistance(v.support, v.pos);
+            r = d > 0 ? 1 : -1;
+        }
+    } else if (mTriCount == 0) {
+        r = mT.inside[0] ? 1 : -1;
+    } else {
+        const int a = sign(vi, kIsoA);
+        if (mTriCount == 1) {
+            r = a;
+        } else {
+            const int b = sign(vi, kIsoB);
+            r = mFoldConvex ? std::min(a, b) : std::max(a, b);
+        }
+    }
+    v.member = int8_t(r);
+    return r;
+}
+
+void RemeshKernel::splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
+{
+    const size_t n = in.v.size();
+    SmallVector<int, 8> sv(n);
+    bool pos = false, neg = false;
+    for (size_t i = 0; i < n; ++i) {
+        sv[i] = sign(in.v[i], p);
+        pos |= sv[i] > 0;
+        neg |= sv[i] < 0;
+    }
+    if (!(pos && neg)) {
+        out.push_back(std::move(in));
+        return;
+    }
+    const Plane* pl = planeById(p);
+    // Cut points on crossing edges.
+    SmallVector<int, 8> cut(n, -1);
+    for (size_t i = 0; i < n; ++i) {
+        const size_t j = (i + 1) % n;
+        if (sv[i] * sv[j] >= 0) continue;
+        const Vert& a = mVerts[size_t(in.v[i])];
+        const Vert& b = mVerts[size_t(in.v[j])];
+        const double ha = pl->h(a.pos), hb = pl->h(b.pos);
+        double t = (ha - hb) != 0 ? ha / (ha - hb) : 0.5;
+        if (!(t > 0.0 && t < 1.0)) t = 0.5;
+        const dvec3 x = a.pos + t * (b.pos - a.pos);
+        PlaneList def{p};
+        if (polyPlane != 0) def.push_back(polyPlane);
+        if (!(in.lab[i] & kBoundaryLabel)) def.push_back(in.lab[i]);
+        cut[i] = makeVertex(uint8_t(a.support | b.support), def, x);
+    }
+    for (int keep : {1, -1}) {
+        Poly o;
+        for (size_t i = 0; i < n; ++i) {
+            const size_t j = (i + 1) % n;
+            const int sa = keep * sv[i], sb = keep * sv[j];
+            if (sa >= 0) {
+                o.v.push_back(in.v[i]);
+                o.lab.push_back(sa == 0 && sb < 0 ? p : in.lab[i]);
+            }
+            if (cut[i] >= 0) {
+                o.v.push_back(cut[i]);
+                o.lab.push_back(sa > 0 ? p : in.lab[i]);
+            }
+        }
+        // Keep only pieces with a vertex strictly on the kept side.
+        bool strict = false;
+        for (size_t i = 0; i < n; ++i) strict |= keep * sv[i] > 0;
+        if (strict && o.v.size() >= 3) out.push_back(std::move(o));
+    }
+}
+
+void RemeshKernel::pushSimple(Poly o, std::vector<Poly>& out)
+{
+    // Conformity can put a vertex on an edge of a piece that already has it
+    // (near-coincident lines whose points are one vertex by name: the offset
+    // planes of two mitred quads on their mitre): the piece then runs out
+    // along a line and back through that vertex, a loop plus a spike of zero
+    // area, and its classification by its first off-plane vertex could be
+    // the spike's. Split it at the repeat; loops of fewer than 3 go.
+    const size_t n = o.v.size();
+    for (size_t i = 0; i < n; ++i)
+        for (size_t j = i + 1; j < n; ++j) {
+            if (o.v[i] != o.v[j]) continue;
+            Poly a, b;
+            for (size_t k = i; k < j; ++k) {
+                a.v.push_back(o.v[k]);
+                a.lab.push_back(o.lab[k]);
+            }
+            for (size_t k = j; k < n + i; ++k) {
+                b.v.push_back(o.v[k % n]);
+                b.lab.push_back(o.lab[k % n]);
+            }
+            if (a.v.size() >= 3) pushSimple(std::move(a), out);
+            if (b.v.size() >= 3) pushSimple(std::move(b), out);
+            return;
+        }
+    out.push_back(std::move(o));
+}
+
+void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
+{
+    out.clear();
+    mPrism = prism;
+    mCell = cell;
+    mCellQuads = &quads;
+    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> cellIndex;
+    const int parity = cellParity(cell.x(), cell.y(), cell.z());
+    const auto& tets = cellTets(parity);
+    for (int t = 0; t < kTetsPerCell; ++t) {
+        mTet = t;
+        for (int i = 0; i < 4; ++i) {
+            const int c = tets[size_t(t)][size_t(i)];
+            const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            mT.p[i] = dvec3(g.x(), g.y(), g.z());
+            mT.id[i] = gridVertexId(g.x(), g.y(), g.z());
+            // As the isosurface: outside the scan box, the background and outside.
+            const bool inBox = g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < mDims.x() && g.y() < mDims.y() &&
+                               g.z() < mDims.z();
+            mT.value[i] = inBox ? value(g) : mBackground;
+            mT.inside[i] = inBox && mT.value[i] >= mIso;
+        }
+        remeshTet(out, cellIndex);
+    }
+    if (mPrism) splitPinches(cell, out);
+}
+
+namespace {
+
+void splitPinches(const openvdb::Coord& cell, CutCellGeometry& out)
+{
+    const uint32_t nv = uint32_t(out.vertexIds.size());
+    const size_t nt = out.indices.size() / 3;
+    // Triangles around each tet-inside vertex (only its tet's triangles can use it).
+    std::vector<std::vector<uint32_t>> around;
+    std::vector<int32_t> slot(nv, -1);
+    for (size_t t = 0; t < nt; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = out.indices[3 * t + size_t(k)];
+            if (out.vertexIds[v].dim != 3) continue;
+            if (slot[v] < 0) {
+                slot[v] = int32_t(around.size());
+                around.emplace_back();
+            }
+            around[size_t(slot[v])].push_back(uint32_t(t));
+        }
+    for (uint32_t v = 0; v < nv; ++v) {
+        if (slot[v] < 0) continue;
+        const std::vector<uint32_t>& tris = around[size_t(slot[v])];
+        if (tris.size() < 6) continue; // two fans need at least 3 triangles each
+        // Link edges b -> c of the triangles (v, b, c); fans = their components.
+        std::vector<std::pair<uint32_t, uint32_t>> link(tris.size());
+        for (size_t i = 0; i < tris.size(); ++i) {
+            const uint32_t* tri = &out.indices[3 * tris[i]];
+            const int k = tri[0] == v ? 0 : tri[1] == v ? 1 : 2;
+            link[i] = {tri[(k + 1) % 3], tri[(k + 2) % 3]};
+        }
+        std::vector<int> fan(tris.size(), -1);
+        int fans = 0;
+        for (size_t s = 0; s < tris.size(); ++s) {
+            if (fan[s] >= 0) continue;
+            std::vector<size_t> stack{s};
+            fan[s] = fans;
+            while (!stack.empty()) {
+                const size_t a = stack.back();
+                stack.pop_back();
+                for (size_t b = 0; b < tris.size(); ++b)
+                    if (fan[b] < 0 && (link[b].first == link[a].second || link[b].second == link[a].first ||
+                                       link[b].first == link[a].first || link[b].second == link[a].second)) {
+                        fan[b] = fans;
+                        stack.push_back(b);
+                    }
+            }
+            ++fans;
+        }
+        if (fans < 2) continue;
+        // Each fan must be one closed cycle (a disc); otherwise leave it to the
+        // local check, which refuses the cell.
+        bool discs = true;
+        for (int f = 0; f < fans && discs; ++f) {
+            std::map<uint32_t, int> out1, in1;
+            for (size_t i = 0; i < tris.size(); ++i)
+                if (fan[i] == f) {
+                    ++out1[link[i].first];
+                    ++in1[link[i].second];
+                }
+            for (const auto& [u, c] : out1) discs = discs && c == 1 && in1[u] == 1;
+            discs = discs && out1.size() == in1.size();
+        }
+        if (!discs) continue;
+        // Fan 0 (the one with the first triangle) keeps the vertex; each other
+        // fan gets a copy at the same position, told apart by a pinch tag.
+        for (int f = 1; f < fans; ++f) {
+            CutVertexId id = out.vertexIds[v];
+            if (id.tagCount >= id.tags.size())
+                throw std::runtime_error("remesh: a pinch point whose vertex has no free tag in cell " + cellText(cell));
+            id.tags[id.tagCount++] = kPinchTag | uint64_t(f);
+            const uint32_t copy = uint32_t(out.vertexIds.size());
+            out.vertexIds.push_back(id);
+            out.indexPositions.push_back(out.indexPositions[v]);
+            for (size_t i = 0; i < tris.size(); ++i)
+                if (fan[i] == f)
+                    for (int k = 0; k < 3; ++k)
+                        if (out.indices[3 * tris[i] + size_t(k)] == v) out.indices[3 * tris[i] + size_t(k)] = copy;
+        }
+    }
+}
+
+} // namespace
+
+/// Even permutation of (0,1,2,3) starting with the given 1 or 2 entries (as the isosurface tables).
+static std::array<int, 4> evenPerm(std::initializer_list<int> first)
+{
+    std::array<int, 4> p{};
+    int n = 0;
+    for (int f : first) p[size_t(n++)] = f;
+    for (int v = 0; v < 4; ++v)
+        if (std::find(p.begin(), p.begin() + n, v) == p.begin() + n) p[size_t(n++)] = v;
+    int inv = 0;
+    for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) inv += p[size_t(a)] > p[size_t(b)];
+    if (inv & 1) std::swap(p[2], p[3]);
+    return p;
+}
+
+void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
+{
+    // No solid in the tet (all four values below the isovalue): P is empty,
+    // so there is neither an iso piece nor a cap (caps are kept inside P;
+    // prism faces inside the solid). Most cells of a cut through a head are
+    // air; they cost nothing now.
+    if (!mT.inside[0] && !mT.inside[1] && !mT.inside[2] && !mT.inside[3]) return;
+    mVerts.clear();
+    mVertHash.clear();
+    if (mHashIndexed) {
+        mHashChain.clear();
+        mNextSameHash.clear();
+        mNear.clear();
+        mHashIndexed = false;
+    }
+    mSignTab.clear();
+    mSignStride = 0;
+    mSignCap = 0;
+    mQuads.clear();
+    mPlanes.clear();
+    mTriCount = 0;
+    std::fill(std::begin(mFaceTri), std::end(mFaceTri), -1);
+
+    // Quads whose region can reach the tet.
+    for (const QuadGeom& q : *mCellQuads) {
+        auto crosses = [&](const Plane& p) {
+            bool pos = false, neg = false;
+            for (int i = 0; i < 4; ++i) {
+                const double h = p.h(mT.p[i]), e = epsAt(mT.p[i]);
+                pos |= h >= -e;
+                neg |= h <= e;
+            }
+            return pos && neg;
+        };
+        if (!mPrism && !crosses(q.pi)) continue;
+        bool reach = true;
+        for (const auto& s : q.sides) {
+            bool any = false;
+            for (int i = 0; i < 4; ++i) any |= s.orient * s.plane.h(mT.p[i]) >= -epsAt(mT.p[i]);
+            reach = reach && any;
+        }
+        if (!reach) continue;
+        mQuads.push_back(&q);
+        if (!mPrism) mPlanes.push_back({q.id, q.pi});
+        for (const auto& s : q.sides) mPlanes.push_back({s.id, s.plane});
+    }
+
+    // Marching-tetrahedra triangles of the tet (as the isosurface tables).
+    int ni = 0, ins[4], outs[4], no = 0;
+    for (int i = 0; i < 4; ++i) {
+        if (mT.inside[i]) ins[ni++] = i;
+        else outs[no++] = i;
+    }
+    if (ni == 0) return; // nothing solid here
+    SmallVector<SmallVector<std::array<int, 2>, 4>, 2> triEdges;
+    if (ni == 1 || ni == 3) {
+        const int lone = ni == 1 ? ins[0] : outs[0];
+        const auto p = evenPerm({lone});
+        const int a = p[0], b = p[1], c = p[2], d = p[3];
+        if (ni == 1) triEdges.push_back({{a, b}, {a, c}, {a, d}});
+        else triEdges.push_back({{a, b}, {a, d}, {a, c}});
+    } else if (ni == 2) {
+        const auto p = evenPerm({ins[0], ins[1]});
+        const int a = p[0], b = p[1], c = p[2], d = p[3];
+        // The marching-tetrahedra quad; when its (clamped) corners are not
+        // coplanar it is the two triangles of the isosurface, a fold.
+        const dvec3 pac = mtPoint(a, c), pad = mtPoint(a, d), pbd = mtPoint(b, d), pbc = mtPoint(b, c);
+        const dvec3 nrm = glm::cross(pad - pac, pbd - pac);
+        const double dev = glm::dot(nrm, pbc - pac) / glm::length(nrm);
+        if (std::abs(dev) <= 1e-7) {
+            triEdges.push_back({{a, c}, {a, d}, {b, d}, {b, c}});
+        } else {
+            triEdges.push_back({{a, c}, {a, d}, {b, d}});
+            triEdges.push_back({{a, c}, {b, d}, {b, c}});
+        }
+    }
+    mTriCount = int(triEdges.size());
+    // Iso planes first (so ISO_A/B sort first in mPlanes too).
+    SmallVector<dvec3, 4> triPts[2];
+    for (int k = 0; k < mTriCount; ++k) {
+        for (const auto& e : triEdges[size_t(k)]) triPts[k].push_back(mtPoint(e[0], e[1]));
+        dvec3 nrm(0.0);
+        const size_t n = triPts[k].size();
+        for (size_t c = 0; c < n; ++c) nrm += glm::cross(triPts[k][c], triPts[k][(c + 1) % n]); // Newell
+        const double len = glm::length(nrm);
+        mTriPlane[k].n = len > 0 ? -nrm / len : dvec3(0.0);
+        dvec3 centre(0.0);
+        for (const dvec3& q : triPts[k]) centre += q / double(n);
+        mTriPlane[k].d = glm::dot(mTriPlane[k].n, centre);
+        mPlanes.push_back({kIsoA + uint64_t(k), mTriPlane[k]});
+    }
+    std::sort(mPlanes.begin(), mPlanes.end(),
+              [](const std::pair<uint64_t, Plane>& a, const std::pair<uint64_t, Plane>& b) { return a.first < b.first; });
+    mPlanes.erase(std::unique(mPlanes.begin(), mPlanes.end(),
+                              [](const std::pair<uint64_t, Plane>& a, const std::pair<uint64_t, Plane>& b) {
+                                  return a.first == b.first;
+                              }),
+                  mPlanes.end());
+    mSignStride = mPlanes.size();
+    buildPlaneSlots();
+    if (mTriCount == 2) mFoldConvex = mTriPlane[0].h(triPts[1][2]) >= 0;
+
+    struct Surface
+    {
+        uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
+        const QuadGeom* quad; // cap: its quad
+        /// Kerf > 0: further prisms with this very face plane (a rim shared
+        /// along the stroke, facing the same way): one surface, whose pieces
+        /// are kept where any of these prisms' rule keeps them, so the faces
+        /// merge into one region (no corner where one prism's face ends
+        /// inside the other's, which the neighbouring cell need not see).
+        SmallVector<const QuadGeom*, 2> also;
+        int sides;           // cap: bit 0 = + side output, bit 1 = - side output
+        dvec3 normal;        // reference normal (pieces are CCW around it)
+        Poly poly;
+    };
+    SmallVector<Surface, 8> surfaces;
+    for (int k = 0; k < mTriCount; ++k) {
+        Surface s;
+        s.plane = kIsoA + uint64_t(k);
+        s.quad = nullptr;
+        s.sides = 1;
+        s.normal = -mTriPlane[k].n;
+        const size_t n = triEdges[size_t(k)].size();
+        mTriVerts[k].clear();
+        mTriEdgeMasks[k].clear();
+        for (const auto& e : triEdges[size_t(k)]) mTriEdgeMasks[k].push_back(uint8_t(1 << e[0] | 1 << e[1]));
+        for (size_t c = 0; c < n; ++c) {
+            const auto& e = triEdges[size_t(k)][c];
+            s.poly.v.push_back(makeVertex(uint8_t(1 << e[0] | 1 << e[1]), {kIsoA + uint64_t(k)}, triPts[k][c]));
+            mTriVerts[k].push_back(s.poly.v.back());
+        }
+        for (size_t c = 0; c < n; ++c) {
+            const auto& e0 = triEdges[size_t(k)][c];
+            const auto& e1 = triEdges[size_t(k)][(c + 1) % n];
+            const uint8_t m = uint8_t(1 << e0[0] | 1 << e0[1] | 1 << e1[0] | 1 << e1[1]);
+            if (m == 15) {
+                s.poly.lab.push_back(kIsoA + uint64_t(1 - k));
+            } else {
+                s.poly.lab.push_back(kBoundaryLabel | m);
+                int f = 0;
+                while (m >> f & 1) ++f;
+                mFaceTri[f] = k;
+            }
+        }
+        surfaces.push_back(std::move(s));
+    }
+    // Caps: the quad's plane through the tet; with kerf, every face plane of
+    // the prism (one-sided, its surface normal pointing into the prism).
+    struct FacePlane
+    {
+        const QuadGeom* q;
+        uint64_t id;
+        Plane plane;
+        dvec3 normal; // surface normal (zero kerf: reference normal of the two-sided cap)
+    };
+    SmallVector<FacePlane, 8> facePlanes;
+    for (const QuadGeom* q : mQuads) {
+        if (!mPrism) {
+            facePlanes.push_back({q, q->id, q->pi, q->pi.n});
+            continue;
+        }
+        for (const auto& sd : q->sides) facePlanes.push_back({q, sd.id, sd.plane, sd.orient * sd.plane.n});
+    }
+    for (const FacePlane& fp : facePlanes) {
+        const QuadGeom* q = fp.q;
+        if (mPrism) {
+            auto same = std::find_if(surfaces.begin(), surfaces.end(), [&](const Surface& o) {
+                return o.quad && o.plane == fp.id && glm::dot(o.normal, fp.normal) > 0;
+            });
+            if (same != surfaces.end()) {
+                same->also.push_back(q);
+                continue;
+            }
+        }
+        double h[4];
+        int on = 0;
+        for (int i = 0; i < 4; ++i) {
+            h[i] = fp.plane.h(mT.p[i]);
+            if (std::abs(h[i]) <= epsAt(mT.p[i])) {
+                h[i] = 0;
+                ++on;
+            }
+        }
+        SmallVector<std::pair<int, dvec3>, 8> pts; // vertex, position
+        for (int i = 0; i < 4; ++i)
+            if (h[i] == 0) pts.push_back({makeVertex(uint8_t(1 << i), {fp.id}, mT.p[i]), mT.p[i]});
+        for (int i = 0; i < 4; ++i)
+            for (int j = i + 1; j < 4; ++j) {
+                if (!(h[i] * h[j] < 0)) continue;
+                int a = i, b = j;
+                if (mT.id[b] < mT.id[a]) std::swap(a, b);
+                const double t = h[a] / (h[a] - h[b]);
+                const dvec3 x = mT.p[a] + t * (mT.p[b] - mT.p[a]);
+                pts.push_back({makeVertex(uint8_t(1 << i | 1 << j), {fp.id}, x), x});
+            }
+        if (pts.size() < 3) continue;
+        Surface s;
+        s.plane = fp.id;
+        s.quad = q;
+        s.normal = fp.normal;
+        s.sides = 3;
+        if (on == 3) { // the plane is a tet face: only the cap facing away from this tet
+            int f = 0;
+            while (h[f] == 0) ++f;
+            s.sides = h[f] > 0 ? 1 : 2;
+            if (mPrism && glm::dot(fp.normal, fp.plane.n) * h[f] > 0) continue; // faces into this tet
+        }
+        if (mPrism) s.sides = 1;
+        dvec3 c(0.0);
+        for (const auto& p : pts) c += p.second;
+        c /= double(pts.size());
+        dvec3 e1 = glm::normalize(pts[0].second - c);
+        const dvec3 e2 = glm::cross(s.normal, e1);
+        {
+            // By angle about the centre (each angle computed once).
+            SmallVector<std::pair<double, std::pair<int, dvec3>>, 8> byAngle;
+            for (const auto& p : pts)
+                byAngle.push_back({std::atan2(glm::dot(p.second - c, e2), glm::dot(p.second - c, e1)), p});
+            std::sort(byAngle.begin(), byAngle.end(),
+                      [](const auto& a, const auto& b) { return a.first < b.first; });
+            for (size_t i = 0; i < pts.size(); ++i) pts[i] = byAngle[i].second;
+        }
+        for (size_t i = 0; i < pts.size(); ++i) {
+            s.poly.v.push_back(pts[i].first);
+            const uint8_t m = uint8_t(mVerts[size_t(pts[i].first)].support |
+                                      mVerts[size_t(pts[(i + 1) % pts.size()].first)].support);
+            s.poly.lab.push_back(kBoundaryLabel | m);
+        }
+        surfaces.push_back(std::move(s));
+    }
+
+    // Split order: iso planes, junction planes, then the rest by id.
+    struct SplitPlane
+    {
+        uint64_t id;
+        const QuadGeom* owner; // restricts a quad's plane / rim side to its junction zone
+    };
+    SmallVector<SplitPlane, 16> splitOrder;
+    for (const auto& pl : mPlanes)
+        if (pl.first <= kIsoB) splitOrder.push_back({pl.first, nullptr});
+    for (const auto& pl : mPlanes)
+        if (pl.first > kIsoB && (pl.first & 15) == kJunctionKind) splitOrder.push_back({pl.first, nullptr});
+    for (const auto& pl : mPlanes) {
+        if (pl.first <= kIsoB || (pl.first & 15) == kJunctionKind) continue;
+        const QuadGeom* owner = nullptr;
+        for (const QuadGeom* q : mQuads)
+            if ((q->id >> 4) == (pl.first >> 4)) owner = q;
+        // Prisms: a rim plane shared along the stroke by several quads here
+        // splits everywhere (each of them needs it).
+        if (mPrism && owner) {
+            int users = 0;
+            for (const QuadGeom* q : mQuads)
+                for (const auto& sd : q->sides) users += sd.id == pl.first;
+            if (users > 1) owner = nullptr;
+        }
+        splitOrder.push_back({pl.first, owner});
+    }
+
+    // Arrangements, classification, tagged loops.
+    std::vector<Node>& nodes = mNodes;
+    nodes.clear();
+    // The nodes of each vertex, chained in creation order (nodeOf returns
+    // the first with these tags, as a scan of `nodes` would).
+    std::vector<int>& nodeHead = mNodeHead;
+    std::vector<int>& nodeNext = mNodeNext;
+    nodeHead.clear();
+    nodeNext.clear();
+    auto nodeOf = [&](int vert, Tags& tags) {
+        std::sort(tags.begin(), tags.end());
+        if (size_t(vert) >= nodeHead.size()) nodeHead.resize(mVerts.size() + 16, -1);
+        int last = -1;
+        for (int i = nodeHead[size_t(vert)]; i >= 0; i = nodeNext[size_t(i)]) {
+            if (nodes[size_t(i)].tags == tags) return i;
+            last = i;
+        }
+        nodes.emplace_back();
+        nodes.back().vert = vert;
+        nodes.back().tags.assign(tags.begin(), tags.end());
+        nodeNext.push_back(-1);
+        const int id = int(nodes.size() - 1);
+        (last < 0 ? nodeHead[size_t(vert)] : nodeNext[size_t(last)]) = id;
+        return id;
+    };
+    struct Loop
+    {
+        SmallVector<int, 16> nodes;
+        SmallVector<uint64_t, 16> labels; // labels[i]: edge nodes[i] -> nodes[i+1]
+    };
+    struct Region
+    {
+        dvec3 normal;
+        SmallVector<Loop, 1> loops;
+        const QuadGeom* cap = nullptr; // cap regions: the quad, and the side
+        int side = 0;
+    };
+    SmallVector<Region, 8> regions;
+
+    for (Surface& s : surfaces) {
+        std::vector<Poly>& pieces = mPieces;
+        std::vector<Poly>& next = mNextPieces;
+        pieces.clear();
+        pieces.push_back(s.poly);
+        auto pieceSign = [&](const Poly& p, uint64_t id) {
+            for (int v : p.v) {
+                const int sg = sign(v, id);
+                if (sg != 0) return sg;
+            }
+            return 0;
+        };
+        for (const SplitPlane& sp : splitOrder) {
+            if (sp.id == s.plane) continue;
+            if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
+            next.clear();
+            for (Poly& p : pieces) {
+                // A quad's plane and rim sides only split inside its junction zone,
+                // so near-coincident planes of consecutive quads never meet there.
+                bool outside = false;
+                if (sp.owner)
+                    for (const auto& sd : sp.owner->sides)
+                        if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
+                if (outside) next.push_back(std::move(p));
+                else splitPoly(std::move(p), s.plane, sp.id, next);
+            }
+            pieces.swap(next);
+        }
+        // Conformity: restricted splits end on junction lines; put their end
+        // points on the neighbouring pieces' edges too (no T-junction inside).
+        {
+            SmallVector<int, 32> all;
+            for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
+            std::sort(all.begin(), all.end());
+            all.erase(std::unique(all.begin(), all.end()), all.end());
+            // The vertices of `all` on each edge label's line (ascending),
+            // found once per label rather than once per edge: a cell where
+            // many quads pivot has thousands of edges and vertices here.
+            // onLabel: (label, begin, end) of its vertices in mOnLine.
+            SmallVector<std::array<uint64_t, 3>, 8> onLabel;
+            std::vector<int>& onLine = mOnLine;
+            onLine.clear();
+            auto onLineOf = [&](uint64_t L) -> std::pair<const int*, const int*> {
+                for (const auto& e : onLabel)
+                    if (e[0] == L) return {onLine.data() + e[1], onLine.data() + e[2]};
+                const size_t begin = onLine.size();
+                for (int x : all) {
+                    const Vert& vx = mVerts[size_t(x)];
+                    const bool on = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
+                    if (on) onLine.push_back(x);
+                }
+                onLabel.push_back({L, begin, onLine.size()});
+                return {onLine.data() + begin, onLine.data() + onLine.size()};
+            };
+            for (Poly& p : pieces) {
+                Poly q;
+                const size_t n = p.v.size();
+                for (size_t k = 0; k < n; ++k) {
+                    const int u = p.v[k], w = p.v[(k + 1) % n];
+                    const uint64_t L = p.lab[k];
+                    q.v.push_back(u);
+                    q.lab.push_back(L);
+                    const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
+                    const double dd = glm::dot(d, d);
+                    SmallVector<std::pair<double, int>, 4> on;
+                    const auto [xsBegin, xsEnd] = onLineOf(L);
+                    for (const int* it = xsBegin; it != xsEnd; ++it) {
+                        const int x = *it;
+                        if (x == u || x == w) continue;
+                        const Vert& vx = mVerts[size_t(x)];
+                        const double t = glm::dot(vx.pos - a, d) / dd;
+                        if (!(t > 1e-12 && t < 1 - 1e-12)) continue;
+                        if (glm::length(vx.pos - (a + t * d)) > 1e-9 * (1 + std::sqrt(dd))) continue;
+                        on.push_back({t, x});
+                    }
+                    std::sort(on.begin(), on.end());
+                    for (const auto& o : on) {
+                        q.v.push_back(o.second);
+                        q.lab.push_back(L);
+                    }
+                }
+                p = std::move(q);
+            }
+            // A piece folded onto itself (it runs out along a line and back
+            // through the same vertex): its loop and the spike, apart.
+            next.clear();
+            for (Poly& p : pieces) pushSimple(std::move(p), next);
+            pieces.swap(next);
+        }
+        // Classification.
+        SmallVector<char, 32> kept(pieces.size(), 1);
+        if (mPrism) {
+            // Kerf > 0 (DESIGN's sketch): iso pieces outside every closed prism;
+            // prism face pieces inside closed P, on their own closed face and
+            // outside every other closed prism, except that of two coincident
+            // faces facing the same way the lower quad's is kept.
+            auto insidePrism = [&](const Poly& p, const QuadGeom& q) {
+                for (const auto& sd : q.sides)
+                    if (sd.orient * pieceSign(p, sd.id) < 0) return false;
+                return true;
+            };
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                const Poly& p = pieces[i];
+                bool ok = true;
+                if (!s.quad) {
+                    for (const QuadGeom* q : mQuads) ok = ok && !insidePrism(p, *q);
+                } else {
+                    for (int v : p.v) ok = ok && member(v) >= 0;
+                    auto keptBy = [&](const QuadGeom* own) {
+                        bool k = insidePrism(p, *own);
+                        for (const QuadGeom* q : mQuads) {
+                            if (!k) break;
+                            if (q == own || !insidePrism(p, *q)) continue;
+                            bool sameFace = false;
+                            for (const auto& sd : q->sides)
+                                sameFace = sameFace || (pieceSign(p, sd.id) == 0 &&
+                                                        glm::dot(sd.orient * sd.plane.n, s.normal) > 0);
+                            k = sameFace && q->id > own->id;
+                        }
+                        return k;
+                    };
+                    bool any = ok && keptBy(s.quad);
+                    for (const QuadGeom* own : s.also) any = any || (ok && keptBy(own));
+                    ok = any;
+                }
+                kept[i] = ok;
+            }
+        } else if (s.quad) {
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                bool ok = true;
+                for (int v : pieces[i].v) ok = ok && member(v) >= 0;
+                for (const auto& sd : s.quad->sides) ok = ok && sd.orient * pieceSign(pieces[i], sd.id) >= 0;
+                kept[i] = ok;
+            }
+        }
+        // Steiner midpoints on slit chords between rim points (see needsMidpoint).
+        for (size_t i = 0; i < pieces.size(); ++i) {
+            if (!kept[i]) continue;
+            Poly& p = pieces[i];
+            for (size_t k = 0; k < p.v.size(); ++k) {
+                const int u = p.v[k], w = p.v[(k + 1) % p.v.size()];
+                for (const QuadGeom* r : mQuads) {
+                    if (!needsMidpoint(u, w, *r)) continue;
+                    const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
+                    uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
+                    uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
+                    PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
+                    const uint8_t sup = uint8_t(vu.support | vw.support);
+                    if (bits(sup) < 4) {
+                        const bool isoU = vu.key.planeCount && vu.key.planes[0] == kIso;
+                        const bool isoW = vw.key.planeCount && vw.key.planes[0] == kIso;
+                        if (isoU && isoW) planes.push_back(kIso);
+                    }
+                    const int m = makeSteiner(sup, planes, 0.5 * (vu.pos + vw.pos));
+                    p.v.insert(p.v.begin() + long(k) + 1, m);
+                    p.lab.insert(p.lab.begin() + long(k) + 1, p.lab[k]);
+                    ++k;
+                    break;
+                }
+            }
+        }
+        for (int side : {1, -1}) {
+            if (s.quad && !mPrism ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
+            // Slit edges: on another quad's plane inside that quad.
+            auto isSlit = [&](int a, int b) {
+                if (mPrism) return false;
+                for (const QuadGeom* r : mQuads) {
+                    if (r == s.quad) continue;
+                    if (sign(a, r->id) == 0 && sign(b, r->id) == 0 && inExtentClosed(a, *r) && inExtentClosed(b, *r))
+                        return true;
+                }
+                return false;
+            };
+            // Union-find over kept pieces across non-slit shared edges: each
+            // later use of an edge joins its piece to the edge's first piece.
+            std::vector<int>& parent = mParent;
+            parent.resize(pieces.size());
+            for (size_t i = 0; i < parent.size(); ++i) parent[i] = int(i);
+            auto find = [&](int x) {
+                int r = x;
+                while (parent[size_t(r)] != r) r = parent[size_t(r)];
+                while (parent[size_t(x)] != r) x = std::exchange(parent[size_t(x)], r);
+                return r;
+            };
+            auto& uses = mEdgeUses; // (lower vertex, higher vertex, sequence, piece)
+            uses.clear();
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                if (!kept[i]) continue;
+                const Poly& p = pieces[i];
+                for (size_t k = 0; k < p.v.size(); ++k) {
+                    int a = p.v[k], b = p.v[(k + 1) % p.v.size()];
+                    if (a > b) std::swap(a, b);
+                    uses.push_back({a, b, int(uses.size()), int(i)});
+                }
+            }
+            auto& order = mEdgeOrder; // first use of the same edge, per use in sequence
+            order.assign(uses.size(), -1);
+            {
+                auto& sorted = mEdgeSorted;
+                sorted.assign(uses.begin(), uses.end());
+                std::sort(sorted.begin(), sorted.end());
+                for (size_t k = 1; k < sorted.size(); ++k) {
+                    const auto& f = sorted[k - 1];
+                    const auto& g = sorted[k];
+                    if (f[0] == g[0] && f[1] == g[1]) order[size_t(g[2])] = order[size_t(f[2])] >= 0 ? order[size_t(f[2])] : f[3];
+                }
+            }
+            for (const auto& u : uses)
+                if (order[size_t(u[2])] >= 0 && !isSlit(u[0], u[1])) parent[size_t(find(u[3]))] = find(order[size_t(u[2])]);
+            // Directed edges per region, with tagged nodes.
+            auto stripSide = [&](const Poly& piece, const QuadGeom* r, int vert) -> int {
+                if (r == s.quad) return side;
+                for (const auto& sd : r->sides) {
+                    if (sd.partnerId == 0 || sign(vert, sd.id) != 0) continue;
+                    const QuadGeom* o = quadById(sd.partnerId);
+                    if (!o) continue;
+                    if (sd.orient * pieceSign(piece, sd.id) < 0) { // the piece is on the partner's half
+                        if (o == s.quad) return side;
+                        const int sg = pieceSign(piece, o->id);
+                        if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
+                        return sg;
+                    }
+                }
+                const int sg = pieceSign(piece, r->id);
+                if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
+                return sg;
+            };
+            // Per root piece (ascending): (from node, to node, label).
+            auto& regionEdges = mRegionEdges;
+            if (regionEdges.size() < pieces.size()) regionEdges.resize(pieces.size());
+            for (size_t i = 0; i < pieces.size(); ++i) regionEdges[i].clear();
+            for (size_t i = 0; i < pieces.size(); ++i) {
+                if (!kept[i]) continue;
+                const Poly& p = pieces[i];
+                const size_t n = p.v.size();
+                SmallVector<int, 16> pn(n);
+                for (size_t k = 0; k < n; ++k) {
+                    Tags tags;
+                    for (const QuadGeom* r : mQuads) {
+                        if (mPrism) break;
+                        if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
+                        const int sg = stripSide(p, r, p.v[k]);
+                        tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
+                    }
+                    pn[k] = nodeOf(p.v[k], tags);
+                }
+                auto& list = regionEdges[size_t(find(int(i)))];
+                const bool reverse = s.quad && !mPrism && side > 0;
+                for (size_t k = 0; k < n; ++k) {
+                    const int a = pn[k], b = pn[(k + 1) % n];
+                    if (reverse) list.push_back({b, a, int64_t(p.lab[k])});
+                    else list.push_back({a, b, int64_t(p.lab[k])});
+                }
+            }
+            const dvec3 outNormal = s.quad && !mPrism && side > 0 ? -s.normal : s.normal;
+            for (size_t root = 0; root < pieces.size(); ++root) {
+                const auto& edges = regionEdges[root];
+                if (edges.empty()) continue;
+                // Boundary edges: those whose reverse is not in the region.
+                auto& keys = mBoundaryKeys;
+                keys.clear();
+                for (const auto& e : edges) keys.push_back({int(e[0]), int(e[1])});
+                std::sort(keys.begin(), keys.end());
+                SmallVector<std::array<int64_t, 3>, 16> bnd;
+                for (const auto& e : edges)
+                    if (!std::binary_search(keys.begin(), keys.end(), std::pair<int, int>(int(e[1]), int(e[0]))))
+                        bnd.push_back(e);
+                if (bnd.empty()) continue;
+                dvec3 e1 = std::abs(outNormal.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+                e1 = glm::normalize(e1 - outNormal * glm::dot(outNormal, e1));
+                const dvec3 e2 = glm::cross(outNormal, e1);
+                auto p2 = [&](int node) {
+                    const dvec3& x = mVerts[size_t(nodes[size_t(node)].vert)].pos;
+                    return Vec2{glm::dot(x, e1), glm::dot(x, e2)};
+                };
+                SmallVector<char, 16> used(bnd.size(), 0);
+                Region region;
+                region.normal = outNormal;
+                region.cap = s.quad;
+                region.side = side;
+                for (size_t start = 0; start < bnd.size(); ++start) {
+                    if (used[start]) continue;
+                    Loop loop;
+                    size_t cur = start;
+                    for (size_t guard = 0; guard <= bnd.size(); ++guard) {
+                        used[cur] = 1;
+                        loop.nodes.push_back(int(bnd[cur][0]));
+                        loop.labels.push_back(uint64_t(bnd[cur][2]));
+                        const int at = int(bnd[cur][1]);
+                        if (at == loop.nodes.front()) break;
+                        // Next: unused edge from `at`, the most clockwise from the way back.
+                        size_t best = bnd.size();
+                        double bestAngle = 1e9;
+                        const Vec2 pa = p2(at), pb = p2(int(bnd[cur][0]));
+                        const double back = std::atan2(pb.y - pa.y, pb.x - pa.x);
+                        for (size_t k = 0; k < bnd.size(); ++k) {
+                            if (used[k] || bnd[k][0] != at) continue;
+                            const Vec2 pc = p2(int(bnd[k][1]));
+                            double ang = back - std::atan2(pc.y - pa.y, pc.x - pa.x);
+                            while (ang <= 0) ang += 2 * M_PI;
+                            while (ang > 2 * M_PI) ang -= 2 * M_PI;
+                            if (ang < bestAngle) {
+                                bestAngle = ang;
+                                best = k;
+                            }
+                        }
+                        if (best == bnd.size()) {
+                            throw std::runtime_error("remesh: open boundary loop in cell " + cellText(mCell));
+                        }
+                        cur = best;
+                    }
+                    region.loops.push_back(std::move(loop));
+                }
+                regions.push_back(std::move(region));
+            }
+        }
+    }
+
+    // Corners: a node is kept when it is a corner of some loop of the tet.
+    // A point of a quad's rim on the tet's boundary (zero kerf) is always
+    // kept: where the rim lies in a tet face (a blade edge exactly on a grid
+    // plane), the tet on the quad's side ends its slit there while the tet on
+    // the other side sees a straight boundary through it; both must keep it.
+    auto onOwnRim = [&](const CutVertexId& k) {
+        if (mPrism || k.dim == 3) return false;
+        for (int i = 0; i < k.planeCount; ++i) {
+            const uint64_t p = k.planes[size_t(i)];
+            const uint64_t kind = p & 15;
+            if (p < (uint64_t(1) << 36) || kind < 1 || kind > 4) continue;
+            if (std::binary_search(k.planes.begin(), k.planes.begin() + k.planeCount, p & ~uint64_t(15))) return true;
+        }
+        return false;
+    };
+    SmallVector<char, 64> corner(nodes.size(), 0);
+    for (const Region& r : regions) {
+        for (const Loop& l : r.loops) {
+            const size_t n = l.nodes.size();
+            for (size_t i = 0; i < n; ++i) {
+                const uint64_t in = l.labels[(i + n - 1) % n], outL = l.labels[i];
+                bool c = in != outL;
+                if (!c) {
+                    const dvec3& a = mVerts[size_t(nodes[size_t(l.nodes[(i + n - 1) % n])].vert)].pos;
+                    const dvec3& b = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)].pos;
+                    const dvec3& d = mVerts[size_t(nodes[size_t(l.nodes[(i + 1) % n])].vert)].pos;
+                    c = glm::dot(b - a, d - b) < 0;
+                }
+                const Vert& vx = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)];
+                if (c || vx.steiner || onOwnRim(vx.key)) corner[size_t(l.nodes[i])] = 1;
+            }
+        }
+    }
+
+    // Triangulate each region.
+    for (const Region& r : regions) {
+        const dvec3& nrm = r.normal;
+        dvec3 e1 = std::abs(nrm.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+        e1 = glm::normalize(e1 - nrm * glm::dot(nrm, e1));
+        const dvec3 e2 = glm::cross(nrm, e1);
+        std::vector<Vec2>& pts = mTriangulatePts;
+        std::vector<int>& ptNode = mTriangulateNodes;
+        pts.clear();
+        ptNode.clear();
+        std::vector<std::vector<int>> outers, holes;
+        for (const Loop& l : r.loops) {
+            std::vector<int> loop;
+            for (int nd : l.nodes) {
+                if (!corner[size_t(nd)]) continue;
+                const dvec3& x = mVerts[size_t(nodes[size_t(nd)].vert)].pos;
+                pts.push_back({glm::dot(x, e1), glm::dot(x, e2)});
+                ptNode.push_back(nd);
+                loop.push_back(int(pts.size() - 1));
+            }
+            if (loop.size() < 3) {
+                if (loop.empty()) continue;
+                throw std::runtime_error("remesh: degenerate boundary loop in cell " + cellText(mCell));
+            }
+            // A loop of (nearly) zero area is a slit inside the region (a blade
+            // corner through the surface): a hole, whatever its rounding says.
+            double perim = 0.0;
+            for (size_t i = 0; i < loop.size(); ++i) {
+                const Vec2 &a = pts[size_t(loop[i])], &b = pts[size_t(loop[(i + 1) % loop.size()])];
+                perim += std::hypot(a.x - b.x, a.y - b.y);
+            }
+            const double area = signedArea(loop, pts);
+            (area > 1e-9 * perim * perim ? outers : holes).push_back(loop);
+        }
+        if (outers.empty()) {
+            if (holes.empty()) continue;
+            throw std::runtime_error("remesh: region without outer loop in cell " + cellText(mCell));
+        }
+        std::vector<std::vector<std::vector<int>>> holesOf(outers.size());
+        for (auto& h : holes) {
+            size_t best = 0;
+            if (outers.size() > 1) {
+                Vec2 c{0, 0};
+                for (int i : h) {
+                    c.x += pts[size_t(i)].x / double(h.size());
+                    c.y += pts[size_t(i)].y / double(h.size());
+                }
+                for (size_t o = 0; o < outers.size(); ++o) {
+                    bool in = false;
+                    const auto& L = outers[o];
+                    for (size_t i = 0, j = L.size() - 1; i < L.size(); j = i++) {
+                        const Vec2 &a = pts[size_t(L[i])], &b = pts[size_t(L[j])];
+                        if ((a.y > c.y) != (b.y > c.y) && c.x < (b.x - a.x) * (c.y - a.y) / (b.y - a.y) + a.x) in = !in;
+                    }
+                    if (in) best = o;
+                }
+            }
+            holesOf[best].push_back(h);
+        }
+        for (size_t o = 0; o < outers.size(); ++o) {
+            std::vector<int> poly = outers[o];
+            if (!holesOf[o].empty() && !bridgeHoles(poly, holesOf[o], pts))
+                throw std::runtime_error("remesh: cannot bridge a hole in cell " + cellText(mCell));
+            std::vector<int> tris;
+            bool convex = r.cap && !mPrism && outers.size() == 1 && holesOf[o].empty();
+            for (size_t i = 0; i < poly.size() && convex; ++i) {
+                const Vec2 &a = pts[size_t(poly[(i + poly.size() - 1) % poly.size()])], &b = pts[size_t(poly[i])],
+                           &c = pts[size_t(poly[(i + 1) % poly.size()])];
+                // Straight within rounding counts as convex: the corners of a slit
+                // chord's Steiner midpoint are collinear only up to rounding.
+                convex = cross2(a, b, c) >= -1e-9 * std::hypot(b.x - a.x, b.y - a.y) * std::hypot(c.x - b.x, c.y - b.y);
+            }
+            // A triangle inside its own slit (every corner tagged with this
+            // cap's side, so the other side's triangle shares no vertex)
+            // needs no centre: a centre would add three triangles, and in a
+            // region a few float ulps wide one of them has zero area once
+            // rounded to float mm (seed 1021).
+            const bool ownSlit = convex && poly.size() == 3 && std::all_of(poly.begin(), poly.end(), [&](int i) {
+                const auto& tags = nodes[size_t(ptNode[size_t(i)])].tags;
+                return std::binary_search(tags.begin(), tags.end(), r.cap->id << 1 | (r.side < 0 ? 1u : 0u));
+            });
+            if (ownSlit) {
+                tris.insert(tris.end(), poly.begin(), poly.end());
+            } else if (convex) {
+                // A cap region: fan from a tagged centre, so no chord joins two rim
+                // points (the two sides of the slit would share it).
+                dvec3 centre(0.0);
+                for (int i : poly) centre += mVerts[size_t(nodes[size_t(ptNode[size_t(i)])].vert)].pos / double(poly.size());
+                const int cv = makeSteiner(15, {kCentroid, r.cap->id, uint64_t(&r - regions.data()) + 8}, centre);
+                Tags tags{r.cap->id << 1 | (r.side < 0 ? 1u : 0u)};
+                const int cn = nodeOf(cv, tags);
+                pts.push_back({glm::dot(centre, e1), glm::dot(centre, e2)});
+                ptNode.push_back(cn);
+                const int ci = int(pts.size() - 1);
+                for (size_t i = 0; i < poly.size(); ++i) {
+                    tris.push_back(ci);
+                    tris.push_back(poly[i]);
+                    tris.push_back(poly[(i + 1) % poly.size()]);
+                }
+            } else if (!(mPrism && bestTriangulation(poly, pts, tris)) && !earClip(poly, pts, tris)) {
+                throw std::runtime_error("remesh: triangulation failed in cell " + cellText(mCell));
+            }
+            for (int i : tris) {
+                const Node& nd = nodes[size_t(ptNode[size_t(i)])];
+                CutVertexId id = mVerts[size_t(nd.vert)].key;
+                id.tagCount = uint8_t(std::min<size_t>(nd.tags.size(), id.tags.size()));
+                if (nd.tags.size() > id.tags.size())
+                    throw std::runtime_error("remesh: a point lies in more than 4 slits in cell " + cellText(mCell));
+                for (size_t k = 0; k < nd.tags.size(); ++k) id.tags[k] = nd.tags[k];
+                auto it = cellIndex.find(id);
+                if (it == cellIndex.end()) {
+                    it = cellIndex.emplace(id, uint32_t(out.vertexIds.size())).first;
+                    out.vertexIds.push_back(id);
+                    out.indexPositions.push_back(mVerts[size_t(nd.vert)].pos);
+                }
+                out.indices.push_back(it->second);
+            }
+        }
+    }
+}
+
+CellKernel::CellKernel(const vdb::Volume& volume, float iso)
+    : mKernel(std::make_unique<RemeshKernel>(volume, iso))
+{
+}
+
+CellKernel::~CellKernel() = default;
+
+void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
+{
+    mKernel->remesh(cell, quads, prism, out);
+}
+
+} // namespace mtcut::cutter::remesh_detail

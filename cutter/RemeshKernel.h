@@ -1,0 +1,104 @@
+// Internal to cutter/: what the re-meshing front end (Remesh.cpp: quad
+// geometry, caches, CutRemesher) and the per-cell kernel (RemeshKernel.cpp:
+// the arrangement of each tet's isosurface pieces and blade planes) share.
+// Not part of the library's interface; no GL.
+#pragma once
+
+#include "cutter/Remesh.h"
+#include "vdb/Volume.h"
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include <openvdb/math/Coord.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mtcut::cutter::remesh_detail {
+
+using glm::dvec3;
+using openvdb::Coord;
+
+constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
+constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
+constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
+constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local vertices of the tet face/edge
+constexpr int kJunctionKind = 7;
+/// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
+/// vertex inside a tet where the removed region's boundary pinches.
+constexpr uint64_t kPinchTag = uint64_t(1) << 63;
+constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
+inline constexpr double kMaxMitreBend = 0.35; ///< kerf > 0: consecutive prisms bending less than this (rad) meet on a mitre
+
+inline uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
+{
+    return (uint64_t(stroke) << 36) | (uint64_t(quad) << 4) | uint64_t(kind);
+}
+
+struct Plane
+{
+    dvec3 n{0.0};
+    double d = 0.0;
+    double h(const dvec3& x) const { return glm::dot(n, x) - d; }
+};
+
+inline double epsAt(const dvec3& x)
+{
+    return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
+}
+
+/// "(x, y, z)", for refusal messages.
+std::string cellText(const Coord& c);
+
+/// A quad's zero-kerf removed region in index space: its plane and its sides
+/// (each a plane through a hull edge; the junction with the previous/next
+/// quad of the stroke is one shared mitre plane, so the strip is one surface).
+struct QuadGeom
+{
+    uint64_t id = 0; ///< plane id of the quad's plane (kind 0)
+    Plane pi;
+    struct Side
+    {
+        uint64_t id = 0;
+        Plane plane;
+        double orient = 1.0; ///< inside the quad: orient * h >= 0
+        int partner = -1;    ///< junction: the other quad's index in the cell's quad list (-1: rim)
+        uint64_t partnerId = 0;
+        /// Junction: at each end of the shared edge, this quad's rim side there and
+        /// the partner's (0 when none); a point on both is one corner of the strip.
+        std::array<std::pair<uint64_t, uint64_t>, 2> cornerSides{};
+    };
+    std::vector<Side> sides;
+};
+
+class RemeshKernel; // RemeshKernel.cpp
+
+/// The re-meshing kernel of one thread (its scratch is reused from cell to
+/// cell). remesh() re-meshes one cut cell of `volume` at `iso` from the
+/// geometry of the quads that cut it (zero kerf: quads, each with its sides
+/// and junction partners; kerf > 0, prism: closed prisms), in the cell's
+/// quad order, into `out` (cleared first); it throws std::runtime_error
+/// ("remesh: ... in cell (i, j, k)") for a configuration it refuses. The
+/// output depends only on the cell, its corner values and `quads`.
+class CellKernel
+{
+public:
+    CellKernel(const vdb::Volume& volume, float iso);
+    ~CellKernel();
+    CellKernel(const CellKernel&) = delete;
+    CellKernel& operator=(const CellKernel&) = delete;
+
+    void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
+
+private:
+    std::unique_ptr<RemeshKernel> mKernel;
+};
+
+} // namespace mtcut::cutter::remesh_detail
