@@ -11,6 +11,7 @@
 #include <boost/container/small_vector.hpp>
 
 #include <cassert>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -1757,7 +1758,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
 }
 
 CellKernel::CellKernel(const vdb::Volume& volume, float iso)
-    : mKernel(std::make_unique<RemeshKernel>(volume, iso))
+    : mKernel(std::make_unique<RemeshKernel>(volume, iso)), mOrigin(volume.origin()), mSpacing(volume.spacing())
 {
 }
 
@@ -1766,6 +1767,198 @@ CellKernel::~CellKernel() = default;
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     mKernel->remesh(cell, quads, prism, out);
+    repairFloatFolds(cell, mOrigin, mSpacing, out);
+}
+
+namespace {
+
+/// The faces of `cell` the vertex lies on (bit 2 * axis + side); 0 for a
+/// vertex private to the cell, inside it, which no other cell names. Tet
+/// edges all lie on cell faces (the 5-tet split has no inner edge), so only
+/// tet-face and inside-tet vertices can be private.
+unsigned cellFaces(const CutVertexId& id, const Coord& cell)
+{
+    if (id.dim == 3) return 0;
+    unsigned faces = 0;
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+            bool on = true;
+            for (int f = 0; f <= id.dim; ++f)
+                on = on && gridVertexCoord(id.feature[size_t(f)])[axis] == cell[axis] + side;
+            if (on) faces |= 1u << (2 * axis + side);
+        }
+    return faces;
+}
+
+} // namespace
+
+size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                        CutCellGeometry& out)
+{
+    const size_t nv = out.indexPositions.size(), nt = out.indices.size() / 3;
+    if (nt == 0) return 0;
+    // Exact (double) and written (float) world positions, as fusedMesh.
+    std::vector<dvec3> exact(nv), written(nv);
+    for (size_t i = 0; i < nv; ++i) {
+        const dvec3& p = out.indexPositions[i];
+        exact[i] = dvec3(origin[0] + spacing[0] * p.x, origin[1] + spacing[1] * p.y, origin[2] + spacing[2] * p.z);
+        written[i] = dvec3(double(float(exact[i].x)), double(float(exact[i].y)), double(float(exact[i].z)));
+    }
+    std::vector<std::array<uint32_t, 3>> tris(nt);
+    std::vector<dvec3> normal(nt); // exact orientation, from the exact corners as the kernel made them
+    for (size_t t = 0; t < nt; ++t) {
+        tris[t] = {out.indices[3 * t], out.indices[3 * t + 1], out.indices[3 * t + 2]};
+        normal[t] = glm::cross(exact[tris[t][1]] - exact[tris[t][0]], exact[tris[t][2]] - exact[tris[t][0]]);
+    }
+    // Folded once written: degenerate in float, or facing against its exact normal.
+    auto folded = [&](const std::array<uint32_t, 3>& v, const dvec3& n) {
+        const dvec3 f = glm::cross(written[v[1]] - written[v[0]], written[v[2]] - written[v[0]]);
+        return !(glm::dot(f, n) > 0.0);
+    };
+    // Shorter than a few float steps at this cell's largest coordinate: the
+    // ends may round together or across each other.
+    double extent = 0.0;
+    for (int a = 0; a < 3; ++a)
+        extent = std::max({extent, std::abs(origin[a] + spacing[a] * cell[a]),
+                           std::abs(origin[a] + spacing[a] * (cell[a] + 1))});
+    const double shortEdge = kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
+    auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
+    auto needsMending = [&](size_t t) {
+        const auto& v = tris[t];
+        return folded(v, normal[t]) || isShort(v[0], v[1]) || isShort(v[1], v[2]) || isShort(v[2], v[0]);
+    };
+    std::vector<char> alive(nt, 1);
+    bool any = false;
+    for (size_t t = 0; t < nt && !any; ++t) any = needsMending(t);
+    if (!any) return 0;
+
+    std::vector<unsigned> faces(nv);
+    for (size_t i = 0; i < nv; ++i) faces[i] = cellFaces(out.vertexIds[i], cell);
+    auto canMove = [&](uint32_t v) { return faces[v] == 0; };
+    std::vector<uint32_t> mergedInto(nv);
+    for (size_t i = 0; i < nv; ++i) mergedInto[i] = uint32_t(i);
+    size_t removed = 0;
+    // Triangles at a vertex, rebuilt after each collapse (cells hold tens to
+    // a few hundred triangles, and collapses are rare).
+    auto trianglesAt = [&](uint32_t v, std::vector<size_t>& list) {
+        list.clear();
+        for (size_t t = 0; t < nt; ++t)
+            if (alive[t] && (tris[t][0] == v || tris[t][1] == v || tris[t][2] == v)) list.push_back(t);
+    };
+    std::vector<size_t> atP, atQ;
+    auto neighbours = [&](const std::vector<size_t>& list, uint32_t v) {
+        std::vector<uint32_t> n;
+        for (size_t t : list)
+            for (uint32_t w : tris[t])
+                if (w != v) n.push_back(w);
+        std::sort(n.begin(), n.end());
+        n.erase(std::unique(n.begin(), n.end()), n.end());
+        return n;
+    };
+    /// Collapses p onto q when that keeps a 2-manifold and (unless `onFace`)
+    /// folds nothing and puts no triangle into a cell face; true if done.
+    /// onFace: p and q lie inside one cell face and the edge is on the
+    /// cell's boundary (one triangle).
+    auto collapse = [&](uint32_t p, uint32_t q, bool onFace) {
+        const CutVertexId &ip = out.vertexIds[p], &iq = out.vertexIds[q];
+        if (ip.tagCount != iq.tagCount || ip.tags != iq.tags) return false; // copies of one point stay apart
+        trianglesAt(p, atP);
+        trianglesAt(q, atQ);
+        std::vector<size_t> onEdge;
+        for (size_t t : atP)
+            if (tris[t][0] == q || tris[t][1] == q || tris[t][2] == q) onEdge.push_back(t);
+        if (onEdge.size() != (onFace ? 1u : 2u)) return false;
+        std::vector<uint32_t> apexes;
+        for (size_t t : onEdge)
+            for (uint32_t w : tris[t])
+                if (w != p && w != q) apexes.push_back(w);
+        std::sort(apexes.begin(), apexes.end());
+        const std::vector<uint32_t> np = neighbours(atP, p), nq = neighbours(atQ, q);
+        std::vector<uint32_t> common;
+        std::set_intersection(np.begin(), np.end(), nq.begin(), nq.end(), std::back_inserter(common));
+        if (common != apexes) return false; // the link condition
+        for (size_t t : atP) {
+            if (onFace) break;
+            if (std::find(onEdge.begin(), onEdge.end(), t) != onEdge.end()) continue;
+            std::array<uint32_t, 3> moved = tris[t];
+            for (uint32_t& w : moved)
+                if (w == p) w = q;
+            if (folded(moved, normal[t])) return false;
+            // A triangle in a cell face: the next cell may have it too.
+            if (faces[moved[0]] & faces[moved[1]] & faces[moved[2]]) return false;
+        }
+        for (size_t t : onEdge) alive[t] = 0;
+        for (size_t t : atP)
+            for (uint32_t& w : tris[t])
+                if (w == p) w = q;
+        mergedInto[p] = q;
+        ++removed;
+        return true;
+    };
+    // Two vertices inside one cell face joined by a short edge: the two
+    // cells of that face, and only they, hold them, and both have the edge
+    // on their common boundary. The greater name becomes the lesser, edges
+    // in name order, in both cells alike: only the link condition is asked
+    // (a fold or face check could be judged otherwise by the next cell; the
+    // local check judges the fused result).
+    {
+        std::vector<std::pair<uint32_t, uint32_t>> onFace; // (lesser, greater)
+        for (size_t t = 0; t < nt; ++t)
+            for (int e = 0; e < 3; ++e) {
+                uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                if (out.vertexIds[a].dim != 2 || out.vertexIds[b].dim != 2 || !(faces[a] & faces[b]) || !isShort(a, b))
+                    continue;
+                if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
+                onFace.push_back({a, b});
+            }
+        auto byName = [&](const std::pair<uint32_t, uint32_t>& x, const std::pair<uint32_t, uint32_t>& y) {
+            if (out.vertexIds[x.first] < out.vertexIds[y.first]) return true;
+            if (out.vertexIds[y.first] < out.vertexIds[x.first]) return false;
+            return out.vertexIds[x.second] < out.vertexIds[y.second];
+        };
+        std::sort(onFace.begin(), onFace.end(), byName);
+        for (const auto& [a, b] : onFace)
+            if (mergedInto[a] == a && mergedInto[b] == b) collapse(b, a, true);
+    }
+    for (int round = 0; round < 16; ++round) {
+        bool mended = false;
+        for (size_t t = 0; t < nt; ++t) {
+            if (!alive[t] || !needsMending(t)) continue;
+            // Its edges, shortest (exact length) first; the private end
+            // moves. A folded triangle may lose any edge, one with a short
+            // edge only that edge.
+            const bool isFolded = folded(tris[t], normal[t]);
+            std::array<std::pair<double, int>, 3> edges;
+            for (int e = 0; e < 3; ++e)
+                edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
+            std::sort(edges.begin(), edges.end());
+            for (const auto& [len, e] : edges) {
+                if (!isFolded && !(len < shortEdge)) break;
+                const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
+                    mended = true;
+                    break;
+                }
+            }
+        }
+        if (!mended) break;
+    }
+    if (!removed) return 0;
+    // Compact: drop the merged vertices (keeping the others' order) and the collapsed triangles.
+    std::vector<uint32_t> newIndex(nv, UINT32_MAX);
+    CutCellGeometry kept;
+    for (size_t i = 0; i < nv; ++i) {
+        if (mergedInto[i] != i) continue;
+        newIndex[i] = uint32_t(kept.vertexIds.size());
+        kept.vertexIds.push_back(out.vertexIds[i]);
+        kept.indexPositions.push_back(out.indexPositions[i]);
+    }
+    for (size_t t = 0; t < nt; ++t) {
+        if (!alive[t]) continue;
+        for (uint32_t w : tris[t]) kept.indices.push_back(newIndex[w]);
+    }
+    out = std::move(kept);
+    return removed;
 }
 
 } // namespace mtcut::cutter::remesh_detail

@@ -36,6 +36,11 @@ constexpr int kJunctionKind = 7;
 constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
 inline constexpr double kMaxMitreBend = 0.35; ///< kerf > 0: consecutive prisms bending less than this (rad) meet on a mitre
+/// repairFloatFolds: an edge shorter than this many float steps (float
+/// epsilon times the cell's largest world coordinate) is mended (2 at the
+/// VHM head's 1100 mm are 0.26 um: the least that mends test_cut_props'
+/// strokes; 8 does too, moving more vertices further).
+inline constexpr double kFloatStepsShort = 2.0;
 
 inline uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
 {
@@ -87,6 +92,11 @@ class RemeshKernel; // RemeshKernel.cpp
 /// quad order, into `out` (cleared first); it throws std::runtime_error
 /// ("remesh: ... in cell (i, j, k)") for a configuration it refuses. The
 /// output depends only on the cell, its corner values and `quads`.
+///
+/// The output is then made to hold up once written in float world mm
+/// (repairFloatFolds): the exact geometry can have features far below a
+/// float step (at the VHM head's z of 1100 mm a float step is 0.12 um), and
+/// a sliver whose apex rounds across its base folds over its neighbours.
 class CellKernel
 {
 public:
@@ -99,6 +109,37 @@ public:
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;
+    openvdb::Vec3d mOrigin, mSpacing;
 };
+
+/// Float folds (DESIGN invariant 7 once written): a triangle of `out` whose
+/// float world position (origin + spacing * index, rounded to float, as
+/// CutRemesher::fusedMesh writes it) is degenerate or faces against its exact
+/// (double) orientation has folded over; one with an edge shorter than
+/// kFloatStepsShort float steps can (its ends round apart across a
+/// neighbour, or a vertex just off a cell face rounds onto the face and
+/// touches the next cell's triangles). Mended in two steps, both
+/// deterministic (a function of `out` and the transform), so incremental,
+/// from-scratch and undone geometry stay equal:
+/// - two vertices inside one cell face (dim 2, held by exactly the two
+///   cells of the face, which both have the edge between them on their
+///   boundary) joined by a short edge become the lesser name, edges taken in
+///   name order, in both cells alike; only the link condition is asked (a
+///   fold or face check might be judged otherwise by the next cell; should
+///   the link be, the seam opens and the local check refuses the update,
+///   which none of test_cut_props' strokes does);
+/// - then a triangle still folded or short is mended, where it can be, by
+///   collapsing one of its edges (a short one, shortest first; any, if
+///   folded): a vertex private to the cell (inside it, off its faces, so no
+///   other cell names it) moves onto the edge's other end and the two
+///   triangles on that edge go, only when that keeps the surface a
+///   2-manifold (the ends share no neighbour but the two apexes), folds
+///   nothing else over (every remaining triangle at the moved vertex keeps
+///   its exact orientation in float) and puts no triangle into a cell face
+///   (the next cell may hold the same one); repeated while it mends.
+/// Copies of one point (side or pinch tags differ) are never joined.
+/// Returns the vertices removed.
+size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                        CutCellGeometry& out);
 
 } // namespace mtcut::cutter::remesh_detail

@@ -1,0 +1,259 @@
+// repairFloatFolds (cutter/RemeshKernel.h): a cut cell's exact geometry can
+// hold features below a float step of the world position it is written at;
+// the kernel mends them before the cell leaves it. These tests build cells by
+// hand so that the exact geometry is valid and its float rounding is not, and
+// check what the repair keeps: the cell's boundary (the seam with the next
+// cells), orientation, and the same decision in both cells of a shared face.
+// The head tests (test_cut_props) check the effect on real cuts with CGAL.
+#include "cutter/RemeshKernel.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+
+namespace {
+
+using mtcut::cutter::CutCellGeometry;
+using mtcut::cutter::CutVertexId;
+using mtcut::cutter::gridVertexId;
+using mtcut::cutter::remesh_detail::repairFloatFolds;
+using glm::dvec3;
+using openvdb::Coord;
+
+/// A vertex on the grid edge from grid vertex a to b (dim 1).
+CutVertexId edgeVertex(const Coord& a, const Coord& b, uint64_t plane)
+{
+    CutVertexId id;
+    id.dim = 1;
+    id.feature = {gridVertexId(a.x(), a.y(), a.z()), gridVertexId(b.x(), b.y(), b.z()), 0};
+    std::sort(id.feature.begin(), id.feature.begin() + 2);
+    id.planeCount = 1;
+    id.planes[0] = plane;
+    return id;
+}
+
+/// A vertex inside the tet face a, b, c (dim 2).
+CutVertexId faceVertex(const Coord& a, const Coord& b, const Coord& c, uint64_t plane0, uint64_t plane1)
+{
+    CutVertexId id;
+    id.dim = 2;
+    id.feature = {gridVertexId(a.x(), a.y(), a.z()), gridVertexId(b.x(), b.y(), b.z()),
+                  gridVertexId(c.x(), c.y(), c.z())};
+    std::sort(id.feature.begin(), id.feature.end());
+    id.planeCount = 2;
+    id.planes[0] = plane0;
+    id.planes[1] = plane1;
+    return id;
+}
+
+/// A vertex inside tet `tet` of `cell` (dim 3).
+CutVertexId innerVertex(const Coord& cell, uint64_t tet, uint64_t plane)
+{
+    CutVertexId id;
+    id.dim = 3;
+    id.feature = {gridVertexId(cell.x(), cell.y(), cell.z()), tet, 0};
+    id.planeCount = 2;
+    id.planes[0] = 1;
+    id.planes[1] = plane;
+    return id;
+}
+
+struct Builder
+{
+    CutCellGeometry g;
+    uint32_t add(const CutVertexId& id, const dvec3& p)
+    {
+        g.vertexIds.push_back(id);
+        g.indexPositions.push_back(p);
+        return uint32_t(g.vertexIds.size() - 1);
+    }
+    void tri(uint32_t a, uint32_t b, uint32_t c) { g.indices.insert(g.indices.end(), {a, b, c}); }
+};
+
+using KeyEdge = std::pair<CutVertexId, CutVertexId>;
+struct KeyEdgeLess
+{
+    bool operator()(const KeyEdge& a, const KeyEdge& b) const
+    {
+        if (a.first < b.first) return true;
+        if (b.first < a.first) return false;
+        return a.second < b.second;
+    }
+};
+
+/// Directed edges of `g` by vertex name, with their use counts.
+std::map<KeyEdge, int, KeyEdgeLess> directedEdges(const CutCellGeometry& g)
+{
+    std::map<KeyEdge, int, KeyEdgeLess> e;
+    for (size_t t = 0; t + 2 < g.indices.size(); t += 3)
+        for (int k = 0; k < 3; ++k)
+            ++e[{g.vertexIds[g.indices[t + size_t(k)]], g.vertexIds[g.indices[t + size_t((k + 1) % 3)]]}];
+    return e;
+}
+
+/// The edges used once with no reverse: the cell's boundary.
+std::set<KeyEdge, KeyEdgeLess> boundary(const CutCellGeometry& g)
+{
+    const auto e = directedEdges(g);
+    std::set<KeyEdge, KeyEdgeLess> b;
+    for (const auto& [edge, n] : e) {
+        EXPECT_EQ(n, 1) << "an edge used twice the same way";
+        if (!e.count({edge.second, edge.first})) b.insert(edge);
+    }
+    return b;
+}
+
+/// Triangles whose float world corners are degenerate or face against
+/// their exact orientation.
+size_t foldedInFloat(const CutCellGeometry& g, const dvec3& origin, const dvec3& spacing)
+{
+    size_t n = 0;
+    auto world = [&](uint32_t v) { return origin + spacing * g.indexPositions[v]; };
+    auto rounded = [](const dvec3& p) { return dvec3(double(float(p.x)), double(float(p.y)), double(float(p.z))); };
+    for (size_t t = 0; t + 2 < g.indices.size(); t += 3) {
+        const dvec3 a = world(g.indices[t]), b = world(g.indices[t + 1]), c = world(g.indices[t + 2]);
+        const dvec3 exact = glm::cross(b - a, c - a);
+        const dvec3 written = glm::cross(rounded(b) - rounded(a), rounded(c) - rounded(a));
+        if (!(glm::dot(exact, written) > 0.0)) ++n;
+    }
+    return n;
+}
+
+/// The plane z = 0.5 across cell (0,0,0) with two inner vertices p, r a
+/// distance d apart (x), fanned so that two slivers lie between them.
+CutCellGeometry twoInnerVertices(double d)
+{
+    Builder b;
+    const Coord cell(0, 0, 0);
+    const uint32_t A = b.add(edgeVertex({0, 0, 0}, {0, 0, 1}, 1), {0, 0, 0.5});
+    const uint32_t B = b.add(edgeVertex({1, 0, 0}, {1, 0, 1}, 1), {1, 0, 0.5});
+    const uint32_t C = b.add(edgeVertex({1, 1, 0}, {1, 1, 1}, 1), {1, 1, 0.5});
+    const uint32_t D = b.add(edgeVertex({0, 1, 0}, {0, 1, 1}, 1), {0, 1, 0.5});
+    const uint32_t p = b.add(innerVertex(cell, 0, 100), {0.5, 0.5, 0.5});
+    const uint32_t r = b.add(innerVertex(cell, 0, 101), {0.5 + d, 0.5, 0.5});
+    b.tri(A, B, r);
+    b.tri(B, C, r);
+    b.tri(C, p, r);
+    b.tri(C, D, p);
+    b.tri(D, A, p);
+    b.tri(A, r, p);
+    return b.g;
+}
+
+TEST(FloatFolds, InnerVerticesAFloatStepApartBecomeOneAndTheBoundaryStays)
+{
+    // At 1000 mm a float step is 6.1e-5 mm: 1e-7 mm apart, p and r round
+    // to one point and both slivers between them collapse in float.
+    const dvec3 origin(1000.0), spacing(1.0);
+    CutCellGeometry g = twoInnerVertices(1e-7);
+    ASSERT_EQ(foldedInFloat(g, origin, spacing), 2u); // the test's premise
+    const auto before = boundary(g);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), openvdb::Vec3d(1000.0), openvdb::Vec3d(1.0), g), 1u);
+    EXPECT_EQ(g.vertexIds.size(), 5u);
+    EXPECT_EQ(g.indices.size(), 12u);
+    EXPECT_EQ(foldedInFloat(g, origin, spacing), 0u);
+    EXPECT_EQ(boundary(g), before); // the seam with the next cells is as it was
+    for (uint32_t i : g.indices) EXPECT_LT(i, g.vertexIds.size());
+}
+
+TEST(FloatFolds, WhatFloatHoldsApartIsLeftAlone)
+{
+    // Near the origin a float step is 6e-8 mm; 1e-3 voxel is thousands.
+    for (double d : {1e-3, 1e-5}) {
+        CutCellGeometry g = twoInnerVertices(d);
+        const CutCellGeometry copy = g;
+        EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), openvdb::Vec3d(0.0), openvdb::Vec3d(1.0), g), 0u) << d;
+        EXPECT_EQ(g.vertexIds, copy.vertexIds);
+        EXPECT_EQ(g.indices, copy.indices);
+        EXPECT_EQ(g.indexPositions, copy.indexPositions);
+    }
+}
+
+TEST(FloatFolds, CopiesOfOnePointStayApart)
+{
+    // The same two inner vertices as side copies (a zero-kerf cut's two
+    // sides): different tags, never joined, even where float folds them.
+    CutCellGeometry g = twoInnerVertices(1e-7);
+    g.vertexIds[5] = g.vertexIds[4];
+    g.vertexIds[4].tagCount = g.vertexIds[5].tagCount = 1;
+    g.vertexIds[4].tags[0] = 7u << 1;
+    g.vertexIds[5].tags[0] = (7u << 1) | 1u;
+    const CutCellGeometry copy = g;
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), openvdb::Vec3d(1000.0), openvdb::Vec3d(1.0), g), 0u);
+    EXPECT_EQ(g.indices, copy.indices);
+}
+
+/// The plane y = 0.5 across cell (cx,0,0), cx = 0 or 1, whose boundary on
+/// the face x = 1 they share holds two face vertices d apart (z).
+CutCellGeometry faceShared(int cx, double d)
+{
+    Builder b;
+    const Coord f0(1, 0, 0), f1(1, 1, 0), f2(1, 1, 1); // a tet face in the cell face x = 1
+    const CutVertexId F1 = faceVertex(f0, f1, f2, 1, 200), F2 = faceVertex(f0, f1, f2, 1, 201);
+    const CutVertexId bottom = edgeVertex({1, 0, 0}, {1, 1, 0}, 1), top = edgeVertex({1, 0, 1}, {1, 1, 1}, 1);
+    if (cx == 0) {
+        const uint32_t P00 = b.add(edgeVertex({0, 0, 0}, {0, 1, 0}, 1), {0, 0.5, 0});
+        const uint32_t P10 = b.add(bottom, {1, 0.5, 0});
+        const uint32_t a = b.add(F1, {1, 0.5, 0.4}), c = b.add(F2, {1, 0.5, 0.4 + d});
+        const uint32_t P11 = b.add(top, {1, 0.5, 1});
+        const uint32_t P01 = b.add(edgeVertex({0, 0, 1}, {0, 1, 1}, 1), {0, 0.5, 1});
+        b.tri(P00, P10, a);
+        b.tri(P00, a, c);
+        b.tri(P00, c, P11);
+        b.tri(P00, P11, P01);
+    } else {
+        const uint32_t Q10 = b.add(bottom, {1, 0.5, 0});
+        const uint32_t Q20 = b.add(edgeVertex({2, 0, 0}, {2, 1, 0}, 1), {2, 0.5, 0});
+        const uint32_t Q21 = b.add(edgeVertex({2, 0, 1}, {2, 1, 1}, 1), {2, 0.5, 1});
+        const uint32_t Q11 = b.add(top, {1, 0.5, 1});
+        const uint32_t c = b.add(F2, {1, 0.5, 0.4 + d}), a = b.add(F1, {1, 0.5, 0.4});
+        b.tri(Q20, Q21, Q11);
+        b.tri(Q20, Q11, c);
+        b.tri(Q20, c, a);
+        b.tri(Q20, a, Q10);
+    }
+    return b.g;
+}
+
+/// The edges of `b` that lie in the face x = 1 (both ends there).
+std::set<KeyEdge, KeyEdgeLess> onFaceX1(const std::set<KeyEdge, KeyEdgeLess>& b, const CutCellGeometry& g)
+{
+    std::map<CutVertexId, double> x;
+    for (size_t i = 0; i < g.vertexIds.size(); ++i) x[g.vertexIds[i]] = g.indexPositions[i].x;
+    std::set<KeyEdge, KeyEdgeLess> out;
+    for (const KeyEdge& e : b)
+        if (x.at(e.first) == 1.0 && x.at(e.second) == 1.0) out.insert(e);
+    return out;
+}
+
+TEST(FloatFolds, FaceVerticesAFloatStepApartBecomeOneInBothCells)
+{
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    CutCellGeometry left = faceShared(0, 1e-7), right = faceShared(1, 1e-7);
+    // Premise: the two cells weld along x = 1 (each edge there once each way).
+    auto seamMatches = [](const CutCellGeometry& l, const CutCellGeometry& r) {
+        const auto bl = onFaceX1(boundary(l), l), br = onFaceX1(boundary(r), r);
+        if (bl.size() != br.size() || bl.empty()) return false;
+        for (const KeyEdge& e : bl)
+            if (!br.count({e.second, e.first})) return false;
+        return true;
+    };
+    ASSERT_TRUE(seamMatches(left, right));
+    ASSERT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, left), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(1, 0, 0), origin, spacing, right), 1u);
+    EXPECT_EQ(left.vertexIds.size(), 5u);
+    EXPECT_EQ(right.vertexIds.size(), 5u);
+    EXPECT_EQ(left.indices.size(), 9u);
+    EXPECT_EQ(right.indices.size(), 9u);
+    EXPECT_TRUE(seamMatches(left, right)) << "the cells of the face judged it differently";
+    EXPECT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 0u);
+    EXPECT_EQ(foldedInFloat(right, dvec3(1000.0), dvec3(1.0)), 0u);
+    // Kept apart where float keeps them apart.
+    CutCellGeometry far = faceShared(0, 1e-2);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, far), 0u);
+    EXPECT_EQ(far.vertexIds.size(), 6u);
+}
+
+} // namespace
