@@ -183,6 +183,23 @@ bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, c
 {
     auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
     while (!holes.empty()) {
+        // A hole that touches the outer loop (a slit from a boundary corner:
+        // a point of each at one position) is spliced there, with no bridge:
+        // outer[o] -> the hole from past its copy of that point round to it
+        // -> on along the outer loop.
+        bool touched = false;
+        for (size_t h = 0; h < holes.size() && !touched; ++h)
+            for (size_t j = 0; j < holes[h].size() && !touched; ++j)
+                for (size_t o = 0; o < outer.size() && !touched; ++o) {
+                    if (!same2(P(holes[h][j]), P(outer[o]))) continue;
+                    const std::vector<int>& hole = holes[h];
+                    std::vector<int> splice;
+                    for (size_t k = 1; k <= hole.size(); ++k) splice.push_back(hole[(j + k) % hole.size()]);
+                    outer.insert(outer.begin() + long(o) + 1, splice.begin(), splice.end());
+                    holes.erase(holes.begin() + long(h));
+                    touched = true;
+                }
+        if (touched) continue;
         double best = 1e300;
         size_t bh = 0, bo = 0, bj = 0;
         for (size_t h = 0; h < holes.size(); ++h) {

@@ -1670,9 +1670,18 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             const double area = signedArea(loop, pts);
             (area > 1e-9 * perim * perim ? outers : holes).push_back(loop);
         }
+        // A region that is one triangle too small for its corners to span an
+        // area in double (a cap piece a few nm across where planes meet near
+        // a grid edge; seed 2013 on the 1 mm head): the triangle, as its loop
+        // runs (its edges are its neighbours' reversed); repairFloatFolds or
+        // the local check see to it once it is rounded.
+        bool lone = false;
         if (outers.empty()) {
             if (holes.empty()) continue;
-            throw std::runtime_error("remesh: region without outer loop in cell " + cellText(mCell));
+            if (holes.size() != 1 || holes[0].size() != 3)
+                throw std::runtime_error("remesh: region without outer loop in cell " + cellText(mCell));
+            outers.swap(holes);
+            lone = true;
         }
         std::vector<std::vector<std::vector<int>>> holesOf(outers.size());
         for (auto& h : holes) {
@@ -1717,7 +1726,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 const auto& tags = nodes[size_t(ptNode[size_t(i)])].tags;
                 return std::binary_search(tags.begin(), tags.end(), r.cap->id << 1 | (r.side < 0 ? 1u : 0u));
             });
-            if (ownSlit) {
+            if (ownSlit || lone) {
                 tris.insert(tris.end(), poly.begin(), poly.end());
             } else if (convex) {
                 // A cap region: fan from a tagged centre, so no chord joins two rim

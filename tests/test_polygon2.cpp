@@ -99,6 +99,30 @@ TEST(Polygon2, EarClipTriangulatesAConcavePolygonAndAHole)
     EXPECT_DOUBLE_EQ(triangleArea(tris, pts, worst), 15.0);
 }
 
+// A hole that touches the outer loop at a point (a slit from a boundary
+// corner into the region: the kernel's loops hold the corner twice, once in
+// each) is spliced there with no bridge. The bridge that was built instead,
+// from the nearest other corner, left the corner three times in one polygon
+// and ear clipping failed (the 1 mm head, random kerf stroke seed 2004).
+TEST(Polygon2, AHoleTouchingTheOuterLoopIsSplicedWhereItTouches)
+{
+    // A 4 x 4 square; a thin CW triangle from a copy of its corner (0, 0).
+    for (double width : {0.1, 1e-6}) {
+        const std::vector<Vec2> pts = {{0, 0}, {4, 0}, {4, 4}, {0, 4}, {0, 0}, {2, 2 + width}, {2 + width, 2}};
+        std::vector<int> outer = {0, 1, 2, 3};
+        const std::vector<std::vector<int>> holes = {{4, 5, 6}};
+        const double holeArea = signedArea(holes[0], pts);
+        ASSERT_LT(holeArea, 0.0);
+        ASSERT_TRUE(bridgeHoles(outer, holes, pts)) << width;
+        EXPECT_EQ(outer, (std::vector<int>{0, 5, 6, 4, 1, 2, 3})) << "spliced at the corner, no bridge";
+        std::vector<int> tris;
+        ASSERT_TRUE(earClip(outer, pts, tris)) << width;
+        EXPECT_EQ(tris.size(), 3u * 5u);
+        double worst = 0;
+        EXPECT_NEAR(triangleArea(tris, pts, worst), 16.0 + holeArea, 1e-12) << width;
+    }
+}
+
 // bestTriangulation maximises the worst triangle's shape over all
 // triangulations: on a fan of nearly straight corners no triangulation can
 // be better than it, and ear clipping's is never better.
