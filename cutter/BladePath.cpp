@@ -721,7 +721,7 @@ Quad grownQuad(const Quad& quad, double margin)
         // Outward in-plane normals of the edges prev->v and v->next (CCW around n).
         const glm::dvec3 u1 = glm::normalize(glm::cross(v - prev, n));
         const glm::dvec3 u2 = glm::normalize(glm::cross(next - v, n));
-        const double d = std::max(1.0 + glm::dot(u1, u2), 1e-3);
+        const double d = std::max(1.0 + glm::dot(u1, u2), kKerfMitreMinCornerGap);
         out[k] = v + margin * (u1 + u2) / d;
     }
     return makeQuad(out, uint32_t(h), quad.stick);

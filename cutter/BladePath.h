@@ -392,6 +392,13 @@ void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
 /// micro-notches at every joint. The mitre reaches past K_q by at most
 /// (w/2) tan(bend/2); cutRegion() covers that.
 constexpr double kKerfMitreMaxBend = 0.35;
+/// Kerf > 0: cutRegion() grows a quad's hull by offsetting its edges, with
+/// each corner's reach clamped where 1 - cos(corner angle) is below this (a
+/// corner of 2.6 degrees or less: a blade pivoting about its tip makes
+/// triangles that sharp); a mitre at such a corner would reach further past
+/// it (d / sin(angle / 2)) than the mask covers, so the re-mesher gives that
+/// joint no mitre.
+constexpr double kKerfMitreMinCornerGap = 1e-3;
 
 /// The region whose cells a quad cuts (what CutMask, the pose stream and the
 /// re-mesher voxelise): K_q itself for kerf 0; for kerf w > 0, K_q with its

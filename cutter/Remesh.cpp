@@ -109,6 +109,23 @@ bool sharesEdge(const Quad& other, const std::vector<int>& otherHull, const dvec
     return false;
 }
 
+/// Is the corner of `q` at `corner` (a hull corner, world) too sharp for a
+/// mitre: 1 - cos of its angle below kKerfMitreMinCornerGap, where
+/// cutRegion() stops covering a mitre's reach past it?
+bool tooSharpForMitre(const Quad& q, const std::vector<int>& hull, const dvec3& corner)
+{
+    const size_t m = hull.size();
+    for (size_t k = 0; k < m; ++k) {
+        if (q.corners[size_t(hull[k])] != corner) continue;
+        const dvec3 a = q.corners[size_t(hull[(k + m - 1) % m])] - corner;
+        const dvec3 b = q.corners[size_t(hull[(k + 1) % m])] - corner;
+        const double la = glm::length(a), lb = glm::length(b);
+        if (!(la > 0.0 && lb > 0.0)) return true;
+        return 1.0 - glm::dot(a, b) / (la * lb) < kKerfMitreMinCornerGap;
+    }
+    return false;
+}
+
 bool lexLess(const dvec3& a, const dvec3& b)
 {
     if (a.x != b.x) return a.x < b.x;
@@ -269,7 +286,8 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///
 /// - Offsets: the quad's plane shifted by +-w/2 (world).
 /// - A hull edge shared with the previous or next quad of the stroke, bending
-///   by less than kKerfMitreMaxBend: the mitre, one plane object for both
+///   by less than kKerfMitreMaxBend, with no corner of either quad at it
+///   sharper than kKerfMitreMinCornerGap allows: the mitre, one plane object for both
 ///   quads (the lower quad's data first) through the stick and
 ///   u = (w/2)(n_q + n_o)/(1 + n_q.n_o), the world bisector, on which the two
 ///   quads' offset planes meet exactly (also with anisotropic spacing).
@@ -343,7 +361,8 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             if (oq < 0 || oq >= int64_t(mask.quadCount(ref.stroke))) continue;
             const Quad& o = mask.quad(QuadRef{ref.stroke, uint32_t(oq)});
             if (o.degenerate) continue;
-            if (!sharesEdge(o, hullOf(o, frame, indexNormal(o, frame)), wa, wb)) continue;
+            const std::vector<int> oHull = hullOf(o, frame, indexNormal(o, frame));
+            if (!sharesEdge(o, oHull, wa, wb)) continue;
             if (dq < 0) { // joined to the previous quad, with or without a mitre
                 joinedPrevious = true;
                 prevA = wa;
@@ -353,6 +372,11 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             const dvec3 nl = lower ? q.normal : o.normal, nu = lower ? o.normal : q.normal; // world
             const double c = glm::dot(nl, nu);
             if (!(c > std::cos(kKerfMitreMaxBend))) break;
+            // Both quads' corners at the joint (the decision is the same from
+            // either side): a sharp one would put the mitre outside the mask.
+            if (tooSharpForMitre(q, hull, wa) || tooSharpForMitre(q, hull, wb) || tooSharpForMitre(o, oHull, wa) ||
+                tooSharpForMitre(o, oHull, wb))
+                break;
             dvec3 w0 = wa, w1 = wb;
             if (lexLess(w1, w0)) std::swap(w0, w1);
             const dvec3 p0 = frame.toIndex(w0), p1 = frame.toIndex(w1);
