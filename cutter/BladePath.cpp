@@ -550,7 +550,7 @@ std::vector<int> convexHullOrder(const glm::dvec3* points, uint32_t count, const
 // Voxelisation
 
 QuadRegion::QuadRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
-    : mCellCount(frame.cellCount())
+    : mCellLo(frame.cutCellLo()), mCellHi(frame.cutCellHi())
 {
     const uint32_t n = quad.cornerCount;
     glm::dvec3 u[4];
@@ -628,14 +628,15 @@ bool QuadRegion::touchesCell(const glm::ivec3& cell) const
 void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
 {
     // Cell range from the bounding box, with the box axes' tolerance, clipped
-    // to the volume. [c, c+1] meets [lo, hi] iff ceil(lo) - 1 <= c <= floor(hi).
+    // to the cells a cut can reach. [c, c+1] meets [lo, hi] iff
+    // ceil(lo) - 1 <= c <= floor(hi).
     glm::ivec3 lo, hi;
     for (int a = 0; a < 3; ++a) {
         const double t = 1e-12 * (std::max(std::abs(mLower[a]), std::abs(mUpper[a])) + 1.0);
-        const double l = std::max(mLower[a] - t, -1.0);
-        const double u = std::min(mUpper[a] + t, double(mCellCount[a]));
-        lo[a] = std::max(int(std::ceil(l)) - 1, 0);
-        hi[a] = std::min(int(std::floor(u)), mCellCount[a] - 1);
+        const double l = std::max(mLower[a] - t, double(mCellLo[a]));
+        const double u = std::min(mUpper[a] + t, double(mCellHi[a]) + 1.0);
+        lo[a] = std::max(int(std::ceil(l)) - 1, mCellLo[a]);
+        hi[a] = std::min(int(std::floor(u)), mCellHi[a]);
         if (hi[a] < lo[a]) return;
     }
     // Inner axis: the one the plane normal is most aligned with, so the slab

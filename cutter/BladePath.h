@@ -35,6 +35,19 @@ struct IndexFrame
     glm::dvec3 toWorld(const glm::dvec3& ijk) const { return origin + ijk * spacing; }
     /// Cells per axis: dims - 1 (0 when dims is 0 or 1).
     glm::ivec3 cellCount() const;
+    /// The cells a cut can reach, lowest and highest per axis (inclusive):
+    /// the box's cells and the ring of cells just outside it, -1 and dims - 1,
+    /// where the isosurface closes (voxels outside the scan are outside the
+    /// bone), so a cut through bone at the scan's edge cuts the closing
+    /// surface too. Empty (hi < lo) when dims is 0.
+    glm::ivec3 cutCellLo() const { return glm::ivec3(-1); }
+    glm::ivec3 cutCellHi() const
+    {
+        glm::ivec3 hi = dims - glm::ivec3(1);
+        for (int a = 0; a < 3; ++a)
+            if (dims[a] <= 0) hi[a] = -2;
+        return hi;
+    }
     /// The cell containing index point ijk (floor), clamped to +-2^30 so far
     /// away or huge inputs cannot overflow. Not clamped to the volume.
     glm::ivec3 cellOf(const glm::dvec3& ijk) const;
@@ -361,7 +374,8 @@ public:
 
     /// Does the closed box [c, c+1] (index space) touch K_q? ~50 ns..0.3 us.
     bool touchesCell(const glm::ivec3& cell) const;
-    /// Appends every cell of the volume (0 <= cell < frame.cellCount()) that
+    /// Appends every cell a cut can reach (frame.cutCellLo() <= cell <=
+    /// frame.cutCellHi(): the volume's cells and the ring around them) that
     /// touches K_q, in lexicographic order of (outer, middle, inner) axes with
     /// the inner axis along the dominant normal. Cost: O(cells near the quad).
     void appendCells(std::vector<glm::ivec3>& cells) const;
@@ -379,7 +393,7 @@ private:
     std::vector<Axis> mAxes; ///< the first one is the plane normal when mHasPlane
     bool mHasPlane = false;
     glm::dvec3 mLower{0.0}, mUpper{0.0};
-    glm::ivec3 mCellCount{0};
+    glm::ivec3 mCellLo{0}, mCellHi{-1}; ///< frame.cutCellLo(), cutCellHi()
 };
 
 /// Appends the cells cut by `quad` (QuadRegion(quad, kerf, frame).appendCells).

@@ -59,9 +59,9 @@ QuadRef CutMask::addQuad(const Quad& quad, const std::vector<glm::ivec3>& cells)
     rec.quad = quad;
     rec.serial = serials.fetch_add(1, std::memory_order_relaxed) + 1;
     rec.cells.reserve(cells.size());
-    const glm::ivec3 n = mFrame.cellCount();
+    const glm::ivec3 lo = mFrame.cutCellLo(), hi = mFrame.cutCellHi();
     for (const glm::ivec3& c : cells)
-        if (c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < n.x && c.y < n.y && c.z < n.z)
+        if (c.x >= lo.x && c.y >= lo.y && c.z >= lo.z && c.x <= hi.x && c.y <= hi.y && c.z <= hi.z)
             rec.cells.emplace_back(c.x, c.y, c.z);
     return push(std::move(rec));
 }

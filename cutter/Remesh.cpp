@@ -1246,9 +1246,12 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed) const
 
 size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
 {
-    const Coord last = mVolume->dims - Coord(2);
+    // The cells a cut can reach (IndexFrame::cutCellLo/Hi): the box's and the
+    // ring outside it where the isosurface closes (the kernel reads the
+    // background there, below any bone isovalue, as extraction's "outside").
+    const Coord last = mVolume->dims - Coord(1);
     auto inBox = [&](const Coord& c) {
-        return c.x() >= 0 && c.y() >= 0 && c.z() >= 0 && c.x() <= last.x() && c.y() <= last.y() && c.z() <= last.z();
+        return c.x() >= -1 && c.y() >= -1 && c.z() >= -1 && c.x() <= last.x() && c.y() <= last.y() && c.z() <= last.z();
     };
     // The quads that changed since the last update (added, undone, replaced,
     // or all of them when the kerf or frame changed), compared with what it saw.

@@ -150,12 +150,13 @@ Bracket bruteCells(const Quad& q, double kerf, const IndexFrame& f, dvec3 shrink
     }
     lo -= glm::abs(r.h);
     hi += glm::abs(r.h);
-    const ivec3 n = f.cellCount();
+    // The cells a cut can reach: the volume's and the ring around it.
+    const ivec3 cLo = f.cutCellLo(), cHi = f.cutCellHi();
     Bracket b;
     ivec3 c;
-    for (c.x = std::max(0, int(std::floor(lo.x)) - 2); c.x <= std::min(n.x - 1, int(hi.x) + 2); ++c.x)
-        for (c.y = std::max(0, int(std::floor(lo.y)) - 2); c.y <= std::min(n.y - 1, int(hi.y) + 2); ++c.y)
-            for (c.z = std::max(0, int(std::floor(lo.z)) - 2); c.z <= std::min(n.z - 1, int(hi.z) + 2);
+    for (c.x = std::max(cLo.x, int(std::floor(lo.x)) - 2); c.x <= std::min(cHi.x, int(hi.x) + 2); ++c.x)
+        for (c.y = std::max(cLo.y, int(std::floor(lo.y)) - 2); c.y <= std::min(cHi.y, int(hi.y) + 2); ++c.y)
+            for (c.z = std::max(cLo.z, int(std::floor(lo.z)) - 2); c.z <= std::min(cHi.z, int(hi.z) + 2);
                  ++c.z) {
                 const dvec3 bl(c), bh = dvec3(c) + 1.0;
                 if (r.touches(bl + shrink, bh - shrink)) {
@@ -179,9 +180,9 @@ void compareWithBrute(const Quad& q, double kerf, const IndexFrame& f, CompareSt
     std::vector<ivec3> cells;
     voxelizeQuad(q, kerf, f, cells);
     CellSet got;
-    const ivec3 n = f.cellCount();
+    const ivec3 cLo = f.cutCellLo(), cHi = f.cutCellHi();
     for (const ivec3& c : cells) {
-        ASSERT_TRUE(c.x >= 0 && c.y >= 0 && c.z >= 0 && c.x < n.x && c.y < n.y && c.z < n.z);
+        ASSERT_TRUE(c.x >= cLo.x && c.y >= cLo.y && c.z >= cLo.z && c.x <= cHi.x && c.y <= cHi.y && c.z <= cHi.z);
         ASSERT_TRUE(got.insert(key(c)).second) << "duplicate cell";
     }
     const Bracket b = bruteCells(q, kerf, f, shrink, delta);
@@ -264,9 +265,9 @@ TEST(Voxelize, LongThinQuadsListExactlyTheTouchedCells)
         region.appendCells(got);
         std::vector<ivec3> all;
         ivec3 cell;
-        for (cell.x = 0; cell.x < n.x; ++cell.x)
-            for (cell.y = 0; cell.y < n.y; ++cell.y)
-                for (cell.z = 0; cell.z < n.z; ++cell.z)
+        for (cell.x = -1; cell.x <= n.x; ++cell.x)
+            for (cell.y = -1; cell.y <= n.y; ++cell.y)
+                for (cell.z = -1; cell.z <= n.z; ++cell.z)
                     if (region.touchesCell(cell)) all.push_back(cell);
         auto lex = [](const ivec3& a, const ivec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); };
         std::vector<ivec3> sorted = got;
@@ -413,7 +414,9 @@ TEST(Voxelize, OutsideAndHugeQuadsAreClipped)
                            dvec3(-1e12, 1e12, z)};
     voxelizeQuad(makeQuad(huge, 4, 0), 0.0, f, cells);
     const ivec3 n = f.cellCount();
-    EXPECT_EQ(cells.size(), size_t(n.x) * size_t(n.y));
+    // The volume's cells and the ring around it (-1 and dims - 1), where
+    // the isosurface closes.
+    EXPECT_EQ(cells.size(), size_t(n.x + 2) * size_t(n.y + 2));
     for (const ivec3& c : cells) EXPECT_EQ(c.z, 5);
 }
 
@@ -943,7 +946,8 @@ TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
     p = ok;
     p.time = 0.5;
     expectThrow(p, "time goes backwards");
-    // Outside the volume: kept, no crash, nothing cut outside.
+    // Outside the volume: kept, no crash, nothing cut beyond the ring of
+    // cells around it (where the isosurface closes).
     p = ok;
     p.time = 2.0;
     p.base = dvec3(1e300, -1e300, 1e300);
@@ -952,7 +956,7 @@ TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
         std::vector<ivec3> cells;
         voxelizeQuad(q, 0.5, f, cells);
         const ivec3 n = f.cellCount();
-        for (const ivec3& c : cells) EXPECT_TRUE(c.x >= 0 && c.x < n.x && c.y >= 0 && c.y < n.y);
+        for (const ivec3& c : cells) EXPECT_TRUE(c.x >= -1 && c.x <= n.x && c.y >= -1 && c.y <= n.y);
     }
 }
 

@@ -165,6 +165,33 @@ TEST(Remesh, SphereCutThroughByAPlaneGivesTwoShells)
     }
 }
 
+// Bone that the scan's box cuts off (a ball poking out of the y = 0 face):
+// the isosurface closes at the box (voxels outside are outside), in the ring
+// of cells just outside it, so a cut through the bone there must re-mesh
+// those cells too. It was refused ("an edge used 1 time(s) one way and 0 the
+// other" in a cell at y = -1): the mask stopped at cell 0. Found on the
+// tooth scan by random strokes.
+TEST(Remesh, CutThroughBoneAtTheScanEdgeIsClosed)
+{
+    const vdb::Volume vol =
+        fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return 15.0 - (p - Vec3d(0, -17, 0)).length(); });
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    ASSERT_TRUE(checkMesh(uncut).ok());
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(vol), kerf);
+        addStroke(mask, straightStroke(dvec3(0.37, -25, 22), dvec3(0.37, 10, 22), dvec3(0, 0, -1), 45.0, 200));
+        bool ring = false;
+        mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { ring = ring || c.y() == -1; });
+        EXPECT_TRUE(ring) << "the mask holds the ring of cells outside the box";
+        CutRemesher remesher(vol, 0.0f, uncut);
+        ASSERT_NO_THROW(remesher.update(mask)) << "kerf " << kerf;
+        const CutResult c = cutAndCheck(remesher);
+        EXPECT_TRUE(c.check.ok()) << "kerf " << kerf << "\n" << c.check.report();
+        EXPECT_EQ(c.fragments.size(), 2u) << "kerf " << kerf;
+        expectUntouchedOutside(uncut, c.fused, mask, remesher);
+    }
+}
+
 // Kerf > 0 (invariant 7): the same sphere cut by a slab of width w around
 // y = c: two shells, and the volume removed is the slab's part of the solid
 // within one tet per cut cell.
