@@ -840,9 +840,7 @@ uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexI
 
 glm::vec3 worldPosition(const vdb::Volume& volume, const glm::dvec3& p)
 {
-    const openvdb::Vec3d origin = volume.origin(), spacing = volume.spacing();
-    return glm::vec3(float(origin[0] + spacing[0] * p.x), float(origin[1] + spacing[1] * p.y),
-                     float(origin[2] + spacing[2] * p.z));
+    return glm::vec3(exactWorldPosition(volume.origin(), volume.spacing(), p));
 }
 
 // Marks a bitmap over the box when it is compact (a haptic step's cells),

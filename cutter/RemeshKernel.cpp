@@ -20,6 +20,27 @@ namespace mtcut::cutter::remesh_detail {
 
 namespace {
 
+constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
+constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
+constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
+/// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
+/// vertex inside a tet where the removed region's boundary pinches.
+constexpr uint64_t kPinchTag = uint64_t(1) << 63;
+/// repairFloatFolds: an edge shorter than this many float steps (float
+/// epsilon times the cell's largest world coordinate) is mended (2 at the
+/// VHM head's 1100 mm are 0.26 um: the least that mends test_cut_props'
+/// strokes; 8 does too, moving more vertices further).
+constexpr double kFloatStepsShort = 2.0;
+
+double epsAt(const dvec3& x)
+{
+    return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
+}
+
+} // namespace
+
+namespace {
+
 /// Kerf > 0: where the removed region's boundary has several fans at one
 /// vertex inside a tet (the union of the prisms, or the solid left between
 /// them, touches itself at that point: a blade pivoting on a corner), every
@@ -1810,7 +1831,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     std::vector<dvec3> exact(nv), written(nv);
     for (size_t i = 0; i < nv; ++i) {
         const dvec3& p = out.indexPositions[i];
-        exact[i] = dvec3(origin[0] + spacing[0] * p.x, origin[1] + spacing[1] * p.y, origin[2] + spacing[2] * p.z);
+        exact[i] = exactWorldPosition(origin, spacing, p);
         written[i] = dvec3(double(float(exact[i].x)), double(float(exact[i].y)), double(float(exact[i].z)));
     }
     std::vector<std::array<uint32_t, 3>> tris(nt);

@@ -26,21 +26,9 @@ namespace mtcut::cutter::remesh_detail {
 using glm::dvec3;
 using openvdb::Coord;
 
-constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
-constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
-constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
 constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local vertices of the tet face/edge
 constexpr int kJunctionKind = 7;
-/// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
-/// vertex inside a tet where the removed region's boundary pinches.
-constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
-inline constexpr double kMaxMitreBend = 0.35; ///< kerf > 0: consecutive prisms bending less than this (rad) meet on a mitre
-/// repairFloatFolds: an edge shorter than this many float steps (float
-/// epsilon times the cell's largest world coordinate) is mended (2 at the
-/// VHM head's 1100 mm are 0.26 um: the least that mends test_cut_props'
-/// strokes; 8 does too, moving more vertices further).
-inline constexpr double kFloatStepsShort = 2.0;
 
 inline uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
 {
@@ -54,9 +42,11 @@ struct Plane
     double h(const dvec3& x) const { return glm::dot(n, x) - d; }
 };
 
-inline double epsAt(const dvec3& x)
+/// World mm of index-space point p in double, before the rounding to float
+/// that CutRemesher::fusedMesh applies (worldPosition).
+inline dvec3 exactWorldPosition(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, const dvec3& p)
 {
-    return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
+    return dvec3(origin[0] + spacing[0] * p.x, origin[1] + spacing[1] * p.y, origin[2] + spacing[2] * p.z);
 }
 
 /// "(x, y, z)", for refusal messages.
