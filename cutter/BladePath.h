@@ -409,9 +409,10 @@ constexpr double kKerfMitreMaxBend = 0.35;
 /// Kerf > 0: cutRegion() grows a quad's hull by offsetting its edges, with
 /// each corner's reach clamped where 1 - cos(corner angle) is below this (a
 /// corner of 2.6 degrees or less: a blade pivoting about its tip makes
-/// triangles that sharp); a mitre at such a corner would reach further past
-/// it (d / sin(angle / 2)) than the mask covers, so the re-mesher gives that
-/// joint no mitre.
+/// triangles that sharp); a mitre at such a corner reaches past it by
+/// (w/2) tan(bend/2) / sin(angle), so the re-mesher mitres that joint only
+/// while the reach stays within the clamped growth (nearly coplanar quads)
+/// and gives it two plain end planes otherwise (tooSharpForMitre, Remesh.cpp).
 constexpr double kKerfMitreMinCornerGap = 1e-3;
 
 /// The region whose cells a quad cuts (what CutMask, the pose stream and the

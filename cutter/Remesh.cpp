@@ -110,9 +110,19 @@ bool sharesEdge(const Quad& other, const std::vector<int>& otherHull, const dvec
 }
 
 /// Is the corner of `q` at `corner` (a hull corner, world) too sharp for a
-/// mitre: 1 - cos of its angle below kKerfMitreMinCornerGap, where
-/// cutRegion() stops covering a mitre's reach past it?
-bool tooSharpForMitre(const Quad& q, const std::vector<int>& hull, const dvec3& corner)
+/// mitre that bends by `tanHalfBend` (tan of half the angle between the two
+/// quads' normals)? The mitre meets the offset planes at most
+/// delta = (w/2) tan(bend/2) past the stick, so at a corner of angle a it
+/// reaches delta / sin(a) past the corner along the rim. cutRegion() grows the
+/// hull by margin = (w/2) tan(kKerfMitreMaxBend/2) (or more) with the corner
+/// clamped where 1 - cos(a) < kKerfMitreMinCornerGap: the clamped corner is
+/// margin (1 - cos a) / kKerfMitreMinCornerGap off the stick's line, and the
+/// reach is covered while delta stays within half of that. So a sharp corner
+/// (a blade pivoting about its tip) still takes a mitre when the quads are
+/// nearly coplanar: without it the two prisms' end planes leave a notch w/2
+/// deep and (w/2) bend wide at the stick, sub-micron for such quads, whose
+/// walls cross once written in float (seed 1023 on the 2 mm head).
+bool tooSharpForMitre(const Quad& q, const std::vector<int>& hull, const dvec3& corner, double tanHalfBend)
 {
     const size_t m = hull.size();
     for (size_t k = 0; k < m; ++k) {
@@ -121,7 +131,9 @@ bool tooSharpForMitre(const Quad& q, const std::vector<int>& hull, const dvec3& 
         const dvec3 b = q.corners[size_t(hull[(k + 1) % m])] - corner;
         const double la = glm::length(a), lb = glm::length(b);
         if (!(la > 0.0 && lb > 0.0)) return true;
-        return 1.0 - glm::dot(a, b) / (la * lb) < kKerfMitreMinCornerGap;
+        const double gap = 1.0 - glm::dot(a, b) / (la * lb);
+        if (gap >= kKerfMitreMinCornerGap) return false;
+        return !(tanHalfBend <= 0.5 * std::tan(0.5 * kKerfMitreMaxBend) * gap / kKerfMitreMinCornerGap);
     }
     return false;
 }
@@ -286,8 +298,8 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///
 /// - Offsets: the quad's plane shifted by +-w/2 (world).
 /// - A hull edge shared with the previous or next quad of the stroke, bending
-///   by less than kKerfMitreMaxBend, with no corner of either quad at it
-///   sharper than kKerfMitreMinCornerGap allows: the mitre, one plane object for both
+///   by less than kKerfMitreMaxBend, with no corner of either quad at it too
+///   sharp for that bend (tooSharpForMitre): the mitre, one plane object for both
 ///   quads (the lower quad's data first) through the stick and
 ///   u = (w/2)(n_q + n_o)/(1 + n_q.n_o), the world bisector, on which the two
 ///   quads' offset planes meet exactly (also with anisotropic spacing).
@@ -374,8 +386,9 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             if (!(c > std::cos(kKerfMitreMaxBend))) break;
             // Both quads' corners at the joint (the decision is the same from
             // either side): a sharp one would put the mitre outside the mask.
-            if (tooSharpForMitre(q, hull, wa) || tooSharpForMitre(q, hull, wb) || tooSharpForMitre(o, oHull, wa) ||
-                tooSharpForMitre(o, oHull, wb))
+            const double tanHalfBend = std::sqrt(std::max(0.0, 1.0 - c) / (1.0 + c));
+            if (tooSharpForMitre(q, hull, wa, tanHalfBend) || tooSharpForMitre(q, hull, wb, tanHalfBend) ||
+                tooSharpForMitre(o, oHull, wa, tanHalfBend) || tooSharpForMitre(o, oHull, wb, tanHalfBend))
                 break;
             dvec3 w0 = wa, w1 = wb;
             if (lexLess(w1, w0)) std::swap(w0, w1);
