@@ -1853,6 +1853,22 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                            std::abs(origin[a] + spacing[a] * (cell[a] + 1))});
     const double shortEdge = kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
     auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
+    // The same for an edge inside cell face `face` (bit 2 * axis + side), by
+    // that face's largest coordinate: the cell on the face's other side must
+    // judge it alike (the cell's own extent differs across a face whose
+    // coordinate is the larger one; tooth seed 1002 at z = 98 mm).
+    auto isShortInFace = [&](uint32_t a, uint32_t b, unsigned face) {
+        int axis = 0;
+        while (!(face >> (2 * axis) & 3u)) ++axis;
+        const int side = (face >> (2 * axis) & 1u) ? 0 : 1;
+        double faceExtent = std::abs(origin[axis] + spacing[axis] * (cell[axis] + side));
+        for (int k = 0; k < 3; ++k)
+            if (k != axis)
+                faceExtent = std::max({faceExtent, std::abs(origin[k] + spacing[k] * cell[k]),
+                                       std::abs(origin[k] + spacing[k] * (cell[k] + 1))});
+        return glm::length(exact[a] - exact[b]) <
+               kFloatStepsShort * faceExtent * double(std::numeric_limits<float>::epsilon());
+    };
     auto needsMending = [&](size_t t) {
         const auto& v = tris[t];
         return folded(v, normal[t]) || isShort(v[0], v[1]) || isShort(v[1], v[2]) || isShort(v[2], v[0]);
@@ -1936,7 +1952,8 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         for (size_t t = 0; t < nt; ++t)
             for (int e = 0; e < 3; ++e) {
                 uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
-                if (out.vertexIds[a].dim != 2 || out.vertexIds[b].dim != 2 || !(faces[a] & faces[b]) || !isShort(a, b))
+                if (out.vertexIds[a].dim != 2 || out.vertexIds[b].dim != 2 || !(faces[a] & faces[b]) ||
+                    !isShortInFace(a, b, faces[a] & faces[b]))
                     continue;
                 if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
                 onFace.push_back({a, b});

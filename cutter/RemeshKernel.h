@@ -113,8 +113,9 @@ private:
 /// from-scratch and undone geometry stay equal:
 /// - two vertices inside one cell face (dim 2, held by exactly the two
 ///   cells of the face, which both have the edge between them on their
-///   boundary) joined by a short edge become the lesser name, edges taken in
-///   name order, in both cells alike; only the link condition is asked (a
+///   boundary) joined by a short edge (short by the face's largest world
+///   coordinate, which both cells share) become the lesser name, edges taken
+///   in name order, in both cells alike; only the link condition is asked (a
 ///   fold or face check might be judged otherwise by the next cell; should
 ///   the link be, the seam opens and the local check refuses the update:
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an

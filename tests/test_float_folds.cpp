@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <map>
 #include <set>
 
@@ -254,6 +255,34 @@ TEST(FloatFolds, FaceVerticesAFloatStepApartBecomeOneInBothCells)
     CutCellGeometry far = faceShared(0, 1e-2);
     EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, far), 0u);
     EXPECT_EQ(far.vertexIds.size(), 6u);
+}
+
+// The two cells of a face judge a face pair by the face's largest world
+// coordinate, not each by its own: across the face x = 1001 mm the left cell
+// reaches x = 1001 and the right one x = 1002, so two face vertices between
+// their two thresholds apart were joined in the right cell only, and the
+// seam opened (tooth seed 1002, kerf 0.5, at z = 98 mm, refused).
+TEST(FloatFolds, BothCellsOfAFaceJudgeItsPairByTheFace)
+{
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    const double step = double(std::numeric_limits<float>::epsilon());
+    const double byFace = 2.0 * step * 1001.0, byRightCell = 2.0 * step * 1002.0;
+    auto seamMatches = [](const CutCellGeometry& l, const CutCellGeometry& r) {
+        const auto bl = onFaceX1(boundary(l), l), br = onFaceX1(boundary(r), r);
+        if (bl.size() != br.size() || bl.empty()) return false;
+        for (const KeyEdge& e : bl)
+            if (!br.count({e.second, e.first})) return false;
+        return true;
+    };
+    for (const double d : {0.5 * (byFace + byRightCell), 0.999 * byFace}) {
+        CutCellGeometry left = faceShared(0, d), right = faceShared(1, d);
+        ASSERT_TRUE(seamMatches(left, right));
+        const size_t l = repairFloatFolds(Coord(0, 0, 0), origin, spacing, left);
+        const size_t r = repairFloatFolds(Coord(1, 0, 0), origin, spacing, right);
+        EXPECT_EQ(l, r) << "d = " << d;
+        EXPECT_EQ(l, d < byFace ? 1u : 0u) << "d = " << d;
+        EXPECT_TRUE(seamMatches(left, right)) << "the cells of the face judged it differently, d = " << d;
+    }
 }
 
 } // namespace
