@@ -1396,6 +1396,18 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         }
         // Classification.
         SmallVector<char, 32> kept(pieces.size(), 1);
+        // A cap piece inside the solid P: every corner in closed P, and, where
+        // P is the union of the two half-spaces of a concave fold (not convex,
+        // so corners in P do not make the piece so), the piece's side of one
+        // of them. A piece between the fold's planes whose corners all lie on
+        // them is outside (tooth seed 1022: a 2e-3 voxel triangle of an offset
+        // face there closed a cap region over the crease and opened the iso seam).
+        auto inSolid = [&](const Poly& p) {
+            for (int v : p.v)
+                if (member(v) < 0) return false;
+            if (mTriCount == 2 && !mFoldConvex) return std::max(pieceSign(p, kIsoA), pieceSign(p, kIsoB)) >= 0;
+            return true;
+        };
         if (mPrism) {
             // Kerf > 0 (DESIGN's sketch): iso pieces outside every closed prism;
             // prism face pieces inside closed P, on their own closed face and
@@ -1412,7 +1424,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                 if (!s.quad) {
                     for (const QuadGeom* q : mQuads) ok = ok && !insidePrism(p, *q);
                 } else {
-                    for (int v : p.v) ok = ok && member(v) >= 0;
+                    ok = inSolid(p);
                     auto keptBy = [&](const QuadGeom* own) {
                         bool k = insidePrism(p, *own);
                         for (const QuadGeom* q : mQuads) {
@@ -1434,8 +1446,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             }
         } else if (s.quad) {
             for (size_t i = 0; i < pieces.size(); ++i) {
-                bool ok = true;
-                for (int v : pieces[i].v) ok = ok && member(v) >= 0;
+                bool ok = inSolid(pieces[i]);
                 for (const auto& sd : s.quad->sides) ok = ok && sd.orient * pieceSign(pieces[i], sd.id) >= 0;
                 kept[i] = ok;
             }

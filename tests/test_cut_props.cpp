@@ -1611,6 +1611,30 @@ TEST(CutPropsDefects, NearlyCoplanarSharpJointsAreMitredWithKerf)
     }
 }
 
+// Random strokes on the tooth at 400 (its noise level: thousands of specks,
+// many marching-tetrahedra folds), w = 0.5 mm. Where a tet's isosurface is a
+// concave fold, the solid is the union of two half-spaces, so a cap piece
+// whose corners are all in the closed solid need not be in it: a triangle of
+// an offset face between the two fold planes, its corners on them (2e-3
+// voxel across), was kept; it closed a cap region over the crease and left
+// the iso surface's edge there open (seeds 1007, 1014, 1022, refused). A cap
+// piece there is now kept by its side of the fold planes (inSolid).
+TEST(CutPropsDefects, CapPiecesBetweenTheTwoPlanesOfAConcaveFoldAreOutside)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    for (const auto& [seed, strokes] : std::vector<std::pair<uint32_t, size_t>>{{1022, 2}, {1007, 3}, {1014, 4}}) {
+        HeadStrokeCut cut(path, seed, 0.5, strokes);
+        ASSERT_EQ(cut.result.outcome, Outcome::Ok) << "seed " << seed << ": " << cut.result.message;
+        const Mesh fused = cut.remesher.fusedMesh();
+        const MeshCheck check = checkMesh(fused);
+        EXPECT_TRUE(check.ok()) << "seed " << seed << check.report();
+        const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+        std::printf("tooth at 400, seed %u, %zu strokes, w = 0.5 mm: %zu cut cells, %zu intersecting pairs\n", seed,
+                    strokes, cut.remesher.cells().size(), t.pairs);
+        EXPECT_EQ(t.pairs, 0u) << "seed " << seed;
+    }
+}
+
 // The acceptance cut: `mtcut cut` of the 1 mm VHM head (DICOM) at
 // 400 HU with its built-in LeFort stroke and kerf 0.5 mm. Clean, and CGAL
 // finds no intersecting triangles near the cut. It found 20: an iso
