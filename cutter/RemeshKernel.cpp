@@ -1978,20 +1978,45 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         for (const auto& [a, b] : onFace)
             if (mergedInto[a] == a && mergedInto[b] == b) collapse(b, a, true);
     }
+    // Then rounds: every short edge, shortest first (exact length, then
+    // names), its private end moving; only when none can go, a folded
+    // triangle may lose any of its edges, shortest first. Short edges first:
+    // where a cut line passes within 1e-6 voxel of a tet edge, three
+    // vertices a few 1e-7 apart chain there, and taking the triangles in
+    // order moved the middle one far along a long edge of a folded sliver,
+    // leaving two triangles folded onto each other (tooth seed 1009).
+    std::vector<std::pair<double, std::pair<uint32_t, uint32_t>>> shortEdges;
     for (int round = 0; round < 16; ++round) {
         bool mended = false;
+        shortEdges.clear();
         for (size_t t = 0; t < nt; ++t) {
-            if (!alive[t] || !needsMending(t)) continue;
-            // Its edges, shortest (exact length) first; the private end
-            // moves. A folded triangle may lose any edge, one with a short
-            // edge only that edge.
-            const bool isFolded = folded(tris[t], normal[t]);
+            if (!alive[t]) continue;
+            for (int e = 0; e < 3; ++e) {
+                uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                if (!isShort(a, b)) continue;
+                if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
+                shortEdges.push_back({glm::length(exact[a] - exact[b]), {a, b}});
+            }
+        }
+        std::sort(shortEdges.begin(), shortEdges.end(), [&](const auto& x, const auto& y) {
+            if (x.first != y.first) return x.first < y.first;
+            if (out.vertexIds[x.second.first] < out.vertexIds[y.second.first]) return true;
+            if (out.vertexIds[y.second.first] < out.vertexIds[x.second.first]) return false;
+            return out.vertexIds[x.second.second] < out.vertexIds[y.second.second];
+        });
+        for (const auto& [len, ab] : shortEdges) {
+            const auto [a, b] = ab;
+            if (mergedInto[a] != a || mergedInto[b] != b) continue;
+            if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) mended = true;
+        }
+        if (mended) continue;
+        for (size_t t = 0; t < nt && !mended; ++t) {
+            if (!alive[t] || !folded(tris[t], normal[t])) continue;
             std::array<std::pair<double, int>, 3> edges;
             for (int e = 0; e < 3; ++e)
                 edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
             std::sort(edges.begin(), edges.end());
             for (const auto& [len, e] : edges) {
-                if (!isFolded && !(len < shortEdge)) break;
                 const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
                 if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
                     mended = true;

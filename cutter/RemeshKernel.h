@@ -121,9 +121,9 @@ private:
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an
 ///   unmitred joint that tooSharpForMitre now mitres; none of test_cut_props'
 ///   strokes does it);
-/// - then a triangle still folded or short is mended, where it can be, by
-///   collapsing one of its edges (a short one, shortest first; any, if
-///   folded): a vertex private to the cell (inside it, off its faces, so no
+/// - then, in rounds, every short edge of the cell, shortest first, and only
+///   when none of them can go, a folded triangle's edges (any, shortest
+///   first), is collapsed where it can be: a vertex private to the cell (inside it, off its faces, so no
 ///   other cell names it) moves onto the edge's other end and the two
 ///   triangles on that edge go, only when that keeps the surface a
 ///   2-manifold (the ends share no neighbour but the two apexes), folds

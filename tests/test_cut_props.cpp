@@ -1635,6 +1635,26 @@ TEST(CutPropsDefects, CapPiecesBetweenTheTwoPlanesOfAConcaveFoldAreOutside)
     }
 }
 
+// Tooth at 400, seed 1009, w = 0.5 mm: in cell (13, 35, 73) a cut line
+// passes within 1e-6 voxel of a tet edge, so three vertices on it lie a few
+// 1e-7 voxel apart (one in the cell face, two on inner tet faces). The float
+// repair took folded triangles in order and moved the middle one 0.19 voxel
+// along a long edge, leaving two triangles folded onto each other: 7 pairs
+// CGAL found. Short edges now go first, shortest first, over the cell.
+TEST(CutPropsDefects, ShortEdgesAreMendedShortestFirst)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    HeadStrokeCut cut(path, 1009, 0.5, 4);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    std::printf("tooth at 400, seed 1009, w = 0.5 mm: %zu cut cells, %zu intersecting pairs\n",
+                cut.remesher.cells().size(), t.pairs);
+    EXPECT_EQ(t.pairs, 0u);
+}
+
 // The acceptance cut: `mtcut cut` of the 1 mm VHM head (DICOM) at
 // 400 HU with its built-in LeFort stroke and kerf 0.5 mm. Clean, and CGAL
 // finds no intersecting triangles near the cut. It found 20: an iso
