@@ -37,10 +37,6 @@ double epsAt(const dvec3& x)
     return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
 }
 
-} // namespace
-
-namespace {
-
 /// Kerf > 0: where the removed region's boundary has several fans at one
 /// vertex inside a tet (the union of the prisms, or the solid left between
 /// them, touches itself at that point: a blade pivoting on a corner), every
@@ -1856,29 +1852,31 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         const dvec3 f = glm::cross(written[v[1]] - written[v[0]], written[v[2]] - written[v[0]]);
         return !(glm::dot(f, n) > 0.0);
     };
-    // Shorter than a few float steps at this cell's largest coordinate: the
-    // ends may round together or across each other.
-    double extent = 0.0;
-    for (int a = 0; a < 3; ++a)
-        extent = std::max({extent, std::abs(origin[a] + spacing[a] * cell[a]),
-                           std::abs(origin[a] + spacing[a] * (cell[a] + 1))});
-    const double shortEdge = kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
+    // Shorter than a few float steps at the largest coordinate of the box
+    // [lo, hi] holding it: the ends may round together or across each other.
+    // A cell's edges are judged by the cell; a pair inside a cell face by the
+    // face, as the cell on its other side judges it (a cell's own extent
+    // differs across a face whose coordinate is its larger one; tooth seed
+    // 1002 at z = 98 mm).
+    auto extentOf = [&](const Coord& lo, const Coord& hi) {
+        double e = 0.0;
+        for (int a = 0; a < 3; ++a)
+            e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
+        return e;
+    };
+    auto shortAt = [&](double extent) {
+        return kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
+    };
+    const double shortEdge = shortAt(extentOf(cell, cell + Coord(1)));
     auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
-    // The same for an edge inside cell face `face` (bit 2 * axis + side), by
-    // that face's largest coordinate: the cell on the face's other side must
-    // judge it alike (the cell's own extent differs across a face whose
-    // coordinate is the larger one; tooth seed 1002 at z = 98 mm).
+    // face: bit 2 * axis + side (cellFaces).
     auto isShortInFace = [&](uint32_t a, uint32_t b, unsigned face) {
         int axis = 0;
         while (!(face >> (2 * axis) & 3u)) ++axis;
         const int side = (face >> (2 * axis) & 1u) ? 0 : 1;
-        double faceExtent = std::abs(origin[axis] + spacing[axis] * (cell[axis] + side));
-        for (int k = 0; k < 3; ++k)
-            if (k != axis)
-                faceExtent = std::max({faceExtent, std::abs(origin[k] + spacing[k] * cell[k]),
-                                       std::abs(origin[k] + spacing[k] * (cell[k] + 1))});
-        return glm::length(exact[a] - exact[b]) <
-               kFloatStepsShort * faceExtent * double(std::numeric_limits<float>::epsilon());
+        Coord lo = cell, hi = cell + Coord(1);
+        lo[axis] = hi[axis] = cell[axis] + side;
+        return glm::length(exact[a] - exact[b]) < shortAt(extentOf(lo, hi));
     };
     auto needsMending = [&](size_t t) {
         const auto& v = tris[t];
@@ -2004,6 +2002,8 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             if (out.vertexIds[y.second.first] < out.vertexIds[x.second.first]) return false;
             return out.vertexIds[x.second.second] < out.vertexIds[y.second.second];
         });
+        // Each edge once (its two triangles listed it twice).
+        shortEdges.erase(std::unique(shortEdges.begin(), shortEdges.end()), shortEdges.end());
         for (const auto& [len, ab] : shortEdges) {
             const auto [a, b] = ab;
             if (mergedInto[a] != a || mergedInto[b] != b) continue;

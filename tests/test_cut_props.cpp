@@ -1478,6 +1478,21 @@ struct HeadStrokeCut
     UpdateResult result;
 };
 
+/// The first `strokes` random strokes of `seed` on `path` at 400 with kerf
+/// w: accepted, a clean fused mesh, and no intersecting pairs near the cut.
+void expectCleanRandomCut(const std::string& path, const char* name, uint32_t seed, size_t strokes, double kerf)
+{
+    HeadStrokeCut cut(path, seed, kerf, strokes);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << name << " seed " << seed << ": " << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << name << " seed " << seed << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    std::printf("%s seed %u, %zu strokes, w = %.1f mm: %zu cut cells, %zu intersecting pairs, %zu pinch contacts\n",
+                name, seed, strokes, kerf, cut.remesher.cells().size(), t.pairs, t.pinchContacts);
+    EXPECT_EQ(t.pairs, 0u) << name << " seed " << seed;
+}
+
 // Random stroke seed 1021, stroke 0 (randomStrokes(frame, 1021, 4): 200 poses,
 // 0.6 mm per pose, 30 mm blade) on the 4 mm head at 400 HU, w = 0, on a
 // fresh mask: clean, with no triangle of zero area in float. This failed
@@ -1598,17 +1613,7 @@ TEST(CutPropsDefects, PointsOnAMitreLineAreNamedApart)
 TEST(CutPropsDefects, NearlyCoplanarSharpJointsAreMitredWithKerf)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
-    for (uint32_t seed : {1019u, 1023u, 1028u}) {
-        HeadStrokeCut cut(path, seed, 0.5, 4);
-        ASSERT_EQ(cut.result.outcome, Outcome::Ok) << "seed " << seed << ": " << cut.result.message;
-        const Mesh fused = cut.remesher.fusedMesh();
-        const MeshCheck check = checkMesh(fused);
-        EXPECT_TRUE(check.ok()) << "seed " << seed << check.report();
-        const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-        std::printf("2 mm head seed %u, w = 0.5 mm: %zu cut cells, %zu intersecting pairs, %zu pinch contacts\n", seed,
-                    cut.remesher.cells().size(), t.pairs, t.pinchContacts);
-        EXPECT_EQ(t.pairs, 0u) << "seed " << seed;
-    }
+    for (uint32_t seed : {1019u, 1023u, 1028u}) expectCleanRandomCut(path, "2 mm head", seed, 4, 0.5);
 }
 
 // Random strokes on the tooth at 400 (its noise level: thousands of specks,
@@ -1622,17 +1627,8 @@ TEST(CutPropsDefects, NearlyCoplanarSharpJointsAreMitredWithKerf)
 TEST(CutPropsDefects, CapPiecesBetweenTheTwoPlanesOfAConcaveFoldAreOutside)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
-    for (const auto& [seed, strokes] : std::vector<std::pair<uint32_t, size_t>>{{1022, 2}, {1007, 3}, {1014, 4}}) {
-        HeadStrokeCut cut(path, seed, 0.5, strokes);
-        ASSERT_EQ(cut.result.outcome, Outcome::Ok) << "seed " << seed << ": " << cut.result.message;
-        const Mesh fused = cut.remesher.fusedMesh();
-        const MeshCheck check = checkMesh(fused);
-        EXPECT_TRUE(check.ok()) << "seed " << seed << check.report();
-        const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-        std::printf("tooth at 400, seed %u, %zu strokes, w = 0.5 mm: %zu cut cells, %zu intersecting pairs\n", seed,
-                    strokes, cut.remesher.cells().size(), t.pairs);
-        EXPECT_EQ(t.pairs, 0u) << "seed " << seed;
-    }
+    for (const auto& [seed, strokes] : std::vector<std::pair<uint32_t, size_t>>{{1022, 2}, {1007, 3}, {1014, 4}})
+        expectCleanRandomCut(path, "tooth at 400", seed, strokes, 0.5);
 }
 
 // Tooth at 400, seed 1009, w = 0.5 mm: in cell (13, 35, 73) a cut line
@@ -1644,15 +1640,7 @@ TEST(CutPropsDefects, CapPiecesBetweenTheTwoPlanesOfAConcaveFoldAreOutside)
 TEST(CutPropsDefects, ShortEdgesAreMendedShortestFirst)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
-    HeadStrokeCut cut(path, 1009, 0.5, 4);
-    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
-    const Mesh fused = cut.remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-    std::printf("tooth at 400, seed 1009, w = 0.5 mm: %zu cut cells, %zu intersecting pairs\n",
-                cut.remesher.cells().size(), t.pairs);
-    EXPECT_EQ(t.pairs, 0u);
+    expectCleanRandomCut(path, "tooth at 400", 1009, 4, 0.5);
 }
 
 // The acceptance cut: `mtcut cut` of the 1 mm VHM head (DICOM) at

@@ -228,18 +228,21 @@ std::set<KeyEdge, KeyEdgeLess> onFaceX1(const std::set<KeyEdge, KeyEdgeLess>& b,
     return out;
 }
 
+/// Do the two cells weld along x = 1 (each edge there once each way)?
+bool seamMatches(const CutCellGeometry& l, const CutCellGeometry& r)
+{
+    const auto bl = onFaceX1(boundary(l), l), br = onFaceX1(boundary(r), r);
+    if (bl.size() != br.size() || bl.empty()) return false;
+    for (const KeyEdge& e : bl)
+        if (!br.count({e.second, e.first})) return false;
+    return true;
+}
+
 TEST(FloatFolds, FaceVerticesAFloatStepApartBecomeOneInBothCells)
 {
     const openvdb::Vec3d origin(1000.0), spacing(1.0);
     CutCellGeometry left = faceShared(0, 1e-7), right = faceShared(1, 1e-7);
     // Premise: the two cells weld along x = 1 (each edge there once each way).
-    auto seamMatches = [](const CutCellGeometry& l, const CutCellGeometry& r) {
-        const auto bl = onFaceX1(boundary(l), l), br = onFaceX1(boundary(r), r);
-        if (bl.size() != br.size() || bl.empty()) return false;
-        for (const KeyEdge& e : bl)
-            if (!br.count({e.second, e.first})) return false;
-        return true;
-    };
     ASSERT_TRUE(seamMatches(left, right));
     ASSERT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 1u);
     EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, left), 1u);
@@ -267,13 +270,6 @@ TEST(FloatFolds, BothCellsOfAFaceJudgeItsPairByTheFace)
     const openvdb::Vec3d origin(1000.0), spacing(1.0);
     const double step = double(std::numeric_limits<float>::epsilon());
     const double byFace = 2.0 * step * 1001.0, byRightCell = 2.0 * step * 1002.0;
-    auto seamMatches = [](const CutCellGeometry& l, const CutCellGeometry& r) {
-        const auto bl = onFaceX1(boundary(l), l), br = onFaceX1(boundary(r), r);
-        if (bl.size() != br.size() || bl.empty()) return false;
-        for (const KeyEdge& e : bl)
-            if (!br.count({e.second, e.first})) return false;
-        return true;
-    };
     for (const double d : {0.5 * (byFace + byRightCell), 0.999 * byFace}) {
         CutCellGeometry left = faceShared(0, d), right = faceShared(1, d);
         ASSERT_TRUE(seamMatches(left, right));
