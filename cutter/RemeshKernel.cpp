@@ -1950,20 +1950,20 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         ++removed;
         return true;
     };
-    // Two vertices inside one cell face joined by a short edge: the two
-    // cells of that face, and only they, hold them, and both have the edge
-    // on their common boundary. The greater name becomes the lesser, edges
+    // Two vertices inside one cell face (inside a tet face there, or on the
+    // face's diagonal, a grid edge no other cell has) joined by a short
+    // edge: the two cells of that face, and only they, hold them, and both
+    // have the edge on their common boundary. The greater name becomes the lesser, edges
     // in name order, in both cells alike: only the link condition is asked
     // (a fold or face check could be judged otherwise by the next cell; the
     // local check judges the fused result).
     {
+        auto inOneFace = [&](uint32_t v) { return faces[v] != 0 && (faces[v] & (faces[v] - 1)) == 0; };
         std::vector<std::pair<uint32_t, uint32_t>> onFace; // (lesser, greater)
         for (size_t t = 0; t < nt; ++t)
             for (int e = 0; e < 3; ++e) {
                 uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
-                if (out.vertexIds[a].dim != 2 || out.vertexIds[b].dim != 2 || !(faces[a] & faces[b]) ||
-                    !isShortInFace(a, b, faces[a] & faces[b]))
-                    continue;
+                if (!inOneFace(a) || faces[a] != faces[b] || !isShortInFace(a, b, faces[a])) continue;
                 if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
                 onFace.push_back({a, b});
             }

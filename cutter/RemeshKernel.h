@@ -111,9 +111,9 @@ private:
 /// touches the next cell's triangles). Mended in two steps, both
 /// deterministic (a function of `out` and the transform), so incremental,
 /// from-scratch and undone geometry stay equal:
-/// - two vertices inside one cell face (dim 2, held by exactly the two
-///   cells of the face, which both have the edge between them on their
-///   boundary) joined by a short edge (short by the face's largest world
+/// - two vertices inside one cell face (in a tet face there or on the
+///   face's diagonal: held by exactly the two cells of the face, which both
+///   have the edge between them on their boundary) joined by a short edge (short by the face's largest world
 ///   coordinate, which both cells share) become the lesser name, edges taken
 ///   in name order, in both cells alike; only the link condition is asked (a
 ///   fold or face check might be judged otherwise by the next cell; should

@@ -186,17 +186,21 @@ TEST(FloatFolds, CopiesOfOnePointStayApart)
 }
 
 /// The plane y = 0.5 across cell (cx,0,0), cx = 0 or 1, whose boundary on
-/// the face x = 1 they share holds two face vertices d apart (z).
-CutCellGeometry faceShared(int cx, double d)
+/// the face x = 1 they share holds two vertices d apart (z): two vertices
+/// inside a tet face there, or (onDiagonal) the lower one on the face's
+/// diagonal from (1,0,0) to (1,1,1), a grid edge only these two cells have.
+CutCellGeometry faceShared(int cx, double d, bool onDiagonal = false)
 {
     Builder b;
     const Coord f0(1, 0, 0), f1(1, 1, 0), f2(1, 1, 1); // a tet face in the cell face x = 1
-    const CutVertexId F1 = faceVertex(f0, f1, f2, 1, 200), F2 = faceVertex(f0, f1, f2, 1, 201);
+    const CutVertexId F1 = onDiagonal ? edgeVertex(f0, f2, 200) : faceVertex(f0, f1, f2, 1, 200);
+    const CutVertexId F2 = faceVertex(f0, f1, f2, 1, 201);
+    const double z1 = onDiagonal ? 0.5 : 0.4;
     const CutVertexId bottom = edgeVertex({1, 0, 0}, {1, 1, 0}, 1), top = edgeVertex({1, 0, 1}, {1, 1, 1}, 1);
     if (cx == 0) {
         const uint32_t P00 = b.add(edgeVertex({0, 0, 0}, {0, 1, 0}, 1), {0, 0.5, 0});
         const uint32_t P10 = b.add(bottom, {1, 0.5, 0});
-        const uint32_t a = b.add(F1, {1, 0.5, 0.4}), c = b.add(F2, {1, 0.5, 0.4 + d});
+        const uint32_t a = b.add(F1, {1, 0.5, z1}), c = b.add(F2, {1, 0.5, z1 + d});
         const uint32_t P11 = b.add(top, {1, 0.5, 1});
         const uint32_t P01 = b.add(edgeVertex({0, 0, 1}, {0, 1, 1}, 1), {0, 0.5, 1});
         b.tri(P00, P10, a);
@@ -208,7 +212,7 @@ CutCellGeometry faceShared(int cx, double d)
         const uint32_t Q20 = b.add(edgeVertex({2, 0, 0}, {2, 1, 0}, 1), {2, 0.5, 0});
         const uint32_t Q21 = b.add(edgeVertex({2, 0, 1}, {2, 1, 1}, 1), {2, 0.5, 1});
         const uint32_t Q11 = b.add(top, {1, 0.5, 1});
-        const uint32_t c = b.add(F2, {1, 0.5, 0.4 + d}), a = b.add(F1, {1, 0.5, 0.4});
+        const uint32_t c = b.add(F2, {1, 0.5, z1 + d}), a = b.add(F1, {1, 0.5, z1});
         b.tri(Q20, Q21, Q11);
         b.tri(Q20, Q11, c);
         b.tri(Q20, c, a);
@@ -265,6 +269,31 @@ TEST(FloatFolds, FaceVerticesAFloatStepApartBecomeOneInBothCells)
 // reaches x = 1001 and the right one x = 1002, so two face vertices between
 // their two thresholds apart were joined in the right cell only, and the
 // seam opened (tooth seed 1002, kerf 0.5, at z = 98 mm, refused).
+// A vertex on a face's diagonal is inside that face as much as one in a tet
+// face there: only the two cells of the face have it. The 1 mm head at kerf
+// 0 (random strokes, seed 2002) had a slit copy of an iso vertex on a
+// diagonal 2.5e-5 voxel from a cap vertex in the face, at z = 1241 mm (a float
+// step there is 1.2e-4 mm): they rounded to one point and the triangle they
+// spanned with an inner vertex rounded onto the face to zero area (refused).
+TEST(FloatFolds, ADiagonalVertexAndAFaceVertexAFloatStepApartBecomeOneInBothCells)
+{
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    CutCellGeometry left = faceShared(0, 1e-7, true), right = faceShared(1, 1e-7, true);
+    ASSERT_TRUE(seamMatches(left, right));
+    ASSERT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, left), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(1, 0, 0), origin, spacing, right), 1u);
+    EXPECT_TRUE(seamMatches(left, right)) << "the cells of the face judged it differently";
+    EXPECT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 0u);
+    EXPECT_EQ(foldedInFloat(right, dvec3(1000.0), dvec3(1.0)), 0u);
+    // The diagonal's vertex (the lesser name, dim 1) stays in both.
+    for (const CutCellGeometry* g : {&left, &right}) {
+        size_t onDiagonal = 0;
+        for (const CutVertexId& id : g->vertexIds) onDiagonal += id.dim == 1 && id.planes[0] == 200;
+        EXPECT_EQ(onDiagonal, 1u);
+    }
+}
+
 TEST(FloatFolds, BothCellsOfAFaceJudgeItsPairByTheFace)
 {
     const openvdb::Vec3d origin(1000.0), spacing(1.0);
