@@ -1804,7 +1804,27 @@ CellKernel::~CellKernel() = default;
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     mKernel->remesh(cell, quads, prism, out);
+    snapToGridVertices(mOrigin, mSpacing, out);
     repairFloatFolds(cell, mOrigin, mSpacing, out);
+}
+
+size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out)
+{
+    size_t moved = 0;
+    for (size_t v = 0; v < out.vertexIds.size(); ++v) {
+        if (out.vertexIds[v].isIsoEdgeVertex()) continue; // the uncut mesh's vertex, as it is
+        dvec3& p = out.indexPositions[v];
+        const dvec3 g = glm::round(p);
+        if (p == g) continue;
+        const dvec3 wg = exactWorldPosition(origin, spacing, g);
+        const double extent = std::max({std::abs(wg.x), std::abs(wg.y), std::abs(wg.z)});
+        const double near = kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
+        if (glm::length(exactWorldPosition(origin, spacing, p) - wg) < near) {
+            p = g;
+            ++moved;
+        }
+    }
+    return moved;
 }
 
 namespace {

@@ -102,6 +102,23 @@ private:
     openvdb::Vec3d mOrigin, mSpacing;
 };
 
+/// Sub-float clusters at a grid vertex: a new vertex of `out` (not a plain
+/// marching-tetrahedra vertex, which is the uncut mesh's) whose exact world
+/// position lies within kFloatStepsShort float steps (at the grid vertex's
+/// largest world coordinate) of the nearest grid vertex G is put at G. A
+/// blade plane passing that close to G cuts the edges and faces around it
+/// in a cluster of vertices that float cannot tell apart, in every cell
+/// around G, and their triangles round to zero area or fold (1 mm head, kerf
+/// 0, seed 2044: six vertices within 3e-5 mm of a grid vertex at z = 1045
+/// mm, on cube edges and face diagonals that two to four cells share, none
+/// of which the float repair may move). At G they are one float point, and
+/// the written mesh's snap rounding (fusedMesh: names joined by an edge at
+/// one float position are one vertex) joins them and drops the triangles
+/// between them. A function of the vertex's name alone (its exact position
+/// is), so every cell that has the vertex puts it at G. Returns the
+/// vertices moved.
+size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out);
+
 /// Float folds (DESIGN invariant 7 once written): a triangle of `out` whose
 /// float world position (origin + spacing * index, rounded to float, as
 /// CutRemesher::fusedMesh writes it) is degenerate or faces against its exact

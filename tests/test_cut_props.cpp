@@ -1658,6 +1658,19 @@ TEST(CutPropsDefects, AFaceDiagonalVertexIsMendedWithTheFace)
     expectCleanRandomCut(dir, "1 mm head", 2002, 4, 0.0);
 }
 
+// The 1 mm head at kerf 0, random strokes seed 2044: a blade plane passed
+// 3e-5 mm from a grid vertex at z = 1045 mm, so six vertices on the cube
+// edges and face diagonals around it, shared by two to four cells, lay
+// closer together than a float step; rounded, they were three points on one
+// line and their triangles had zero area (refused). They now go onto the
+// grid vertex (snapToGridVertices) and the written mesh's snap rounding
+// joins them.
+TEST(CutPropsDefects, ASubFloatClusterAtAGridVertexGoesOntoIt)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    expectCleanRandomCut(dir, "1 mm head", 2044, 4, 0.0);
+}
+
 // The acceptance cut: `mtcut cut` of the 1 mm VHM head (DICOM) at
 // 400 HU with its built-in LeFort stroke and kerf 0.5 mm. Clean, and CGAL
 // finds no intersecting triangles near the cut. It found 20: an iso

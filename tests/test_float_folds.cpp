@@ -19,6 +19,7 @@ using mtcut::cutter::CutCellGeometry;
 using mtcut::cutter::CutVertexId;
 using mtcut::cutter::gridVertexId;
 using mtcut::cutter::remesh_detail::repairFloatFolds;
+using mtcut::cutter::remesh_detail::snapToGridVertices;
 using glm::dvec3;
 using openvdb::Coord;
 
@@ -292,6 +293,40 @@ TEST(FloatFolds, ADiagonalVertexAndAFaceVertexAFloatStepApartBecomeOneInBothCell
         for (const CutVertexId& id : g->vertexIds) onDiagonal += id.dim == 1 && id.planes[0] == 200;
         EXPECT_EQ(onDiagonal, 1u);
     }
+}
+
+// A blade plane 3e-5 mm from a grid vertex at z = 1045 mm (a float step
+// there is 1.2e-4 mm): its vertices on the edges and faces around the grid
+// vertex go onto it (within two float steps at its largest coordinate), a
+// plain marching-tetrahedra vertex (the uncut mesh's) and anything farther
+// stay where they are.
+TEST(FloatFolds, NewVerticesWithinTwoFloatStepsOfAGridVertexGoOntoIt)
+{
+    const openvdb::Vec3d origin(0.0, 0.0, 1000.0), spacing(1.0);
+    const double near = 2.0 * 1045.0 * double(std::numeric_limits<float>::epsilon()); // 2.5e-4 mm
+    const Coord g(221, 188, 45), below(221, 188, 44), side(221, 187, 45);
+    Builder b;
+    const uint32_t onEdge = b.add(edgeVertex(below, g, 200), {221, 188, 45 - 3e-5});
+    const uint32_t farOnEdge = b.add(edgeVertex(below, g, 201), {221, 188, 45 - 1.01 * near});
+    const uint32_t iso = b.add(edgeVertex(below, g, 1), {221, 188, 45 - 1e-5});
+    const uint32_t onFace = b.add(faceVertex(below, side, g, 1, 200), {221, 188 - 1e-4, 45 - 1e-4});
+    const uint32_t inside = b.add(innerVertex(Coord(220, 187, 44), 2, 200), {221 - 0.99 * near, 188, 45});
+    b.tri(onEdge, farOnEdge, onFace);
+    b.tri(iso, onFace, inside);
+    const CutCellGeometry before = b.g;
+    EXPECT_EQ(snapToGridVertices(origin, spacing, b.g), 3u);
+    const dvec3 at(221, 188, 45);
+    EXPECT_EQ(b.g.indexPositions[onEdge], at);
+    EXPECT_EQ(b.g.indexPositions[onFace], at);
+    EXPECT_EQ(b.g.indexPositions[inside], at);
+    EXPECT_EQ(b.g.indexPositions[farOnEdge], before.indexPositions[farOnEdge]);
+    EXPECT_EQ(b.g.indexPositions[iso], before.indexPositions[iso]);
+    EXPECT_EQ(b.g.indices, before.indices);
+    EXPECT_EQ(b.g.vertexIds, before.vertexIds);
+    // Near the origin a float step is smaller, and so is the reach.
+    Builder o;
+    o.add(edgeVertex(Coord(0, 0, 0), Coord(0, 0, 1), 200), {0, 0, 1 - 3e-5});
+    EXPECT_EQ(snapToGridVertices(openvdb::Vec3d(0.0), spacing, o.g), 0u);
 }
 
 TEST(FloatFolds, BothCellsOfAFaceJudgeItsPairByTheFace)
