@@ -128,11 +128,13 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 /// touches the next cell's triangles). Mended in two steps, both
 /// deterministic (a function of `out` and the transform), so incremental,
 /// from-scratch and undone geometry stay equal:
-/// - two vertices inside one cell face (in a tet face there or on the
-///   face's diagonal: held by exactly the two cells of the face, which both
-///   have the edge between them on their boundary) joined by a short edge (short by the face's largest world
-///   coordinate, which both cells share) become the lesser name, edges taken
-///   in name order, in both cells alike; only the link condition is asked (a
+/// - a vertex inside one cell face (in a tet face there or on the face's
+///   diagonal: held by exactly the two cells of the face, which both have
+///   the edge on their boundary) joined by a short edge (short by the
+///   face's largest world coordinate, which both cells share) to another
+///   vertex of the closed face becomes that one (of two inside the face,
+///   the greater name becomes the lesser), pairs taken in name order, in
+///   both cells alike; only the link condition is asked (a
 ///   fold or face check might be judged otherwise by the next cell; should
 ///   the link be, the seam opens and the local check refuses the update:
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an

@@ -1671,6 +1671,18 @@ TEST(CutPropsDefects, ASubFloatClusterAtAGridVertexGoesOntoIt)
     expectCleanRandomCut(dir, "1 mm head", 2044, 4, 0.0);
 }
 
+// The 1 mm head at kerf 0.5, random strokes seed 2002: a vertex of a cell
+// face lay 3e-5 mm above a vertex on the face's cube edge at z = 1226 mm;
+// rounded to float it sat on the edge just past that vertex, and the
+// triangles of the cells below touched the segment to it there (10 pairs
+// CGAL found). The face rule now also puts a face vertex onto a vertex of
+// the face's boundary that close (FloatFolds.AFaceVertexAFloatStepFrom...).
+TEST(CutPropsDefects, AFaceVertexNearItsEdgesVertexIsMendedWithTheFace)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    expectCleanRandomCut(dir, "1 mm head", 2002, 4, 0.5);
+}
+
 // The acceptance cut: `mtcut cut` of the 1 mm VHM head (DICOM) at
 // 400 HU with its built-in LeFort stroke and kerf 0.5 mm. Clean, and CGAL
 // finds no intersecting triangles near the cut. It found 20: an iso

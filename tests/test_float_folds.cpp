@@ -222,6 +222,35 @@ CutCellGeometry faceShared(int cx, double d, bool onDiagonal = false)
     return b.g;
 }
 
+/// As faceShared, but one vertex inside the face x = 1, d (z) above the
+/// seam's vertex on the cube edge z = 0 of that face (which four cells hold).
+CutCellGeometry faceAboveEdge(int cx, double d)
+{
+    Builder b;
+    const CutVertexId F = faceVertex(Coord(1, 0, 0), Coord(1, 1, 0), Coord(1, 1, 1), 1, 201);
+    const CutVertexId bottom = edgeVertex({1, 0, 0}, {1, 1, 0}, 1), top = edgeVertex({1, 0, 1}, {1, 1, 1}, 1);
+    if (cx == 0) {
+        const uint32_t P00 = b.add(edgeVertex({0, 0, 0}, {0, 1, 0}, 1), {0, 0.5, 0});
+        const uint32_t P10 = b.add(bottom, {1, 0.5, 0});
+        const uint32_t c = b.add(F, {1, 0.5, d});
+        const uint32_t P11 = b.add(top, {1, 0.5, 1});
+        const uint32_t P01 = b.add(edgeVertex({0, 0, 1}, {0, 1, 1}, 1), {0, 0.5, 1});
+        b.tri(P00, P10, c);
+        b.tri(P00, c, P11);
+        b.tri(P00, P11, P01);
+    } else {
+        const uint32_t Q10 = b.add(bottom, {1, 0.5, 0});
+        const uint32_t Q20 = b.add(edgeVertex({2, 0, 0}, {2, 1, 0}, 1), {2, 0.5, 0});
+        const uint32_t Q21 = b.add(edgeVertex({2, 0, 1}, {2, 1, 1}, 1), {2, 0.5, 1});
+        const uint32_t Q11 = b.add(top, {1, 0.5, 1});
+        const uint32_t c = b.add(F, {1, 0.5, d});
+        b.tri(Q20, Q21, Q11);
+        b.tri(Q20, Q11, c);
+        b.tri(Q20, c, Q10);
+    }
+    return b.g;
+}
+
 /// The edges of `b` that lie in the face x = 1 (both ends there).
 std::set<KeyEdge, KeyEdgeLess> onFaceX1(const std::set<KeyEdge, KeyEdgeLess>& b, const CutCellGeometry& g)
 {
@@ -327,6 +356,30 @@ TEST(FloatFolds, NewVerticesWithinTwoFloatStepsOfAGridVertexGoOntoIt)
     Builder o;
     o.add(edgeVertex(Coord(0, 0, 0), Coord(0, 0, 1), 200), {0, 0, 1 - 3e-5});
     EXPECT_EQ(snapToGridVertices(openvdb::Vec3d(0.0), spacing, o.g), 0u);
+}
+
+// A vertex inside a face a float step from a vertex on the face's edge
+// (1 mm head, kerf 0.5, seed 2002: 3e-5 mm above a cube edge at z = 1226 mm;
+// rounded onto the edge past the edge's vertex, the segment to it touched
+// the cells below there): both cells of the face put it onto the edge's
+// vertex, which the two other cells around the edge keep as it is.
+TEST(FloatFolds, AFaceVertexAFloatStepFromTheFacesEdgeVertexBecomesItInBothCells)
+{
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    CutCellGeometry left = faceAboveEdge(0, 1e-7), right = faceAboveEdge(1, 1e-7);
+    ASSERT_TRUE(seamMatches(left, right));
+    ASSERT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, left), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(1, 0, 0), origin, spacing, right), 1u);
+    EXPECT_TRUE(seamMatches(left, right)) << "the cells of the face judged it differently";
+    for (const CutCellGeometry* g : {&left, &right}) {
+        EXPECT_EQ(g->vertexIds.size(), 4u);
+        EXPECT_EQ(foldedInFloat(*g, dvec3(1000.0), dvec3(1.0)), 0u);
+        for (const CutVertexId& id : g->vertexIds) EXPECT_NE(id.dim, 2) << "the face vertex is gone";
+    }
+    // Apart where float holds them apart.
+    CutCellGeometry far = faceAboveEdge(0, 1e-2);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, far), 0u);
 }
 
 TEST(FloatFolds, BothCellsOfAFaceJudgeItsPairByTheFace)
