@@ -216,6 +216,16 @@ bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, c
                     const bool convex = cross2(prev, op, next) > 0;
                     const bool l1 = cross2(op, next, hp) > 0, l2 = cross2(prev, op, hp) > 0;
                     if (convex ? !(l1 && l2) : !(l1 || l2)) continue;
+                    // And inside the region's wedge at the hole's corner (a
+                    // hole is CW: the region on the left): of two copies of a
+                    // point (the two sides of a crack, a zero-width slit
+                    // inside the region), the one facing the outer corner.
+                    const size_t m = holes[h].size();
+                    const Vec2& hprev = P(holes[h][(j + m - 1) % m]);
+                    const Vec2& hnext = P(holes[h][(j + 1) % m]);
+                    const bool hconvex = cross2(hprev, hp, hnext) > 0;
+                    const bool h1 = cross2(hp, hnext, op) > 0, h2 = cross2(hprev, hp, op) > 0;
+                    if (hconvex ? !(h1 && h2) : !(h1 || h2)) continue;
                     bool clear = true;
                     auto check = [&](const std::vector<int>& loop) {
                         for (size_t k = 0; k < loop.size() && clear; ++k) {

@@ -1683,6 +1683,15 @@ TEST(CutPropsDefects, AFaceVertexNearItsEdgesVertexIsMendedWithTheFace)
     expectCleanRandomCut(dir, "1 mm head", 2002, 4, 0.5);
 }
 
+// The body CT (NIfTI, 3 mm) at kerf 0, random strokes seed 1008: an iso
+// region held a crack, a slit whose ends are both inside it, and its
+// triangulation failed (refused; Polygon2.ACrackIsBridgedToTheCopy...).
+TEST(CutPropsDefects, AnIsoRegionWithACrackInsideIsTriangulated)
+{
+    MTCUT_REQUIRE_DATA(path, "body-ct.nii.gz");
+    expectCleanRandomCut(path, "body CT", 1008, 2, 0.0);
+}
+
 // The acceptance cut: `mtcut cut` of the 1 mm VHM head (DICOM) at
 // 400 HU with its built-in LeFort stroke and kerf 0.5 mm. Clean, and CGAL
 // finds no intersecting triangles near the cut. It found 20: an iso

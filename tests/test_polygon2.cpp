@@ -123,6 +123,38 @@ TEST(Polygon2, AHoleTouchingTheOuterLoopIsSplicedWhereItTouches)
     }
 }
 
+// A crack: a zero-width slit whose two ends are inside the region (a blade
+// that stops inside an iso piece at kerf 0), with a Steiner point midway,
+// two copies of it at one position, one per side. As a hole it is
+// 3 -> m+ -> 5 -> m- (zero area). The bridge went to the first copy of the
+// nearest point, whichever side it was on, and ear clipping found no ear
+// (the body CT at kerf 0, random stroke seed 1008). It now goes to the copy
+// whose side faces it, and every triangle stays on one side of the crack.
+TEST(Polygon2, ACrackIsBridgedToTheCopyOnTheSideFacingTheBridge)
+{
+    // Corners as the body CT's cell (98, 51, 32) had them, in its face's plane.
+    const std::vector<Vec2> pts = {{59.7836456654, 60.4113036488}, {60.63203734, 59.6629485626},
+                                   {60.63203734, 60.9363385125},  {60.2394047612, 60.2156341509},
+                                   {60.447380912, 60.0909334751}, {60.5844215691, 60.1344726631},
+                                   {60.447380912, 60.0909334751}};
+    const int up = 4, down = 6; // the crack's midpoint, on each side
+    std::vector<int> outer = {0, 1, 2};
+    const std::vector<std::vector<int>> holes = {{up, 5, down, 3}};
+    ASSERT_EQ(signedArea(holes[0], pts), 0.0);
+    ASSERT_TRUE(bridgeHoles(outer, holes, pts));
+    EXPECT_EQ(outer, (std::vector<int>{0, 1, down, 3, up, 5, down, 1, 2})) << "bridged from corner 1, below the crack";
+    std::vector<int> tris;
+    ASSERT_TRUE(earClip(outer, pts, tris));
+    double worst = 0;
+    EXPECT_NEAR(triangleArea(tris, pts, worst), 0.5 * cross2(pts[0], pts[1], pts[2]), 1e-12);
+    // No triangle joins the two sides' copies.
+    for (size_t t = 0; t < tris.size(); t += 3) {
+        const bool hasUp = tris[t] == up || tris[t + 1] == up || tris[t + 2] == up;
+        const bool hasDown = tris[t] == down || tris[t + 1] == down || tris[t + 2] == down;
+        EXPECT_FALSE(hasUp && hasDown) << "triangle " << t / 3 << " spans the crack";
+    }
+}
+
 // bestTriangulation maximises the worst triangle's shape over all
 // triangulations: on a fan of nearly straight corners no triangulation can
 // be better than it, and ear clipping's is never better.
