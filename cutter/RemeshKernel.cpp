@@ -29,8 +29,15 @@ constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 /// repairFloatFolds: an edge shorter than this many float steps (float
 /// epsilon times the cell's largest world coordinate) is mended (2 at the
 /// VHM head's 1100 mm are 0.26 um: the least that mends test_cut_props'
-/// strokes; 8 does too, moving more vertices further).
+/// strokes; 8 does too, moving more vertices further); snapToGridVertices
+/// takes the same reach.
 constexpr double kFloatStepsShort = 2.0;
+
+/// kFloatStepsShort float steps at world coordinates up to `extent` (mm).
+double floatShortAt(double extent)
+{
+    return kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
+}
 
 double epsAt(const dvec3& x)
 {
@@ -1818,8 +1825,7 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
         if (p == g) continue;
         const dvec3 wg = exactWorldPosition(origin, spacing, g);
         const double extent = std::max({std::abs(wg.x), std::abs(wg.y), std::abs(wg.z)});
-        const double near = kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
-        if (glm::length(exactWorldPosition(origin, spacing, p) - wg) < near) {
+        if (glm::length(exactWorldPosition(origin, spacing, p) - wg) < floatShortAt(extent)) {
             p = g;
             ++moved;
         }
@@ -1884,10 +1890,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
         return e;
     };
-    auto shortAt = [&](double extent) {
-        return kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
-    };
-    const double shortEdge = shortAt(extentOf(cell, cell + Coord(1)));
+    const double shortEdge = floatShortAt(extentOf(cell, cell + Coord(1)));
     auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
     // face: bit 2 * axis + side (cellFaces).
     auto isShortInFace = [&](uint32_t a, uint32_t b, unsigned face) {
@@ -1896,7 +1899,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         const int side = (face >> (2 * axis) & 1u) ? 0 : 1;
         Coord lo = cell, hi = cell + Coord(1);
         lo[axis] = hi[axis] = cell[axis] + side;
-        return glm::length(exact[a] - exact[b]) < shortAt(extentOf(lo, hi));
+        return glm::length(exact[a] - exact[b]) < floatShortAt(extentOf(lo, hi));
     };
     auto needsMending = [&](size_t t) {
         const auto& v = tris[t];

@@ -142,10 +142,10 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 ///   strokes does it);
 /// - then, in rounds, every short edge of the cell, shortest first, and only
 ///   when none of them can go, a folded triangle's edges (any, shortest
-///   first), is collapsed where it can be: a vertex private to the cell (inside it, off its faces, so no
-///   other cell names it) moves onto the edge's other end and the two
-///   triangles on that edge go, only when that keeps the surface a
-///   2-manifold (the ends share no neighbour but the two apexes), folds
+///   first), is collapsed where it can be: a vertex private to the cell
+///   (inside it, off its faces, so no other cell names it) moves onto the
+///   edge's other end and the two triangles on that edge go, only when that
+///   keeps the surface a 2-manifold (the ends share no neighbour but the two apexes), folds
 ///   nothing else over (every remaining triangle at the moved vertex keeps
 ///   its exact orientation in float) and puts no triangle into a cell face
 ///   (the next cell may hold the same one); repeated while it mends.
