@@ -1683,6 +1683,18 @@ TEST(CutPropsDefects, AFaceVertexNearItsEdgesVertexIsMendedWithTheFace)
     expectCleanRandomCut(dir, "1 mm head", 2002, 4, 0.5);
 }
 
+// The 2 mm head at kerf 0.5, random strokes seed 3023 (also refused at kerf
+// 0.1, 1 and 2): two quads of a stroke meet at too sharp a corner for a mitre,
+// so each prism ends on its own plane through their common edge, and the
+// two planes cut a face 9e-5 mm apart at z = 1018 mm. The cell above merged
+// the two face vertices; the one below could not (they closed a tent round
+// a vertex inside its tet), and the seam opened (refused).
+TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
+}
+
 // The body CT (NIfTI, 3 mm) at kerf 0, random strokes seed 1008: an iso
 // region held a crack, a slit whose ends are both inside it, and its
 // triangulation failed (refused; Polygon2.ACrackIsBridgedToTheCopy...).

@@ -222,6 +222,31 @@ CutCellGeometry faceShared(int cx, double d, bool onDiagonal = false)
     return b.g;
 }
 
+/// faceShared's left cell with its triangle (P00, a, c) raised into a tent:
+/// three triangles round a vertex T inside the cell, a little off the plane,
+/// so a and c have two common neighbours (T and P00) where the edge a-c has
+/// one apex (T). Merging c into a needs the tent to go too.
+CutCellGeometry tentAtFace(double d)
+{
+    Builder b;
+    const Coord f0(1, 0, 0), f1(1, 1, 0), f2(1, 1, 1);
+    const double z1 = 0.4;
+    const uint32_t P00 = b.add(edgeVertex({0, 0, 0}, {0, 1, 0}, 1), {0, 0.5, 0});
+    const uint32_t P10 = b.add(edgeVertex({1, 0, 0}, {1, 1, 0}, 1), {1, 0.5, 0});
+    const uint32_t a = b.add(faceVertex(f0, f1, f2, 1, 200), {1, 0.5, z1});
+    const uint32_t c = b.add(faceVertex(f0, f1, f2, 1, 201), {1, 0.5, z1 + d});
+    const uint32_t P11 = b.add(edgeVertex({1, 0, 1}, {1, 1, 1}, 1), {1, 0.5, 1});
+    const uint32_t P01 = b.add(edgeVertex({0, 0, 1}, {0, 1, 1}, 1), {0, 0.5, 1});
+    const uint32_t T = b.add(innerVertex(Coord(0, 0, 0), 3, 201), {1 - 2e-3, 0.5 - 2e-3, z1 + 0.5 * d});
+    b.tri(P00, P10, a);
+    b.tri(a, c, T);
+    b.tri(a, T, P00);
+    b.tri(c, P00, T);
+    b.tri(P00, c, P11);
+    b.tri(P00, P11, P01);
+    return b.g;
+}
+
 /// As faceShared, but one vertex inside the face x = 1, d (z) above the
 /// seam's vertex on the cube edge z = 0 of that face (which four cells hold).
 CutCellGeometry faceAboveEdge(int cx, double d)
@@ -399,3 +424,29 @@ TEST(FloatFolds, BothCellsOfAFaceJudgeItsPairByTheFace)
 }
 
 } // namespace
+
+// The face rule in a cell where the pair closes a small tent of the cell's
+// own (2 mm head, kerf 0.5, seed 3023, at z = 1018 mm: two face vertices of
+// near-coincident end planes of two quads 9e-5 mm apart, and a vertex inside
+// the tet below them joined to both and to a third). The cell above merged
+// them; this one could not (the link condition: a and c had a second common
+// neighbour), and the seam opened there (refused). The tent's triangles now
+// cancel in pairs as the pair becomes one, and its inner vertex goes.
+TEST(FloatFolds, AFacePairClosingATentOfTheCellsOwnBecomesOneWithTheTentGone)
+{
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    CutCellGeometry left = tentAtFace(1e-7), right = faceShared(1, 1e-7);
+    ASSERT_TRUE(seamMatches(left, right));
+    EXPECT_EQ(repairFloatFolds(Coord(1, 0, 0), origin, spacing, right), 1u);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, left), 1u);
+    EXPECT_TRUE(seamMatches(left, right)) << "the cells of the face judged it differently";
+    EXPECT_EQ(left.indices.size(), 9u);
+    EXPECT_EQ(left.vertexIds.size(), 5u);
+    for (const CutVertexId& id : left.vertexIds) EXPECT_NE(id.dim, 3) << "the tent's vertex is still there";
+    (void)boundary(left); // no edge used twice the same way
+    EXPECT_EQ(foldedInFloat(left, dvec3(1000.0), dvec3(1.0)), 0u);
+    // Apart where float holds them apart: the tent stays.
+    CutCellGeometry far = tentAtFace(1e-2);
+    EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, far), 0u);
+    EXPECT_EQ(far.indices.size(), 18u);
+}
