@@ -63,18 +63,52 @@ std::vector<std::vector<uint32_t>> fragmentTriangles(const Mesh& mesh)
     return out;
 }
 
-std::vector<Fragment> fragmentsOf(const Mesh& mesh)
+std::vector<Fragment> fragmentsOf(const Mesh& mesh, const std::vector<uint8_t>& onBlade)
 {
+    if (!onBlade.empty() && onBlade.size() != mesh.triangleCount())
+        throw std::invalid_argument("fragmentsOf: one blade flag per triangle expected");
     const std::vector<Shell> shells = findShells(mesh);
     const std::vector<Group> groups = fragmentGroups(shells, enclosingShells(mesh, shells));
     std::vector<Fragment> out(groups.size());
     tbb::parallel_for(size_t(0), groups.size(), [&](size_t i) {
-        out[i].mesh = subMesh(mesh, trianglesOf(groups[i], shells));
+        const std::vector<uint32_t> triangles = trianglesOf(groups[i], shells);
+        out[i].mesh = subMesh(mesh, triangles);
         out[i].volume = groups[i].volume;
         out[i].area = groups[i].area;
         out[i].cavities = groups[i].shells.size() - 1;
+        if (onBlade.empty()) return;
+        double cut = 0.0; // in double, as the shells' areas
+        for (uint32_t t : triangles) {
+            if (!onBlade[t]) continue;
+            const glm::dvec3 a(mesh.positions[mesh.indices[3 * size_t(t)]]);
+            const glm::dvec3 b(mesh.positions[mesh.indices[3 * size_t(t) + 1]]);
+            const glm::dvec3 c(mesh.positions[mesh.indices[3 * size_t(t) + 2]]);
+            cut += 0.5 * glm::length(glm::cross(b - a, c - a));
+        }
+        out[i].cutArea = cut;
     });
     return out;
+}
+
+std::vector<uint8_t> CutRemesher::bladeTriangles(const std::vector<uint32_t>& source) const
+{
+    // The cells' triangles in cells() order, then the fused triangles by source.
+    std::vector<uint8_t> cellFlags;
+    for (const auto& entry : mCells) {
+        const CutCellGeometry& g = entry.second;
+        for (size_t i = 0; i + 2 < g.indices.size(); i += 3)
+            cellFlags.push_back(uint8_t(capPlaneOf(g.vertexIds[g.indices[i]], g.vertexIds[g.indices[i + 1]],
+                                                   g.vertexIds[g.indices[i + 2]]) != 0));
+    }
+    const size_t nt = mUncut.triangleCount();
+    std::vector<uint8_t> flags(source.size(), 0);
+    for (size_t t = 0; t < source.size(); ++t) {
+        if (source[t] < nt) continue;
+        const size_t j = source[t] - nt;
+        if (j >= cellFlags.size()) throw std::invalid_argument("bladeTriangles: not this remesher's fusedMesh source");
+        flags[t] = cellFlags[j];
+    }
+    return flags;
 }
 
 Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const

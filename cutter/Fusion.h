@@ -6,6 +6,7 @@
 #include "cutter/Mesh.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace mtcut::cutter {
@@ -20,6 +21,9 @@ struct Fragment
     double volume = 0.0;   ///< mm^3 of solid: the outer shell's minus its cavities'
     double area = 0.0;     ///< mm^2, every shell's
     size_t cavities = 0;   ///< cavity shells inside the outer one
+    /// mm^2 of its surface on the blade (the cut faces), when fragmentsOf is
+    /// told which triangles those are; 0 for a piece the cut did not touch.
+    double cutArea = 0.0;
 };
 
 /// The triangles of each fragment of `mesh`, in fragmentsOf order: each
@@ -30,6 +34,9 @@ struct Fragment
 std::vector<std::vector<uint32_t>> fragmentTriangles(const Mesh& mesh);
 
 /// The fragments of `mesh` as separate meshes (fragmentTriangles order).
-std::vector<Fragment> fragmentsOf(const Mesh& mesh);
+/// onBlade: empty, or one flag per triangle of `mesh`, 1 for a triangle on
+/// the blade (CutRemesher::bladeTriangles); their area is each fragment's
+/// cutArea.
+std::vector<Fragment> fragmentsOf(const Mesh& mesh, const std::vector<uint8_t>& onBlade = {});
 
 } // namespace mtcut::cutter

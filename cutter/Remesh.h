@@ -218,6 +218,9 @@ public:
     /// uncut().triangleCount() + j for the j-th triangle of cells() (cells
     /// ascending, each cell's triangles in order). Cost O(mesh).
     Mesh fusedMesh(std::vector<uint32_t>* source = nullptr) const;
+    /// For each triangle of a fusedMesh() (its `source`): 1 when it lies on
+    /// the blade (a cut face: capPlaneOf the cell's triangle), else 0.
+    std::vector<uint8_t> bladeTriangles(const std::vector<uint32_t>& source) const;
 
     /// The cut cells' new geometry only (no uncut triangles), cells ascending.
     const std::map<openvdb::Coord, CutCellGeometry>& cells() const { return mCells; }

@@ -149,6 +149,21 @@ TEST(CutCli, StraightCutThroughABallGivesTwoClosedFragmentsAndAllOutputs)
                             "\"write_vdb\"", "\"write_slices\"", "\"volume_mm3\"", "\"area_mm2\""}) {
         EXPECT_NE(json.find(key), std::string::npos) << key << "\n" << json;
     }
+    // Each fragment's cut faces: the blade's section of the solid, the same
+    // caps on both sides (kerf 0), about pi (R^2 - y^2) (the MT surface lies
+    // a little inside the sphere).
+    {
+        const size_t second = json.find("\"fragment_001.stl\"");
+        ASSERT_NE(second, std::string::npos) << json;
+        const double a0 = jsonValue(json.substr(0, second), "cut_area_mm2");
+        const double a1 = jsonValue(json.substr(second), "cut_area_mm2");
+        const double section = M_PI * (kRadius * kRadius - 0.37 * 0.37);
+        EXPECT_NEAR(a0, a1, 1e-6 * section) << json;
+        EXPECT_NEAR(a0, section, 0.01 * section) << json;
+        EXPECT_LT(a0, section) << json;
+        EXPECT_NE(r.output.find("cut faces:  "), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(" on 2 fragment(s)\n"), std::string::npos) << r.output;
+    }
     // The parts of the write add up to no more than the write.
     {
         const double write = jsonValue(json, "write"), meshes = jsonValue(json, "write_meshes"),
@@ -487,6 +502,20 @@ TEST(CutCli, DemoLeFortStrokeSeparatesThePhantomMaxilla)
     ASSERT_NE(at, std::string::npos) << cut.output;
     const int fragments = std::stoi(cut.output.substr(cut.output.rfind(' ', at - 1) + 1));
     EXPECT_EQ(fragments, uncutShells + 1) << cut.output;
+    // The maxilla and the skull both have cut faces, the same caps on both
+    // sides of the zero-width blade, bar the specks the cut also touched.
+    const std::string json = readText(dir.file("out") + "/summary.json");
+    std::vector<double> cutAreas;
+    for (size_t p = json.find("\"cut_area_mm2\": "); p != std::string::npos; p = json.find("\"cut_area_mm2\": ", p + 1)) {
+        const double a = std::strtod(json.c_str() + p + 16, nullptr);
+        if (a > 0.0) cutAreas.push_back(a);
+    }
+    std::sort(cutAreas.rbegin(), cutAreas.rend());
+    ASSERT_GE(cutAreas.size(), 2u) << json;
+    EXPECT_GT(cutAreas[1], 0.9 * cutAreas[0]) << json;
+    double rest = 0.0;
+    for (size_t i = 2; i < cutAreas.size(); ++i) rest += cutAreas[i];
+    EXPECT_NEAR(cutAreas[0], cutAreas[1], rest + 1e-6 * cutAreas[0]) << json;
 }
 
 // The built-in stroke fitted to a small bone box (the 103 x 94 x 161 mm tooth

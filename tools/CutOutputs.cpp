@@ -76,7 +76,7 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
         const FragmentRecord& f = fragments[i];
         os << (i ? ",\n" : "\n") << "    {\"file\": " << jsonString(f.file) << ", \"triangles\": " << f.triangles
            << ", \"volume_mm3\": " << jsonNumber(f.volume) << ", \"area_mm2\": " << jsonNumber(f.area)
-           << ", \"cavities\": " << f.cavities << "}";
+           << ", \"cavities\": " << f.cavities << ", \"cut_area_mm2\": " << jsonNumber(f.cutArea) << "}";
     }
     os << (fragments.empty() ? "],\n" : "\n  ],\n");
     os << "  \"check\": {\"triangles\": " << c.triangles << ", \"vertices\": " << c.vertices
@@ -157,7 +157,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         std::snprintf(name, sizeof name, "fragment_%03zu.%s", i, request.format.c_str());
         cutter::writeMesh(f.mesh, (fs::path(outDir) / name).string());
         written.insert(name);
-        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area, f.cavities});
+        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area, f.cavities, f.cutArea});
         vdb::FragmentMesh fm;
         fm.worldPositions = f.mesh.positions.empty() ? nullptr : &f.mesh.positions[0].x;
         fm.vertexCount = f.mesh.positions.size();

@@ -33,6 +33,7 @@ struct FragmentRecord
     size_t triangles = 0;
     double volume = 0.0, area = 0.0; ///< mm^3 of solid (cavities taken out), mm^2
     size_t cavities = 0;             ///< cavity shells inside the outer one
+    double cutArea = 0.0;            ///< mm^2 of its surface on the blade (0: the cut did not touch it)
 };
 
 /// What to write and what summary.json says about it.

@@ -122,6 +122,7 @@ int runCut(const Args& args)
     // -- re-mesh and fuse ---------------------------------------------------------
     t0 = Clock::now();
     cutter::Mesh fused;
+    std::vector<uint8_t> onBlade; // per fused triangle: a cut face
     std::vector<cutter::Fragment> fragments;
     size_t surfaceCells = 0; // cut cells with new geometry: the blade meets the solid there
     try {
@@ -131,7 +132,9 @@ int runCut(const Args& args)
             remesher.update(mask, &progress);
         }
         for (const auto& [cell, geometry] : remesher.cells()) surfaceCells += geometry.indices.empty() ? 0 : 1;
-        fused = remesher.fusedMesh();
+        std::vector<uint32_t> source;
+        fused = remesher.fusedMesh(&source);
+        onBlade = remesher.bladeTriangles(source);
     } catch (const InputError&) {
         throw;
     } catch (const Cancelled&) {
@@ -141,7 +144,8 @@ int runCut(const Args& args)
     }
     const size_t uncutTriangles = uncut.triangleCount();
     uncut = cutter::Mesh(); // free it
-    fragments = cutter::fragmentsOf(fused);
+    fragments = cutter::fragmentsOf(fused, onBlade);
+    onBlade = {};
     t.remesh = secondsSince(t0);
 
     t0 = Clock::now();
@@ -172,16 +176,31 @@ int runCut(const Args& args)
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),
                 fragments.size());
-    // The largest fragments; a noisy scan can leave hundreds of specks, all
-    // of which summary.json lists.
-    constexpr size_t kListed = 12;
-    for (size_t i = 0; i < records.size() && i < kListed; ++i) {
-        const FragmentRecord& r = records[i];
-        std::printf("  %-18s %s mm^3 %s mm^2 %9zu triangles\n", r.file.c_str(), amountText(r.volume).c_str(),
-                    amountText(r.area).c_str(), r.triangles);
+    // Which fragments the blade touched: a cut that separates a piece leaves
+    // cut faces on both sides; the other fragments were apart before (a
+    // noisy scan has hundreds of loose specks).
+    size_t touched = 0;
+    double cutArea = 0.0;
+    for (const FragmentRecord& r : records) {
+        touched += r.cutArea > 0.0;
+        cutArea += r.cutArea;
     }
-    if (records.size() > kListed)
-        std::printf("  ... and %zu smaller fragment(s), listed in summary.json\n", records.size() - kListed);
+    std::printf("cut faces:  %s mm^2 on %zu fragment(s)%s\n", amountText(cutArea).c_str(), touched,
+                touched == 1 ? " (all on one: the cut separates no piece)" : "");
+    // The largest fragments, then any other the blade touched; summary.json lists them all.
+    constexpr size_t kListed = 12;
+    size_t listed = 0;
+    for (size_t i = 0; i < records.size(); ++i) {
+        const FragmentRecord& r = records[i];
+        if (i >= kListed && (!(r.cutArea > 0.0) || listed >= 2 * kListed)) continue;
+        std::printf("  %-18s %s mm^3 %s mm^2 %9zu triangles", r.file.c_str(), amountText(r.volume).c_str(),
+                    amountText(r.area).c_str(), r.triangles);
+        if (r.cutArea > 0.0) std::printf(", %s mm^2 cut", amountText(r.cutArea).c_str());
+        std::printf("\n");
+        ++listed;
+    }
+    if (records.size() > listed)
+        std::printf("  ... and %zu smaller fragment(s), listed in summary.json\n", records.size() - listed);
     std::printf("time:       read %.2f s, extract %.2f s, mask %.2f s, remesh %.2f s, check %.2f s, write %.2f s\n"
                 "            (write: fragment files %.2f s, cut.vdb with the level sets %.2f s, slices.exr %.2f s)\n",
                 t.read, t.extract, t.mask, t.remesh, t.check, t.write, t.writeMeshes, t.writeVdb, t.writeSlices);

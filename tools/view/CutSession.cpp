@@ -593,8 +593,10 @@ void CutSession::save(SaveRequest request)
               const auto t0 = Clock::now();
               setTaskName("saving to " + request.outDir);
               cli::CutTimings timings;
-              const cutter::Mesh fused = s.remesher->fusedMesh();
-              const std::vector<cutter::Fragment> fragments = cutter::fragmentsOf(fused);
+              std::vector<uint32_t> source;
+              const cutter::Mesh fused = s.remesher->fusedMesh(&source);
+              const std::vector<cutter::Fragment> fragments =
+                  cutter::fragmentsOf(fused, s.remesher->bladeTriangles(source));
               timings.remesh = secondsSince(t0);
               const auto t1 = Clock::now();
               const cutter::MeshCheck check = cutter::checkMesh(fused);
