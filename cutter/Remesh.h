@@ -284,8 +284,9 @@ private:
     /// match the volume there.
     void uncutCornerEdges(const openvdb::Coord& cell, std::pair<uint32_t, uint32_t> run,
                           std::vector<std::pair<uint64_t, uint64_t>>& out) const;
-    /// The local closedness check of update() over `changed` (sorted cells).
-    void checkLocally(const std::vector<openvdb::Coord>& changed) const;
+    /// The local closedness check of update() over `changed` (sorted cells);
+    /// kerf: the cut has a width (then no two triangles may lie on each other).
+    void checkLocally(const std::vector<openvdb::Coord>& changed, bool kerf) const;
 };
 
 /// True when `planeId` (an entry of CutVertexId::planes) is a face of the

@@ -1695,6 +1695,25 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
     expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
 }
 
+// The 1 mm head at kerf 1 (and 0.9 to 2; not 0.5), random strokes seed 3015,
+// the first stroke: a non-planar stick split into two triangles, one a 50 mm
+// sliver whose sharp end lies in cell (259, 332, 168). There its prism's two
+// sides and the next quad's unmitred end plane nearly coincide, and the
+// removed sliver between them is 1e-5 mm thick at z = 1169 mm, a tenth of a
+// float step: written, its two faces rounded onto each other (13 CGAL pairs,
+// silent). Not mended yet; the local check now refuses two triangles on the
+// same three float points when the cut has a width, so it is refused instead
+// and the re-mesher stays as it was (here: nothing cut).
+TEST(CutPropsDefects, ASubFloatSliverOfTheRemovedRegionIsRefusedNotWritten)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    HeadStrokeCut cut(dir, 3015, 1.0, 1);
+    ASSERT_NE(cut.result.outcome, Outcome::Ok) << "accepted: now check it with CGAL and expect it clean";
+    EXPECT_NE(cut.result.message.find("two triangles on the same three points"), std::string::npos) << cut.result.message;
+    EXPECT_NE(cut.result.message.find("(259, 332, 168)"), std::string::npos) << cut.result.message;
+    EXPECT_TRUE(cut.remesher.cells().empty()) << "the refused stroke left geometry";
+}
+
 // The body CT (NIfTI, 3 mm) at kerf 0, random strokes seed 1008: an iso
 // region held a crack, a slit whose ends are both inside it, and its
 // triangulation failed (refused; Polygon2.ACrackIsBridgedToTheCopy...).
