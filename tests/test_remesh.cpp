@@ -111,7 +111,7 @@ CutResult cutAndCheck(const CutRemesher& r)
     expectSourcesFit(r, c.fused, source);
     EXPECT_EQ(c.fused.indices, r.fusedMesh().indices);
     c.check = checkMesh(c.fused);
-    c.fragments = fragmentsOf(c.fused);
+    c.fragments = fragmentsOf(c.fused, r.bladeTriangles(source));
     return c;
 }
 
@@ -158,11 +158,49 @@ TEST(Remesh, SphereCutThroughByAPlaneGivesTwoShells)
         const double sphere = 4.0 / 3.0 * M_PI * R * R * R;
         const double bound = std::abs(v0 - sphere) + double(mask.cutCellCount()) / 6.0;
         EXPECT_NEAR(c.fragments[1].volume, capSmall, bound) << "y = " << yCut;
+        // The cut faces: the same caps on both sides, about the disc pi (R^2 - y^2)
+        // (the MT surface lies inside the sphere, by less than a voxel).
+        const double disc = M_PI * (R * R - yCut * yCut);
+        EXPECT_NEAR(c.fragments[0].cutArea, c.fragments[1].cutArea, 1e-9 * disc) << "y = " << yCut;
+        EXPECT_LT(c.fragments[0].cutArea, disc) << "y = " << yCut;
+        EXPECT_GT(c.fragments[0].cutArea, M_PI * (R - 1.0) * (R - 1.0) - M_PI * yCut * yCut) << "y = " << yCut;
         std::printf("y=%g: cut cells %zu, triangles %zu, volumes %.3f + %.3f (uncut %.3f), small cap error %.4f (bound %.3f)\n",
                     yCut, mask.cutCellCount(), c.fused.triangleCount(), c.fragments[0].volume, c.fragments[1].volume, v0,
                     c.fragments[1].volume - capSmall, bound);
         expectUntouchedOutside(uncut, c.fused, mask, remesher);
     }
+}
+
+// The blade flags of a fused mesh: only cap triangles, only in cut cells;
+// flags of the wrong length, or a source that is not this remesher's, are
+// refused rather than read past.
+TEST(Remesh, BladeTrianglesAreTheCapsAndBadInputIsRefused)
+{
+    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return 15.0 - p.length(); });
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    CutMask mask(frameOf(vol), 0.0);
+    addStroke(mask, straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200));
+    CutRemesher remesher(vol, 0.0f, uncut);
+    remesher.update(mask);
+    std::vector<uint32_t> source;
+    const Mesh fused = remesher.fusedMesh(&source);
+    const std::vector<uint8_t> onBlade = remesher.bladeTriangles(source);
+    ASSERT_EQ(onBlade.size(), fused.triangleCount());
+    size_t caps = 0;
+    for (size_t t = 0; t < onBlade.size(); ++t) {
+        if (!onBlade[t]) continue;
+        ++caps;
+        EXPECT_GE(source[t], uncut.triangleCount()) << "an uncut triangle flagged";
+        // On the blade plane y = 0.37 (float world mm).
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(fused.positions[fused.indices[3 * t + size_t(k)]].y, 0.37f, 1e-5f);
+    }
+    EXPECT_GT(caps, 0u);
+    EXPECT_THROW(fragmentsOf(fused, std::vector<uint8_t>(fused.triangleCount() - 1, 0)), std::invalid_argument);
+    std::vector<uint32_t> bogus = source;
+    bogus.back() = uint32_t(uncut.triangleCount() + 100000000u);
+    EXPECT_THROW(remesher.bladeTriangles(bogus), std::invalid_argument);
+    // Without flags nothing is on the blade.
+    for (const Fragment& f : fragmentsOf(fused)) EXPECT_EQ(f.cutArea, 0.0);
 }
 
 // Bone that the scan's box cuts off (a ball poking out of the y = 0 face):
