@@ -182,6 +182,13 @@ double signedArea(const std::vector<int>& loop, const std::vector<Vec2>& pts)
 bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, const std::vector<Vec2>& pts)
 {
     auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
+    // Is x inside the wedge of `loop` at its corner k (the region on the loop's left)?
+    auto inWedge = [&](const std::vector<int>& loop, size_t k, const Vec2& x) {
+        const size_t n = loop.size();
+        const Vec2 &prev = P(loop[(k + n - 1) % n]), &at = P(loop[k]), &next = P(loop[(k + 1) % n]);
+        const bool l1 = cross2(at, next, x) > 0, l2 = cross2(prev, at, x) > 0;
+        return cross2(prev, at, next) > 0 ? l1 && l2 : l1 || l2;
+    };
     while (!holes.empty()) {
         // A hole that touches the outer loop (a slit from a boundary corner:
         // a point of each at one position) is spliced there, with no bridge:
@@ -209,23 +216,12 @@ bool bridgeHoles(std::vector<int>& outer, std::vector<std::vector<int>> holes, c
                     const Vec2& op = P(outer[o]);
                     const double dx = op.x - hp.x, dy = op.y - hp.y, d2 = dx * dx + dy * dy;
                     if (d2 >= best || d2 == 0.0) continue;
-                    // Inside the wedge of the outer loop at o (CCW: interior on the left).
-                    const size_t n = outer.size();
-                    const Vec2& prev = P(outer[(o + n - 1) % n]);
-                    const Vec2& next = P(outer[(o + 1) % n]);
-                    const bool convex = cross2(prev, op, next) > 0;
-                    const bool l1 = cross2(op, next, hp) > 0, l2 = cross2(prev, op, hp) > 0;
-                    if (convex ? !(l1 && l2) : !(l1 || l2)) continue;
-                    // And inside the region's wedge at the hole's corner (a
-                    // hole is CW: the region on the left): of two copies of a
-                    // point (the two sides of a crack, a zero-width slit
-                    // inside the region), the one facing the outer corner.
-                    const size_t m = holes[h].size();
-                    const Vec2& hprev = P(holes[h][(j + m - 1) % m]);
-                    const Vec2& hnext = P(holes[h][(j + 1) % m]);
-                    const bool hconvex = cross2(hprev, hp, hnext) > 0;
-                    const bool h1 = cross2(hp, hnext, op) > 0, h2 = cross2(hprev, hp, op) > 0;
-                    if (hconvex ? !(h1 && h2) : !(h1 || h2)) continue;
+                    // Inside the wedge of the outer loop at o (CCW: interior on
+                    // the left), and inside the region's wedge at the hole's
+                    // corner (a hole is CW: the region on the left too): of two
+                    // copies of a point (the two sides of a crack, a zero-width
+                    // slit inside the region), the one facing the outer corner.
+                    if (!inWedge(outer, o, hp) || !inWedge(holes[h], j, op)) continue;
                     bool clear = true;
                     auto check = [&](const std::vector<int>& loop) {
                         for (size_t k = 0; k < loop.size() && clear; ++k) {

@@ -943,6 +943,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
     {
         uint32_t v[3];
         Coord cell;
+        bool cut; ///< a cut cell's (new geometry), else an uncut cell's
     };
     std::vector<Tri> tris;
     // Per region cell: its cut geometry (or null), its uncut triangles' run
@@ -974,10 +975,10 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
             for (const CutVertexId& id : g.vertexIds) localNames.push_back(nameOf(id));
             const uint32_t* local = localNames.data() + base;
             for (size_t k = 0; k + 2 < g.indices.size(); k += 3)
-                tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c});
+                tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c, true});
         } else {
             for (size_t k = cornerStart[i]; k + 2 < cornerStart[i + 1]; k += 3)
-                tris.push_back({{edgeNameOf(corners[k]), edgeNameOf(corners[k + 1]), edgeNameOf(corners[k + 2])}, c});
+                tris.push_back({{edgeNameOf(corners[k]), edgeNameOf(corners[k + 1]), edgeNameOf(corners[k + 2])}, c, false});
         }
         localStart[i + 1] = localNames.size();
     }
@@ -1236,7 +1237,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
     }
     // No triangle of a changed cell is degenerate in float world mm.
     for (const Tri& tr : tris) {
-        if (!isChanged(tr.cell) || !mCells.count(tr.cell)) continue;
+        if (!isChanged(tr.cell) || !tr.cut) continue;
         if (!known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
         const glm::dvec3 a(world[tr.v[0]]), b(world[tr.v[1]]), c(world[tr.v[2]]);
         const glm::dvec3 n = glm::cross(b - a, c - a);
@@ -1262,7 +1263,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
     std::vector<std::pair<std::array<float, 9>, uint32_t>> spots;
     for (uint32_t t = 0; t < uint32_t(tris.size()); ++t) {
         const Tri& tr = tris[t];
-        if (!mCells.count(tr.cell) || !known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
+        if (!tr.cut || !known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
         std::array<std::array<float, 3>, 3> p;
         for (int k = 0; k < 3; ++k) p[size_t(k)] = {world[tr.v[k]].x, world[tr.v[k]].y, world[tr.v[k]].z};
         std::sort(p.begin(), p.end());
