@@ -1,0 +1,379 @@
+#include "cutter/TriangleIntersect.h"
+
+#include <boost/multiprecision/cpp_int.hpp>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+namespace mtcut::cutter {
+
+namespace {
+
+using i128 = __int128;
+
+// Shewchuk, "Adaptive Precision Floating-Point Arithmetic and Fast Robust
+// Geometric Predicates" (1997): the bounds of his orient3d/orient2d stage A,
+// which evaluate the same expressions as below (differences to a common
+// point, then 2x2 minors times the third column), rounding included.
+constexpr double kEps = 0x1p-53;
+constexpr double kO3dErrBound = (7.0 + 56.0 * kEps) * kEps;
+constexpr double kCcwErrBound = (3.0 + 16.0 * kEps) * kEps;
+
+/// x = m 2^(e - 150), m an integer (sign included) below 2^24 in magnitude.
+bool decompose(float x, int64_t& m, int& e)
+{
+    uint32_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    const int biased = int((bits >> 23) & 0xffu);
+    if (biased == 0xff) return false; // not finite
+    const int64_t mant = int64_t(bits & 0x7fffffu) | (biased ? int64_t(1) << 23 : 0);
+    e = biased ? biased : 1;
+    m = bits >> 31 ? -mant : mant;
+    return true;
+}
+
+/// The floats of one axis as arbitrary-precision integers at one scale
+/// (slow; for the rare axis whose floats span more than 38 binary orders).
+template <int N>
+bool bigAxis(const float (&x)[N], boost::multiprecision::cpp_int (&out)[N])
+{
+    int64_t m[N];
+    int e[N], low = INT_MAX;
+    for (int i = 0; i < N; ++i) {
+        if (!decompose(x[i], m[i], e[i])) return false;
+        if (m[i] != 0) low = std::min(low, e[i]);
+    }
+    for (int i = 0; i < N; ++i) {
+        out[i] = m[i];
+        if (m[i] != 0) out[i] <<= unsigned(e[i] - low);
+    }
+    return true;
+}
+
+Sign signOf(const boost::multiprecision::cpp_int& v)
+{
+    return v > 0 ? Sign::Positive : v < 0 ? Sign::Negative : Sign::Zero;
+}
+
+/// The floats x[0..N) of one axis as integers x * 2^-low, low = the finest
+/// float step among them (a float is a 24-bit integer times a power of two).
+/// False when the largest would not fit 62 bits.
+template <int N>
+bool scaledAxis(const float (&x)[N], int64_t (&out)[N])
+{
+    int low = INT_MAX, high = INT_MIN;
+    int64_t m[N];
+    int e[N];
+    for (int i = 0; i < N; ++i) {
+        if (!decompose(x[i], m[i], e[i])) return false;
+        if (m[i] == 0) continue;
+        low = std::min(low, e[i]);
+        high = std::max(high, e[i]);
+    }
+    if (low == INT_MAX) {
+        std::fill(out, out + N, int64_t(0));
+        return true;
+    }
+    if (high - low > 62 - 24) return false;
+    for (int i = 0; i < N; ++i) out[i] = m[i] == 0 ? 0 : m[i] * (int64_t(1) << (e[i] - low)); // < 2^62
+    return true;
+}
+
+Sign signOf(double v) { return v > 0 ? Sign::Positive : v < 0 ? Sign::Negative : Sign::Zero; }
+Sign signOf(i128 v) { return v > 0 ? Sign::Positive : v < 0 ? Sign::Negative : Sign::Zero; }
+
+/// orient3d where the double filter gave up (its differences passed on).
+[[gnu::noinline]] Sign orient3dExact(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& d,
+                                    double ux, double vx, double wx, double uy, double vy, double wy, double uz,
+                                    double vz, double wz)
+{
+    // The four share a coordinate (a cut along a grid plane): a zero column.
+    // (A difference of two floats is 0 in double only when they are equal.)
+    if ((ux == 0 && vx == 0 && wx == 0) || (uy == 0 && vy == 0 && wy == 0) || (uz == 0 && vz == 0 && wz == 0))
+        return Sign::Zero;
+    // Exactly: each axis at its own power-of-two scale (a positive factor
+    // per column of the determinant: the sign is unchanged).
+    int64_t u[3], v[3], w[3];
+    bool fits = true;
+    for (int k = 0; k < 3 && fits; ++k) {
+        const float x[4] = {a[k], b[k], c[k], d[k]};
+        int64_t s[4];
+        fits = scaledAxis(x, s);
+        if (!fits) break;
+        u[k] = s[1] - s[0];
+        v[k] = s[2] - s[0];
+        w[k] = s[3] - s[0];
+        constexpr int64_t kMax = int64_t(1) << 41; // 3 x 41 bits + 3 for the six terms < 127
+        fits = std::abs(u[k]) < kMax && std::abs(v[k]) < kMax && std::abs(w[k]) < kMax;
+    }
+    if (!fits) {
+        // Arbitrary precision (a point within about 1e-4 mm of a coordinate
+        // plane through 0 next to points mm away).
+        using boost::multiprecision::cpp_int;
+        cpp_int bu[3], bv[3], bw[3];
+        for (int k = 0; k < 3; ++k) {
+            const float x[4] = {a[k], b[k], c[k], d[k]};
+            cpp_int s[4];
+            if (!bigAxis(x, s)) return Sign::Unknown;
+            bu[k] = s[1] - s[0];
+            bv[k] = s[2] - s[0];
+            bw[k] = s[3] - s[0];
+        }
+        return signOf(cpp_int(bu[2] * (bv[0] * bw[1] - bw[0] * bv[1]) + bv[2] * (bw[0] * bu[1] - bu[0] * bw[1]) +
+                              bw[2] * (bu[0] * bv[1] - bv[0] * bu[1])));
+    }
+    const i128 exact = i128(u[2]) * (i128(v[0]) * w[1] - i128(w[0]) * v[1]) +
+                       i128(v[2]) * (i128(w[0]) * u[1] - i128(u[0]) * w[1]) +
+                       i128(w[2]) * (i128(u[0]) * v[1] - i128(v[0]) * u[1]);
+    return signOf(exact);
+}
+
+} // namespace
+
+Sign orient3d(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& d)
+{
+    const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+    const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+    const double wx = double(d.x) - a.x, wy = double(d.y) - a.y, wz = double(d.z) - a.z;
+    const double vxwy = vx * wy, wxvy = wx * vy;
+    const double wxuy = wx * uy, uxwy = ux * wy;
+    const double uxvy = ux * vy, vxuy = vx * uy;
+    const double det = uz * (vxwy - wxvy) + vz * (wxuy - uxwy) + wz * (uxvy - vxuy);
+    const double permanent = (std::abs(vxwy) + std::abs(wxvy)) * std::abs(uz) +
+                             (std::abs(wxuy) + std::abs(uxwy)) * std::abs(vz) +
+                             (std::abs(uxvy) + std::abs(vxuy)) * std::abs(wz);
+    if (std::abs(det) > kO3dErrBound * permanent) return signOf(det);
+    return orient3dExact(a, b, c, d, ux, vx, wx, uy, vy, wy, uz, vz, wz);
+}
+
+Sign orient2d(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, int i, int j)
+{
+    const double ui = double(b[i]) - a[i], uj = double(b[j]) - a[j];
+    const double vi = double(c[i]) - a[i], vj = double(c[j]) - a[j];
+    const double left = ui * vj, right = uj * vi;
+    const double det = left - right;
+    if (std::abs(det) > kCcwErrBound * (std::abs(left) + std::abs(right))) return signOf(det);
+    if ((ui == 0 && vi == 0) || (uj == 0 && vj == 0)) return Sign::Zero; // a zero column
+    const float xi[3] = {a[i], b[i], c[i]}, xj[3] = {a[j], b[j], c[j]};
+    int64_t si[3], sj[3];
+    if (!scaledAxis(xi, si) || !scaledAxis(xj, sj)) {
+        using boost::multiprecision::cpp_int;
+        cpp_int bi[3], bj[3];
+        if (!bigAxis(xi, bi) || !bigAxis(xj, bj)) return Sign::Unknown;
+        return signOf(cpp_int((bi[1] - bi[0]) * (bj[2] - bj[0]) - (bj[1] - bj[0]) * (bi[2] - bi[0])));
+    }
+    // Differences below 2^63, products below 2^126: fits.
+    return signOf(i128(si[1] - si[0]) * (sj[2] - sj[0]) - i128(sj[1] - sj[0]) * (si[2] - si[0]));
+}
+
+namespace {
+
+/// The tests of one triangle pair. A predicate that cannot decide is
+/// remembered and answers Zero; the pair is then Undecided unless it
+/// intersects anyway.
+struct Judge
+{
+    bool unknown = false;
+
+    int o3(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& d)
+    {
+        return take(orient3d(a, b, c, d));
+    }
+    int o2(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, int i, int j)
+    {
+        return take(orient2d(a, b, c, i, j));
+    }
+    int take(Sign s)
+    {
+        if (s == Sign::Unknown) {
+            unknown = true;
+            return 0;
+        }
+        return int(s);
+    }
+
+    /// A coordinate plane (i, j) onto which triangle t projects with
+    /// non-zero area (false when it has zero area: collinear points).
+    bool projection(const std::array<glm::vec3, 3>& t, int& i, int& j, int& sign)
+    {
+        // The plane across the normal's largest component first (a guess in
+        // double; the exact orient2d decides).
+        const glm::dvec3 n = glm::cross(glm::dvec3(t[1]) - glm::dvec3(t[0]), glm::dvec3(t[2]) - glm::dvec3(t[0]));
+        const glm::dvec3 an = glm::abs(n);
+        const int first = an.x >= an.y && an.x >= an.z ? 0 : an.y >= an.z ? 1 : 2;
+        for (int k = 0; k < 3; ++k) {
+            const int drop = (first + k) % 3;
+            const int pi = (drop + 1) % 3, pj = (drop + 2) % 3;
+            sign = o2(t[0], t[1], t[2], pi, pj);
+            if (sign != 0) {
+                i = pi;
+                j = pj;
+                return true;
+            }
+        }
+        return false;
+    }
+
+    /// Closed segments [p, q] and [r, s] in the plane (i, j) intersect.
+    bool segmentsMeet2d(const glm::vec3& p, const glm::vec3& q, const glm::vec3& r, const glm::vec3& s, int i, int j)
+    {
+        const int d1 = o2(p, q, r, i, j), d2 = o2(p, q, s, i, j);
+        const int d3 = o2(r, s, p, i, j), d4 = o2(r, s, q, i, j);
+        if (d1 * d2 < 0 && d3 * d4 < 0) return true;
+        return (d1 == 0 && onSegment2d(p, q, r, i, j)) || (d2 == 0 && onSegment2d(p, q, s, i, j)) ||
+               (d3 == 0 && onSegment2d(r, s, p, i, j)) || (d4 == 0 && onSegment2d(r, s, q, i, j));
+    }
+    static bool onSegment2d(const glm::vec3& p, const glm::vec3& q, const glm::vec3& x, int i, int j)
+    {
+        return std::min(p[i], q[i]) <= x[i] && x[i] <= std::max(p[i], q[i]) && std::min(p[j], q[j]) <= x[j] &&
+               x[j] <= std::max(p[j], q[j]);
+    }
+
+    /// Closed segment [s, t] and closed triangle tri, coplanar, in the plane
+    /// (i, j) where tri has orientation `sign` (non-zero).
+    bool segmentMeetsTriangle2d(const glm::vec3& s, const glm::vec3& t, const std::array<glm::vec3, 3>& tri, int i,
+                                int j, int sign)
+    {
+        auto inside = [&](const glm::vec3& x) {
+            for (int k = 0; k < 3; ++k) {
+                const int o = o2(tri[size_t(k)], tri[size_t((k + 1) % 3)], x, i, j);
+                if (o != 0 && o != sign) return false;
+            }
+            return true;
+        };
+        if (inside(s) || inside(t)) return true;
+        for (int k = 0; k < 3; ++k)
+            if (segmentsMeet2d(s, t, tri[size_t(k)], tri[size_t((k + 1) % 3)], i, j)) return true;
+        return false;
+    }
+
+    /// Closed segment [s, t] and closed triangle tri (non-zero area) meet.
+    bool segmentMeetsTriangle(const glm::vec3& s, const glm::vec3& t, const std::array<glm::vec3, 3>& tri)
+    {
+        const int os = o3(tri[0], tri[1], tri[2], s), ot = o3(tri[0], tri[1], tri[2], t);
+        if (os * ot > 0) return false; // both strictly on one side
+        if (os == 0 && ot == 0) {
+            int i = 0, j = 1, sign = 0;
+            if (!projection(tri, i, j, sign)) {
+                unknown = true; // tri has zero area: not judged
+                return false;
+            }
+            return segmentMeetsTriangle2d(s, t, tri, i, j, sign);
+        }
+        // The line st crosses the plane at one point of the segment; it lies
+        // in the closed triangle when the line passes every edge on one side.
+        const int u = o3(s, t, tri[0], tri[1]), v = o3(s, t, tri[1], tri[2]), w = o3(s, t, tri[2], tri[0]);
+        return (u >= 0 && v >= 0 && w >= 0) || (u <= 0 && v <= 0 && w <= 0);
+    }
+};
+
+} // namespace
+
+Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                           const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib)
+{
+    Judge judge;
+    // Shared vertex ids: sa[k] is the position in b of a's vertex k (-1: none).
+    int sa[3] = {-1, -1, -1}, shared = 0;
+    for (int k = 0; k < 3; ++k)
+        for (int m = 0; m < 3; ++m)
+            if (ia[size_t(k)] == ib[size_t(m)]) {
+                sa[k] = m;
+                ++shared;
+            }
+    bool hit = false;
+    if (shared >= 3) {
+        hit = true; // the same three vertices
+    } else if (shared == 2) {
+        // An edge in common: they meet beyond it only when coplanar and on
+        // the same side of it (one folded onto the other).
+        const int other = sa[0] < 0 ? 0 : sa[1] < 0 ? 1 : 2;
+        const glm::vec3& e0 = a[size_t((other + 1) % 3)];
+        const glm::vec3& e1 = a[size_t((other + 2) % 3)];
+        int m = 0;
+        while (m < 3 && (ib[size_t(m)] == ia[size_t((other + 1) % 3)] || ib[size_t(m)] == ia[size_t((other + 2) % 3)])) ++m;
+        const glm::vec3& pa = a[size_t(other)];
+        const glm::vec3& pb = b[size_t(m)];
+        if (judge.o3(e0, e1, pa, pb) == 0 && !judge.unknown) {
+            int pi = 0, pj = 1, signP = 0;
+            if (!judge.projection(a, pi, pj, signP)) return Contact::Undecided; // a has zero area
+            const int sideA = judge.o2(e0, e1, pa, pi, pj), sideB = judge.o2(e0, e1, pb, pi, pj);
+            hit = sideA != 0 && sideA == sideB;
+        }
+    } else if (shared == 1) {
+        // One vertex v in common: A and B meet elsewhere exactly when the
+        // edge of either opposite v meets the other triangle (their common
+        // part is convex and holds v; its far end lies on such an edge).
+        const int ka = sa[0] >= 0 ? 0 : sa[1] >= 0 ? 1 : 2;
+        const int kb = sa[ka];
+        // Quick: the other two vertices of one strictly on one side of the
+        // other's plane, so it meets that plane only at v.
+        const glm::vec3 &a1 = a[size_t((ka + 1) % 3)], &a2 = a[size_t((ka + 2) % 3)];
+        const glm::vec3 &b1 = b[size_t((kb + 1) % 3)], &b2 = b[size_t((kb + 2) % 3)];
+        const int s1 = judge.o3(a[0], a[1], a[2], b1), s2 = judge.o3(a[0], a[1], a[2], b2);
+        if (s1 * s2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
+        if (s1 == 0 && s2 == 0 && !judge.unknown) {
+            // Coplanar: they meet beyond v exactly when their corners at v
+            // (convex, under 180 degrees) share a direction, i.e. an edge
+            // of one at v points into the other's closed corner.
+            int pi = 0, pj = 1, sign = 0;
+            if (!judge.projection(a, pi, pj, sign)) return Contact::Undecided;
+            const glm::vec3& v = a[size_t(ka)];
+            const int signB = judge.o2(v, b1, b2, pi, pj);
+            if (signB == 0) return Contact::Undecided; // b has zero area
+            // Corner (v; from, to) counter-clockwise in the projection.
+            auto holds = [&](const glm::vec3& from, const glm::vec3& to, const glm::vec3& r) {
+                return judge.o2(v, from, r, pi, pj) >= 0 && judge.o2(v, to, r, pi, pj) <= 0;
+            };
+            const glm::vec3 &fa = sign > 0 ? a1 : a2, &ta = sign > 0 ? a2 : a1;
+            const glm::vec3 &fb = signB > 0 ? b1 : b2, &tb = signB > 0 ? b2 : b1;
+            hit = holds(fa, ta, b1) || holds(fa, ta, b2) || holds(fb, tb, a1) || holds(fb, tb, a2);
+        } else {
+            const int t1 = judge.o3(b[0], b[1], b[2], a1), t2 = judge.o3(b[0], b[1], b[2], a2);
+            if (t1 * t2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
+            hit = judge.segmentMeetsTriangle(a1, a2, b) || judge.segmentMeetsTriangle(b1, b2, a);
+        }
+    } else {
+        // Quick: one strictly on one side of the other's plane.
+        int side[2][3];
+        for (int k = 0; k < 3; ++k) side[0][k] = judge.o3(a[0], a[1], a[2], b[size_t(k)]);
+        if (side[0][0] * side[0][1] > 0 && side[0][1] * side[0][2] > 0)
+            return judge.unknown ? Contact::Undecided : Contact::None;
+        for (int k = 0; k < 3; ++k) side[1][k] = judge.o3(b[0], b[1], b[2], a[size_t(k)]);
+        if (side[1][0] * side[1][1] > 0 && side[1][1] * side[1][2] > 0)
+            return judge.unknown ? Contact::Undecided : Contact::None;
+        if (side[0][0] == 0 && side[0][1] == 0 && side[0][2] == 0 && !judge.unknown) {
+            // Coplanar: apart exactly when an edge of one has the other
+            // strictly outside its line (separating axes of two triangles).
+            int pi = 0, pj = 1, sign = 0;
+            if (!judge.projection(a, pi, pj, sign)) return Contact::Undecided;
+            const int signB = judge.o2(b[0], b[1], b[2], pi, pj);
+            if (signB == 0) return Contact::Undecided; // b has zero area
+            auto separates = [&](const std::array<glm::vec3, 3>& t, int orient, const std::array<glm::vec3, 3>& o) {
+                for (int k = 0; k < 3; ++k) {
+                    const glm::vec3 &p = t[size_t(k)], &q = t[size_t((k + 1) % 3)];
+                    if (judge.o2(p, q, o[0], pi, pj) * orient < 0 && judge.o2(p, q, o[1], pi, pj) * orient < 0 &&
+                        judge.o2(p, q, o[2], pi, pj) * orient < 0)
+                        return true;
+                }
+                return false;
+            };
+            hit = !separates(a, sign, b) && !separates(b, signB, a);
+        } else {
+            // Two closed triangles meet exactly when an edge of one meets the
+            // other (their common part is bounded by points of their edges).
+            for (int k = 0; k < 3 && !hit; ++k)
+                hit = judge.segmentMeetsTriangle(a[size_t(k)], a[size_t((k + 1) % 3)], b) ||
+                      judge.segmentMeetsTriangle(b[size_t(k)], b[size_t((k + 1) % 3)], a);
+        }
+    }
+    if (hit) return Contact::Intersect;
+    return judge.unknown ? Contact::Undecided : Contact::None;
+}
+
+} // namespace mtcut::cutter

@@ -1,0 +1,63 @@
+// Exact intersection tests of triangles given by float points (the mesh as
+// written: world mm in float). For the re-mesher's guard that a kerf > 0 cut
+// never writes a surface that crosses or touches itself (DESIGN invariant
+// 7): CutRemesher::update refuses such a step instead of writing it.
+//
+// Exact: every decision is the sign of an orientation determinant of the
+// float inputs. A double evaluation with Shewchuk's static error bound
+// decides almost all of them; the rest are evaluated exactly in 128-bit
+// integers (each axis scaled by a power of two so its floats become
+// integers), or, when an axis's floats span too many binary orders for that
+// (a point within about 1e-4 mm of a coordinate plane through 0 next to
+// points mm away), in arbitrary precision (Boost.Multiprecision, headers
+// only). Only a non-finite input gives Sign::Unknown.
+//
+// Adjacency follows CGAL's Polygon_mesh_processing::self_intersections, so
+// this check and the tests' CGAL check (tests/SelfIntersect.h) agree: two
+// triangles that share an edge (two vertex ids) intersect only when they
+// overlap beyond it (coplanar, on the same side: a fold); two that share one
+// vertex id only when they meet anywhere else too; otherwise any common
+// point, touching included, is an intersection. No GL.
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include <array>
+#include <cstdint>
+
+namespace mtcut::cutter {
+
+enum class Sign : int8_t
+{
+    Negative = -1,
+    Zero = 0,
+    Positive = 1,
+    Unknown = 2, ///< an input is not finite
+};
+
+/// Sign of det[b - a, c - a, d - a] = ((b - a) x (c - a)) . (d - a):
+/// positive when d lies on the side of the plane (a, b, c) its normal
+/// (b - a) x (c - a) points to, zero when the four points are coplanar.
+Sign orient3d(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& d);
+
+/// Sign of det[b - a, c - a] of the points' coordinates (x, y) = (p[i], p[j]).
+Sign orient2d(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, int i, int j);
+
+/// The result of trianglesIntersect.
+enum class Contact : uint8_t
+{
+    None,        ///< no common point (beyond what adjacency allows)
+    Intersect,   ///< they cross, touch or overlap
+    Undecided,   ///< not judged (a non-finite point, or zero area where it matters): treat as Intersect
+};
+
+/// Whether closed triangles A = (a[0], a[1], a[2]) and B intersect, with
+/// the vertex ids `ia`, `ib` deciding adjacency (file comment). A triangle
+/// whose points are collinear (zero area; the mesh checks refuse those on
+/// their own) is not judged: the answer is then Intersect or Undecided
+/// wherever the test needs its plane, and otherwise what its edges decide.
+/// Cost: 2 to about 30 orientation tests.
+Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                           const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib);
+
+} // namespace mtcut::cutter
