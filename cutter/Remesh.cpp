@@ -2,9 +2,12 @@
 
 #include "cutter/Isosurface.h"
 #include "cutter/RemeshKernel.h"
+#include "cutter/TriangleIntersect.h"
 #include "vdb/Error.h"
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -907,6 +910,156 @@ std::vector<Coord> dilatedCells(const std::vector<Coord>& cells)
     return out;
 }
 
+namespace {
+
+/// A triangle of the local check's region, over the region's vertex names.
+struct RegionTriangle
+{
+    uint32_t v[3];
+    Coord cell;
+    bool cut; ///< a cut cell's (new geometry), else an uncut cell's
+};
+
+/// The local check's last step when the cut has a width (DESIGN invariant
+/// 7): no triangle of a changed cell may cross or touch another triangle,
+/// in float world mm as written, decided exactly (TriangleIntersect.h) with
+/// CGAL's adjacency rules over the names (after snap rounding), except that
+/// the copies of a pinch vertex (Remesh.h, kerf > 0: the same name plus a
+/// pinch tag) count as one vertex, so the fans of a pinch may touch there,
+/// as the exact shape does. Pairs of uncut triangles are the isosurface's
+/// and are not asked. A triangle lies in its cell's closed box (up to
+/// rounding), so only the 27 cells around a changed cell's triangle are
+/// searched, and of those only triangles whose float boxes overlap its.
+/// `tris` are in `region` order. Throws std::runtime_error("remesh: the
+/// surface crosses or touches itself ...") naming the changed cell.
+void refuseSelfContact(const vdb::Volume& volume, const std::vector<Coord>& region, const std::vector<Coord>& changed,
+                       const std::vector<RegionTriangle>& tris, const std::vector<CutVertexId>& ids,
+                       const std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& names,
+                       const std::vector<glm::vec3>& world, const std::vector<char>& known,
+                       const std::function<void(uint32_t)>& describe)
+{
+    // Pinch copies -> the plain vertex of their name (or the first copy).
+    std::vector<uint32_t> vertex(ids.size());
+    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> copies;
+    for (uint32_t v = 0; v < uint32_t(ids.size()); ++v) {
+        vertex[v] = v;
+        const CutVertexId& id = ids[v];
+        if (!std::any_of(id.tags.begin(), id.tags.begin() + id.tagCount, [](uint64_t t) { return t >> 63; })) continue;
+        CutVertexId plain = id;
+        plain.tagCount = 0;
+        plain.tags = {};
+        for (int k = 0; k < id.tagCount; ++k)
+            if (!(id.tags[size_t(k)] >> 63)) plain.tags[plain.tagCount++] = id.tags[size_t(k)];
+        auto it = names.find(plain);
+        vertex[v] = it != names.end() ? it->second : copies.emplace(plain, v).first->second;
+    }
+    // Triangles per region cell (tris are in region order), and float boxes.
+    std::vector<size_t> start(region.size() + 1, 0);
+    for (size_t t = 0, r = 0; r < region.size(); ++r) {
+        while (t < tris.size() && tris[t].cell == region[r]) ++t;
+        start[r + 1] = t;
+    }
+    if (start.back() != tris.size()) throw std::logic_error("remesh: local check triangles out of region order");
+    struct Box
+    {
+        glm::vec3 lo, hi;
+        bool usable; ///< positions known
+    };
+    std::vector<Box> box(tris.size());
+    for (size_t t = 0; t < tris.size(); ++t) {
+        const RegionTriangle& tr = tris[t];
+        Box& b = box[t];
+        b.usable = known[tr.v[0]] && known[tr.v[1]] && known[tr.v[2]];
+        if (!b.usable) continue;
+        b.lo = glm::min(world[tr.v[0]], glm::min(world[tr.v[1]], world[tr.v[2]]));
+        b.hi = glm::max(world[tr.v[0]], glm::max(world[tr.v[1]], world[tr.v[2]]));
+    }
+    auto isChanged = [&](const Coord& c) { return std::binary_search(changed.begin(), changed.end(), c); };
+    // A triangle lies in its cell's closed box, rounded to float as the
+    // vertices are (rounding is monotone), so a neighbour's triangles can
+    // meet it only where its box reaches the common face, edge or corner:
+    // within kSlack float steps of it, for the double rounding of points
+    // computed on a cell face.
+    constexpr int kSlack = 4;
+    auto below = [](float x, int steps) {
+        for (int i = 0; i < steps; ++i) x = std::nextafter(x, -std::numeric_limits<float>::infinity());
+        return x;
+    };
+    auto above = [](float x, int steps) {
+        for (int i = 0; i < steps; ++i) x = std::nextafter(x, std::numeric_limits<float>::infinity());
+        return x;
+    };
+    struct Neighbour
+    {
+        size_t region;
+        Coord offset;
+        bool changed;
+    };
+    std::vector<Neighbour> around;
+    for (size_t r = 0; r < region.size(); ++r) {
+        const Coord& c = region[r];
+        if (!isChanged(c) || start[r] == start[r + 1]) continue;
+        around.clear();
+        for (int dx = -1; dx <= 1; ++dx)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) {
+                    const Coord n = c + Coord(dx, dy, dz);
+                    auto it = std::lower_bound(region.begin(), region.end(), n);
+                    if (it != region.end() && *it == n)
+                        around.push_back({size_t(it - region.begin()), Coord(dx, dy, dz), isChanged(n)});
+                }
+        // The cell's faces, a few float steps inside.
+        const glm::vec3 lo = worldPosition(volume, glm::dvec3(c.x(), c.y(), c.z()));
+        const glm::vec3 hi = worldPosition(volume, glm::dvec3(c.x() + 1, c.y() + 1, c.z() + 1));
+        const glm::vec3 nearLo(above(lo.x, kSlack), above(lo.y, kSlack), above(lo.z, kSlack));
+        const glm::vec3 nearHi(below(hi.x, kSlack), below(hi.y, kSlack), below(hi.z, kSlack));
+        for (size_t t = start[r]; t < start[r + 1]; ++t) {
+            const Box& bt = box[t];
+            if (!bt.usable) continue;
+            const RegionTriangle& a = tris[t];
+            bool reach[3][2]; // axis, (low, high) face
+            for (int k = 0; k < 3; ++k) {
+                reach[k][0] = bt.lo[k] <= nearLo[k];
+                reach[k][1] = bt.hi[k] >= nearHi[k];
+            }
+            std::array<glm::vec3, 3> pa{world[a.v[0]], world[a.v[1]], world[a.v[2]]};
+            std::array<uint32_t, 3> ia{vertex[a.v[0]], vertex[a.v[1]], vertex[a.v[2]]};
+            for (const Neighbour& n : around) {
+                bool needed = true;
+                for (int k = 0; k < 3 && needed; ++k)
+                    needed = n.offset[k] == 0 || reach[k][n.offset[k] > 0 ? 1 : 0];
+                if (!needed) continue;
+                for (size_t u = start[n.region]; u < start[n.region + 1]; ++u) {
+                    if (n.changed && u <= t) continue; // a pair of changed cells' triangles once
+                    const Box& bu = box[u];
+                    if (!bu.usable || (!a.cut && !tris[u].cut)) continue;
+                    if (bt.hi.x < bu.lo.x || bu.hi.x < bt.lo.x || bt.hi.y < bu.lo.y || bu.hi.y < bt.lo.y ||
+                        bt.hi.z < bu.lo.z || bu.hi.z < bt.lo.z)
+                        continue;
+                    const RegionTriangle& b = tris[u];
+                    const std::array<glm::vec3, 3> pb{world[b.v[0]], world[b.v[1]], world[b.v[2]]};
+                    const std::array<uint32_t, 3> ib{vertex[b.v[0]], vertex[b.v[1]], vertex[b.v[2]]};
+                    const Contact contact = trianglesIntersect(pa, ia, pb, ib);
+                    if (contact == Contact::None) continue;
+                    if (describe) {
+                        std::fprintf(stderr, "self-contact (%s), cells (%d,%d,%d) and (%d,%d,%d):\n",
+                                     contact == Contact::Intersect ? "exact" : "undecided", a.cell.x(), a.cell.y(),
+                                     a.cell.z(), b.cell.x(), b.cell.y(), b.cell.z());
+                        for (uint32_t v : a.v) describe(v);
+                        for (uint32_t v : b.v) describe(v);
+                    }
+                    throw std::runtime_error(
+                        std::string("remesh: the surface crosses or touches itself (two triangles meet in float mm") +
+                        (contact == Contact::Undecided ? ", or the exact test cannot decide" : "") +
+                        "; the cut has a width) in cell " + cellText(c));
+                }
+            }
+        }
+    }
+}
+
+} // namespace
+
 void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) const
 {
     if (changed.empty()) return;
@@ -939,12 +1092,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
         if (added) ids.push_back(id);
         return it->second;
     };
-    struct Tri
-    {
-        uint32_t v[3];
-        Coord cell;
-        bool cut; ///< a cut cell's (new geometry), else an uncut cell's
-    };
+    using Tri = RegionTriangle;
     std::vector<Tri> tris;
     // Per region cell: its cut geometry (or null), its uncut triangles' run
     // and their corners' grid edges (cornerStart[i] .. cornerStart[i + 1]).
@@ -1282,6 +1430,8 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
         }
         fail("two triangles on the same three points in float mm: the surface touches itself", isChanged(a.cell) ? a.cell : b.cell);
     }
+    refuseSelfContact(*mVolume, region, changed, tris, ids, names, world, known,
+                      debug ? std::function<void(uint32_t)>(desc) : nullptr);
 }
 
 size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)

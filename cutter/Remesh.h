@@ -176,7 +176,13 @@ public:
     /// float world mm (as fusedMesh() writes it); and every vertex of the
     /// changed cells must have one fan (no pinch points); otherwise it throws
     /// std::runtime_error("remesh: open or inconsistent surface ... in cell
-    /// (i, j, k)"). Cost proportional to the changed cells. On any throw the
+    /// (i, j, k)"). With kerf > 0, no triangle of the changed cells may
+    /// cross or touch another in float world mm, decided exactly
+    /// (TriangleIntersect.h, with CGAL's rules for triangles that share a
+    /// vertex or an edge; the copies of a pinch vertex count as one vertex);
+    /// otherwise it throws std::runtime_error("remesh: the surface crosses
+    /// or touches itself ... in cell (i, j, k)"). Cost proportional to the
+    /// changed cells. On any throw the
     /// remesher is left exactly as before the call (strong guarantee), so
     /// fusedMesh() still returns the last good mesh; the caller should undo
     /// the stroke in the mask (the next update then has nothing to do).

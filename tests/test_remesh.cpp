@@ -681,6 +681,70 @@ TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
     }
 }
 
+// With a kerf the surface may not cross or touch itself (DESIGN invariant
+// 7), and no other check sees a crossing whose every edge is used once each
+// way: a small closed tetrahedron added to a cut cell's geometry, poking
+// through one of the cell's cut triangles (a closed 2-manifold of its own),
+// passes the edge, fan and area checks, and only the exact self-contact
+// check refuses it. The stroke is refused naming that cell, the remesher
+// keeps the last good mesh, and without the poke the stroke goes through:
+// the check does not refuse the clean cut.
+TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
+{
+    const BallAndTwoStrokes ball;
+    for (bool poke : {true, false}) {
+        CutMask mask(frameOf(ball.vol), 0.5);
+        CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+        addStroke(mask, ball.first);
+        remesher.update(mask);
+        const Mesh good = remesher.fusedMesh();
+        ASSERT_TRUE(checkMesh(good).ok());
+        addStroke(mask, ball.second);
+        Coord victim(0);
+        bool done = false;
+        remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+            if (!poke || done || g.indices.empty()) return;
+            done = true;
+            victim = c;
+            // A tetrahedron of edge ~0.1 voxel centred on the first
+            // triangle's centroid, vertices named inside the cell only.
+            const dvec3 centre = (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] +
+                                  g.indexPositions[g.indices[2]]) / 3.0;
+            const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+            const uint32_t base = uint32_t(g.vertexIds.size());
+            for (int k = 0; k < 4; ++k) {
+                CutVertexId id;
+                id.dim = 3;
+                id.feature = {uint64_t(0xfeed), uint64_t(k), 0};
+                id.planeCount = 1;
+                id.planes[0] = 0xdead0 + uint64_t(k);
+                g.vertexIds.push_back(id);
+                g.indexPositions.push_back(centre + 0.03 * corner[k]);
+            }
+            for (auto [a, b, c2] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
+                for (uint32_t v : {a, b, c2}) g.indices.push_back(base + v);
+        });
+        std::string message;
+        try {
+            remesher.update(mask);
+        } catch (const std::runtime_error& e) {
+            message = e.what();
+        }
+        remesher.setCellHookForTesting(nullptr);
+        if (!poke) {
+            EXPECT_EQ(message, "") << "the clean second stroke was refused";
+            EXPECT_TRUE(checkMesh(remesher.fusedMesh()).ok());
+            continue;
+        }
+        ASSERT_TRUE(done);
+        const std::string where = "cell (" + std::to_string(victim.x()) + ", " + std::to_string(victim.y()) + ", " +
+                                  std::to_string(victim.z()) + ")";
+        EXPECT_NE(message.find("remesh: the surface crosses or touches itself"), std::string::npos) << message;
+        EXPECT_NE(message.find(where), std::string::npos) << message << " (expected " << where << ")";
+        EXPECT_TRUE(sameMesh(remesher.fusedMesh(), good));
+    }
+}
+
 // update() with an interrupter: reports the share of cells done (ending at
 // 100 %), and when asked to stop throws Cancelled and leaves the remesher as
 // it was (strong guarantee), so a later update() still does the whole cut.
