@@ -1734,6 +1734,25 @@ TEST(CutPropsDefects, SheetsCrossingBelowAFloatStepAreRefusedNotWritten)
     EXPECT_EQ(touchesNearCut(fused, cut.remesher, cut.mask, 1e-3).pairs, 0u);
 }
 
+// The 1 mm head, kerf 0.5 mm, random strokes seed 2011, stroke 2: on the
+// grid edge (227, 200, 226)-(227, 200, 227) at z = 1227 mm the isosurface and
+// the prism's lower offset plane cross 1e-6 mm apart, one float point. The
+// two triangles there (an isosurface piece and a prism face) touch at that
+// one corner of each and nowhere else: a point contact, which the tests'
+// CGAL check counts as a pinch contact, and which the first self-contact
+// check refused. Accepted, clean, no intersecting pairs.
+TEST(CutPropsDefects, TwoCornersRoundedToOneFloatPointAreAPointContactNotACrossing)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    HeadStrokeCut cut(dir, 2011, 0.5, 3);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    EXPECT_TRUE(checkMesh(fused).ok());
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    EXPECT_EQ(t.pairs, 0u);
+    EXPECT_GE(t.pinchContacts, 1u) << "the stroke no longer makes the point contact";
+}
+
 // The body CT (NIfTI, 3 mm) at kerf 0, random strokes seed 1008: an iso
 // region held a crack, a slit whose ends are both inside it, and its
 // triangulation failed (refused; Polygon2.ACrackIsBridgedToTheCopy...).
