@@ -951,8 +951,8 @@ Contact unlessPointContact(const std::array<glm::vec3, 3>& pa, const std::array<
 /// pinch tag) count as one vertex, so the fans of a pinch may touch there,
 /// as the exact shape does, and two triangles may touch at one corner of
 /// each at one float position (unlessPointContact; the tests' CGAL check
-/// counts both as pinch contacts, not intersections). Pairs of uncut triangles are the isosurface's
-/// and are not asked. A triangle lies in its cell's closed box (up to
+/// counts both as pinch contacts, not intersections). Pairs of uncut
+/// triangles are the isosurface's and are not asked. A triangle lies in its cell's closed box (up to
 /// rounding), so only the 27 cells around a changed cell's triangle are
 /// searched, and of those only triangles whose float boxes overlap its.
 /// `tris` are in `region` order. Throws std::runtime_error("remesh: the
