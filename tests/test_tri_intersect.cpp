@@ -108,7 +108,7 @@ std::pair<int, int> compareWithCgal(int count, Make make)
 TEST(TriangleIntersect, Orient3dAgreesWithCgalOnNearlyCoplanarFloats)
 {
     PairMaker m(7);
-    int zero = 0, decided = 0;
+    int zero = 0;
     for (int n = 0; n < 20000; ++n) {
         const glm::vec3 origin(74.0f, 134.0f, 1000.0f);
         const float step = n % 2 ? 0.5f : 1e-3f;
@@ -119,7 +119,6 @@ TEST(TriangleIntersect, Orient3dAgreesWithCgalOnNearlyCoplanarFloats)
         const Sign got = orient3d(p[0], p[1], p[2], p[3]);
         ASSERT_EQ(int(got), int(want)) << "case " << n;
         zero += want == CGAL::COPLANAR;
-        ++decided;
         for (auto [i, j] : {std::pair{0, 1}, std::pair{1, 2}, std::pair{2, 0}}) {
             const CGAL::Orientation w2 = CGAL::orientation(K::Point_2(double(p[0][i]), double(p[0][j])),
                                                            K::Point_2(double(p[1][i]), double(p[1][j])),
@@ -127,8 +126,7 @@ TEST(TriangleIntersect, Orient3dAgreesWithCgalOnNearlyCoplanarFloats)
             ASSERT_EQ(int(orient2d(p[0], p[1], p[2], i, j)), int(w2)) << "case " << n;
         }
     }
-    EXPECT_GT(zero, 2000) << "the lattice should make many coplanar sets (the exact path)";
-    EXPECT_EQ(decided, 20000);
+    EXPECT_GT(zero, 2000) << "the lattice should make many coplanar sets (where the double filter gives up)";
 }
 
 TEST(TriangleIntersect, Orient3dIsExactWhereDoubleGivesUp)
