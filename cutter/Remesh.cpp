@@ -7,7 +7,6 @@
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
-#include <glm/vector_relational.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -952,9 +951,10 @@ Contact unlessPointContact(const std::array<glm::vec3, 3>& pa, const std::array<
 /// as the exact shape does, and two triangles may touch at one corner of
 /// each at one float position (unlessPointContact; the tests' CGAL check
 /// counts both as pinch contacts, not intersections). Pairs of uncut
-/// triangles are the isosurface's and are not asked. A triangle lies in its cell's closed box (up to
-/// rounding), so only the 27 cells around a changed cell's triangle are
-/// searched, and of those only triangles whose float boxes overlap its.
+/// triangles are the isosurface's and are not asked. A triangle lies in its
+/// cell's closed box (up to rounding), so only the 27 cells around a
+/// changed cell's triangle are searched, and of those only triangles whose
+/// float boxes overlap its.
 /// `tris` are in `region` order. Throws std::runtime_error("remesh: the
 /// surface crosses or touches itself ...") naming the changed cell.
 void refuseSelfContact(const vdb::Volume& volume, const std::vector<Coord>& region, const std::vector<Coord>& changed,
@@ -969,12 +969,13 @@ void refuseSelfContact(const vdb::Volume& volume, const std::vector<Coord>& regi
     for (uint32_t v = 0; v < uint32_t(ids.size()); ++v) {
         vertex[v] = v;
         const CutVertexId& id = ids[v];
-        if (!std::any_of(id.tags.begin(), id.tags.begin() + id.tagCount, [](uint64_t t) { return t >> 63; })) continue;
+        auto pinch = [](uint64_t t) { return (t & kPinchTag) != 0; };
+        if (std::none_of(id.tags.begin(), id.tags.begin() + id.tagCount, pinch)) continue;
         CutVertexId plain = id;
         plain.tagCount = 0;
         plain.tags = {};
         for (int k = 0; k < id.tagCount; ++k)
-            if (!(id.tags[size_t(k)] >> 63)) plain.tags[plain.tagCount++] = id.tags[size_t(k)];
+            if (!pinch(id.tags[size_t(k)])) plain.tags[plain.tagCount++] = id.tags[size_t(k)];
         auto it = names.find(plain);
         vertex[v] = it != names.end() ? it->second : copies.emplace(plain, v).first->second;
     }
@@ -1006,12 +1007,9 @@ void refuseSelfContact(const vdb::Volume& volume, const std::vector<Coord>& regi
     // within kSlack float steps of it, for the double rounding of points
     // computed on a cell face.
     constexpr int kSlack = 4;
-    auto below = [](float x, int steps) {
-        for (int i = 0; i < steps; ++i) x = std::nextafter(x, -std::numeric_limits<float>::infinity());
-        return x;
-    };
-    auto above = [](float x, int steps) {
-        for (int i = 0; i < steps; ++i) x = std::nextafter(x, std::numeric_limits<float>::infinity());
+    auto inward = [](glm::vec3 x, float to) { // kSlack float steps towards `to`, per axis
+        for (int k = 0; k < 3; ++k)
+            for (int i = 0; i < kSlack; ++i) x[k] = std::nextafter(x[k], to);
         return x;
     };
     struct Neighbour
@@ -1036,8 +1034,8 @@ void refuseSelfContact(const vdb::Volume& volume, const std::vector<Coord>& regi
         // The cell's faces, a few float steps inside.
         const glm::vec3 lo = worldPosition(volume, glm::dvec3(c.x(), c.y(), c.z()));
         const glm::vec3 hi = worldPosition(volume, glm::dvec3(c.x() + 1, c.y() + 1, c.z() + 1));
-        const glm::vec3 nearLo(above(lo.x, kSlack), above(lo.y, kSlack), above(lo.z, kSlack));
-        const glm::vec3 nearHi(below(hi.x, kSlack), below(hi.y, kSlack), below(hi.z, kSlack));
+        const glm::vec3 nearLo = inward(lo, std::numeric_limits<float>::infinity());
+        const glm::vec3 nearHi = inward(hi, -std::numeric_limits<float>::infinity());
         for (size_t t = start[r]; t < start[r + 1]; ++t) {
             const Box& bt = box[t];
             if (!bt.usable) continue;

@@ -23,9 +23,6 @@ namespace {
 constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
 constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
 constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
-/// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
-/// vertex inside a tet where the removed region's boundary pinches.
-constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 /// repairFloatFolds: an edge shorter than this many float steps (float
 /// epsilon times the cell's largest world coordinate) is mended (2 at the
 /// VHM head's 1100 mm are 0.26 um: the least that mends test_cut_props'

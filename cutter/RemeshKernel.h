@@ -29,6 +29,9 @@ using openvdb::Coord;
 constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local vertices of the tet face/edge
 constexpr int kJunctionKind = 7;
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
+/// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
+/// vertex inside a tet where the removed region's boundary pinches.
+constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 
 inline uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
 {
