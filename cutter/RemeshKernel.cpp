@@ -468,6 +468,69 @@ private:
     /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
     void pushSimple(Poly o, std::vector<Poly>& out);
     void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
+    // ---- remeshTet, phase by phase (its state: the members below and above)
+    struct Surface
+    {
+        uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
+        const QuadGeom* quad; // cap: its quad
+        /// Kerf > 0: further prisms with this very face plane (a rim shared
+        /// along the stroke, facing the same way): one surface, whose pieces
+        /// are kept where any of these prisms' rule keeps them, so the faces
+        /// merge into one region (no corner where one prism's face ends
+        /// inside the other's, which the neighbouring cell need not see).
+        SmallVector<const QuadGeom*, 2> also;
+        int sides;           // cap: bit 0 = + side output, bit 1 = - side output
+        dvec3 normal;        // reference normal (pieces are CCW around it)
+        Poly poly;
+    };
+    // Split order: iso planes, junction planes, then the rest by id.
+    struct SplitPlane
+    {
+        uint64_t id;
+        const QuadGeom* owner; // restricts a quad's plane / rim side to its junction zone
+    };
+    struct Loop
+    {
+        SmallVector<int, 16> nodes;
+        SmallVector<uint64_t, 16> labels; // labels[i]: edge nodes[i] -> nodes[i+1]
+    };
+    struct Region
+    {
+        dvec3 normal;
+        SmallVector<Loop, 1> loops;
+        const QuadGeom* cap = nullptr; // cap regions: the quad, and the side
+        int side = 0;
+    };
+    SmallVector<SmallVector<std::array<int, 2>, 4>, 2> mTriEdges; ///< the MT triangles' corners, as tet edges
+    SmallVector<dvec3, 4> mTriPts[2];                             ///< and as points
+    SmallVector<Surface, 8> mSurfaces;
+    SmallVector<SplitPlane, 16> mSplitOrder;
+    SmallVector<Region, 8> mRegions;
+    void resetTet();
+    /// Quads whose region can reach the tet, and their planes (mQuads, mPlanes).
+    void gatherQuads();
+    bool isoTriangles();
+    /// mPlanes sorted and final: the sign table's columns and the id lookup.
+    void finishPlanes();
+    /// The surfaces to arrange: the iso triangles, then the caps.
+    void isoSurfaces();
+    void capSurfaces();
+    void chooseSplitOrder();
+    /// The node of `vert` with these side tags (sorted in place), made if new.
+    int nodeOf(int vert, Tags& tags);
+    /// The side of plane `id` a piece lies on: its first corner off the plane's, 0 if none.
+    int pieceSign(const Poly& p, uint64_t id);
+    /// Per surface: split by the planes into mPieces, made conforming, classified
+    /// (kept), slit chords given midpoints, traced into regions per side.
+    void splitSurface(const Surface& s);
+    void conformPieces();
+    void classifyPieces(const Surface& s, SmallVector<char, 32>& kept);
+    void insertSlitMidpoints(const SmallVector<char, 32>& kept);
+    void traceRegions(const Surface& s, int side, const SmallVector<char, 32>& kept);
+    /// The nodes kept as corners of the regions' loops, then the regions triangulated into `out`.
+    void markCorners(SmallVector<char, 64>& corner);
+    void triangulateRegions(const SmallVector<char, 64>& corner, CutCellGeometry& out,
+                            std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
 
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
     float mIso;
@@ -1007,6 +1070,13 @@ static std::array<int, 4> evenPerm(std::initializer_list<int> first)
     return p;
 }
 
+/// One tet (mT) of the cell: the surfaces to arrange (its marching-tetrahedra
+/// triangles and the blade's caps through it), each split by the planes of the
+/// others, the pieces kept by the removed region's rule, joined into regions
+/// per side across shared edges (not across slits), their loops traced, and
+/// the regions triangulated into `out`, vertices named (CutVertexId) so that
+/// the tets and cells around weld by name; cellIndex maps the names `out`
+/// holds to their index.
 void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
 {
     // No solid in the tet (all four values below the isovalue): P is empty,
@@ -1014,6 +1084,32 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     // prism faces inside the solid). Most cells of a cut through a head are
     // air; they cost nothing now.
     if (!mT.inside[0] && !mT.inside[1] && !mT.inside[2] && !mT.inside[3]) return;
+    resetTet();
+    gatherQuads();
+    if (!isoTriangles()) return;
+    finishPlanes();
+    isoSurfaces();
+    capSurfaces();
+    chooseSplitOrder();
+    // Per surface: its arrangement, classified, traced into regions.
+    SmallVector<char, 32> kept;
+    for (const Surface& s : mSurfaces) {
+        splitSurface(s);
+        conformPieces();
+        classifyPieces(s, kept);
+        insertSlitMidpoints(kept);
+        for (int side : {1, -1}) {
+            if (s.quad && !mPrism ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
+            traceRegions(s, side, kept);
+        }
+    }
+    SmallVector<char, 64> corner;
+    markCorners(corner);
+    triangulateRegions(corner, out, cellIndex);
+}
+
+void RemeshKernel::resetTet()
+{
     mVerts.clear();
     mVertHash.clear();
     if (mHashIndexed) {
@@ -1029,7 +1125,16 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     mPlanes.clear();
     mTriCount = 0;
     std::fill(std::begin(mFaceTri), std::end(mFaceTri), -1);
+    mSurfaces.clear();
+    mSplitOrder.clear();
+    mNodes.clear();
+    mNodeHead.clear();
+    mNodeNext.clear();
+    mRegions.clear();
+}
 
+void RemeshKernel::gatherQuads()
+{
     // Quads whose region can reach the tet.
     for (const QuadGeom& q : *mCellQuads) {
         auto crosses = [&](const Plane& p) {
@@ -1053,15 +1158,21 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         if (!mPrism) mPlanes.push_back({q.id, q.pi});
         for (const auto& s : q.sides) mPlanes.push_back({s.id, s.plane});
     }
+}
 
+/// The marching-tetrahedra triangles of the tet and their planes; false
+/// when the tet holds no solid.
+bool RemeshKernel::isoTriangles()
+{
     // Marching-tetrahedra triangles of the tet (as the isosurface tables).
     int ni = 0, ins[4], outs[4], no = 0;
     for (int i = 0; i < 4; ++i) {
         if (mT.inside[i]) ins[ni++] = i;
         else outs[no++] = i;
     }
-    if (ni == 0) return; // nothing solid here
-    SmallVector<SmallVector<std::array<int, 2>, 4>, 2> triEdges;
+    if (ni == 0) return false; // nothing solid here
+    auto& triEdges = mTriEdges;
+    triEdges.clear();
     if (ni == 1 || ni == 3) {
         const int lone = ni == 1 ? ins[0] : outs[0];
         const auto p = evenPerm({lone});
@@ -1085,7 +1196,9 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     }
     mTriCount = int(triEdges.size());
     // Iso planes first (so ISO_A/B sort first in mPlanes too).
-    SmallVector<dvec3, 4> triPts[2];
+    auto& triPts = mTriPts;
+    triPts[0].clear();
+    triPts[1].clear();
     for (int k = 0; k < mTriCount; ++k) {
         for (const auto& e : triEdges[size_t(k)]) triPts[k].push_back(mtPoint(e[0], e[1]));
         dvec3 nrm(0.0);
@@ -1098,6 +1211,11 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         mTriPlane[k].d = glm::dot(mTriPlane[k].n, centre);
         mPlanes.push_back({kIsoA + uint64_t(k), mTriPlane[k]});
     }
+    return true;
+}
+
+void RemeshKernel::finishPlanes()
+{
     std::sort(mPlanes.begin(), mPlanes.end(),
               [](const std::pair<uint64_t, Plane>& a, const std::pair<uint64_t, Plane>& b) { return a.first < b.first; });
     mPlanes.erase(std::unique(mPlanes.begin(), mPlanes.end(),
@@ -1107,23 +1225,14 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
                   mPlanes.end());
     mSignStride = mPlanes.size();
     buildPlaneSlots();
-    if (mTriCount == 2) mFoldConvex = mTriPlane[0].h(triPts[1][2]) >= 0;
+    if (mTriCount == 2) mFoldConvex = mTriPlane[0].h(mTriPts[1][2]) >= 0;
+}
 
-    struct Surface
-    {
-        uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
-        const QuadGeom* quad; // cap: its quad
-        /// Kerf > 0: further prisms with this very face plane (a rim shared
-        /// along the stroke, facing the same way): one surface, whose pieces
-        /// are kept where any of these prisms' rule keeps them, so the faces
-        /// merge into one region (no corner where one prism's face ends
-        /// inside the other's, which the neighbouring cell need not see).
-        SmallVector<const QuadGeom*, 2> also;
-        int sides;           // cap: bit 0 = + side output, bit 1 = - side output
-        dvec3 normal;        // reference normal (pieces are CCW around it)
-        Poly poly;
-    };
-    SmallVector<Surface, 8> surfaces;
+void RemeshKernel::isoSurfaces()
+{
+    auto& surfaces = mSurfaces;
+    const auto& triEdges = mTriEdges;
+    const auto& triPts = mTriPts;
     for (int k = 0; k < mTriCount; ++k) {
         Surface s;
         s.plane = kIsoA + uint64_t(k);
@@ -1154,6 +1263,11 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         }
         surfaces.push_back(std::move(s));
     }
+}
+
+void RemeshKernel::capSurfaces()
+{
+    auto& surfaces = mSurfaces;
     // Caps: the quad's plane through the tet; with kerf, every face plane of
     // the prism (one-sided, its surface normal pointing into the prism).
     struct FacePlane
@@ -1238,14 +1352,11 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         }
         surfaces.push_back(std::move(s));
     }
+}
 
-    // Split order: iso planes, junction planes, then the rest by id.
-    struct SplitPlane
-    {
-        uint64_t id;
-        const QuadGeom* owner; // restricts a quad's plane / rim side to its junction zone
-    };
-    SmallVector<SplitPlane, 16> splitOrder;
+void RemeshKernel::chooseSplitOrder()
+{
+    auto& splitOrder = mSplitOrder;
     for (const auto& pl : mPlanes)
         if (pl.first <= kIsoB) splitOrder.push_back({pl.first, nullptr});
     for (const auto& pl : mPlanes)
@@ -1265,375 +1376,384 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         }
         splitOrder.push_back({pl.first, owner});
     }
+}
 
-    // Arrangements, classification, tagged loops.
+int RemeshKernel::nodeOf(int vert, Tags& tags)
+{
     std::vector<Node>& nodes = mNodes;
-    nodes.clear();
-    // The nodes of each vertex, chained in creation order (nodeOf returns
-    // the first with these tags, as a scan of `nodes` would).
     std::vector<int>& nodeHead = mNodeHead;
     std::vector<int>& nodeNext = mNodeNext;
-    nodeHead.clear();
-    nodeNext.clear();
-    auto nodeOf = [&](int vert, Tags& tags) {
-        std::sort(tags.begin(), tags.end());
-        if (size_t(vert) >= nodeHead.size()) nodeHead.resize(mVerts.size() + 16, -1);
-        int last = -1;
-        for (int i = nodeHead[size_t(vert)]; i >= 0; i = nodeNext[size_t(i)]) {
-            if (nodes[size_t(i)].tags == tags) return i;
-            last = i;
-        }
-        nodes.emplace_back();
-        nodes.back().vert = vert;
-        nodes.back().tags.assign(tags.begin(), tags.end());
-        nodeNext.push_back(-1);
-        const int id = int(nodes.size() - 1);
-        (last < 0 ? nodeHead[size_t(vert)] : nodeNext[size_t(last)]) = id;
-        return id;
-    };
-    struct Loop
-    {
-        SmallVector<int, 16> nodes;
-        SmallVector<uint64_t, 16> labels; // labels[i]: edge nodes[i] -> nodes[i+1]
-    };
-    struct Region
-    {
-        dvec3 normal;
-        SmallVector<Loop, 1> loops;
-        const QuadGeom* cap = nullptr; // cap regions: the quad, and the side
-        int side = 0;
-    };
-    SmallVector<Region, 8> regions;
+    std::sort(tags.begin(), tags.end());
+    if (size_t(vert) >= nodeHead.size()) nodeHead.resize(mVerts.size() + 16, -1);
+    int last = -1;
+    for (int i = nodeHead[size_t(vert)]; i >= 0; i = nodeNext[size_t(i)]) {
+        if (nodes[size_t(i)].tags == tags) return i;
+        last = i;
+    }
+    nodes.emplace_back();
+    nodes.back().vert = vert;
+    nodes.back().tags.assign(tags.begin(), tags.end());
+    nodeNext.push_back(-1);
+    const int id = int(nodes.size() - 1);
+    (last < 0 ? nodeHead[size_t(vert)] : nodeNext[size_t(last)]) = id;
+    return id;
+}
 
-    for (Surface& s : surfaces) {
-        std::vector<Poly>& pieces = mPieces;
-        std::vector<Poly>& next = mNextPieces;
-        pieces.clear();
-        pieces.push_back(s.poly);
-        auto pieceSign = [&](const Poly& p, uint64_t id) {
-            for (int v : p.v) {
-                const int sg = sign(v, id);
-                if (sg != 0) return sg;
-            }
-            return 0;
-        };
-        for (const SplitPlane& sp : splitOrder) {
-            if (sp.id == s.plane) continue;
-            if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
-            next.clear();
-            for (Poly& p : pieces) {
-                // A quad's plane and rim sides only split inside its junction zone,
-                // so near-coincident planes of consecutive quads never meet there.
-                bool outside = false;
-                if (sp.owner)
-                    for (const auto& sd : sp.owner->sides)
-                        if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
-                if (outside) next.push_back(std::move(p));
-                else splitPoly(std::move(p), s.plane, sp.id, next);
-            }
-            pieces.swap(next);
+int RemeshKernel::pieceSign(const Poly& p, uint64_t id)
+{
+    for (int v : p.v) {
+        const int sg = sign(v, id);
+        if (sg != 0) return sg;
+    }
+    return 0;
+}
+
+void RemeshKernel::splitSurface(const Surface& s)
+{
+    std::vector<Poly>& pieces = mPieces;
+    std::vector<Poly>& next = mNextPieces;
+    const auto& splitOrder = mSplitOrder;
+    pieces.clear();
+    pieces.push_back(s.poly);
+    for (const SplitPlane& sp : splitOrder) {
+        if (sp.id == s.plane) continue;
+        if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
+        next.clear();
+        for (Poly& p : pieces) {
+            // A quad's plane and rim sides only split inside its junction zone,
+            // so near-coincident planes of consecutive quads never meet there.
+            bool outside = false;
+            if (sp.owner)
+                for (const auto& sd : sp.owner->sides)
+                    if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
+            if (outside) next.push_back(std::move(p));
+            else splitPoly(std::move(p), s.plane, sp.id, next);
         }
-        // Conformity: restricted splits end on junction lines; put their end
-        // points on the neighbouring pieces' edges too (no T-junction inside).
-        {
-            SmallVector<int, 32> all;
-            for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
-            std::sort(all.begin(), all.end());
-            all.erase(std::unique(all.begin(), all.end()), all.end());
-            // The vertices of `all` on each edge label's line (ascending),
-            // found once per label rather than once per edge: a cell where
-            // many quads pivot has thousands of edges and vertices here.
-            // onLabel: (label, begin, end) of its vertices in mOnLine.
-            SmallVector<std::array<uint64_t, 3>, 8> onLabel;
-            std::vector<int>& onLine = mOnLine;
-            onLine.clear();
-            auto onLineOf = [&](uint64_t L) -> std::pair<const int*, const int*> {
-                for (const auto& e : onLabel)
-                    if (e[0] == L) return {onLine.data() + e[1], onLine.data() + e[2]};
-                const size_t begin = onLine.size();
-                for (int x : all) {
-                    const Vert& vx = mVerts[size_t(x)];
-                    const bool on = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
-                    if (on) onLine.push_back(x);
-                }
-                onLabel.push_back({L, begin, onLine.size()});
-                return {onLine.data() + begin, onLine.data() + onLine.size()};
-            };
-            for (Poly& p : pieces) {
-                Poly q;
-                const size_t n = p.v.size();
-                for (size_t k = 0; k < n; ++k) {
-                    const int u = p.v[k], w = p.v[(k + 1) % n];
-                    const uint64_t L = p.lab[k];
-                    q.v.push_back(u);
-                    q.lab.push_back(L);
-                    const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
-                    const double dd = glm::dot(d, d);
-                    SmallVector<std::pair<double, int>, 4> on;
-                    const auto [xsBegin, xsEnd] = onLineOf(L);
-                    for (const int* it = xsBegin; it != xsEnd; ++it) {
-                        const int x = *it;
-                        if (x == u || x == w) continue;
-                        const Vert& vx = mVerts[size_t(x)];
-                        const double t = glm::dot(vx.pos - a, d) / dd;
-                        if (!(t > 1e-12 && t < 1 - 1e-12)) continue;
-                        if (glm::length(vx.pos - (a + t * d)) > 1e-9 * (1 + std::sqrt(dd))) continue;
-                        on.push_back({t, x});
-                    }
-                    std::sort(on.begin(), on.end());
-                    for (const auto& o : on) {
-                        q.v.push_back(o.second);
-                        q.lab.push_back(L);
-                    }
-                }
-                p = std::move(q);
-            }
-            // A piece folded onto itself (it runs out along a line and back
-            // through the same vertex): its loop and the spike, apart.
-            next.clear();
-            for (Poly& p : pieces) pushSimple(std::move(p), next);
-            pieces.swap(next);
+        pieces.swap(next);
+    }
+}
+
+/// Conformity: restricted splits end on junction lines; their end points
+/// go on the neighbouring pieces' edges too (no T-junction inside). Then a
+/// piece folded onto itself is split into simple loops.
+void RemeshKernel::conformPieces()
+{
+    std::vector<Poly>& pieces = mPieces;
+    std::vector<Poly>& next = mNextPieces;
+    SmallVector<int, 32> all;
+    for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
+    std::sort(all.begin(), all.end());
+    all.erase(std::unique(all.begin(), all.end()), all.end());
+    // The vertices of `all` on each edge label's line (ascending),
+    // found once per label rather than once per edge: a cell where
+    // many quads pivot has thousands of edges and vertices here.
+    // onLabel: (label, begin, end) of its vertices in mOnLine.
+    SmallVector<std::array<uint64_t, 3>, 8> onLabel;
+    std::vector<int>& onLine = mOnLine;
+    onLine.clear();
+    auto onLineOf = [&](uint64_t L) -> std::pair<const int*, const int*> {
+        for (const auto& e : onLabel)
+            if (e[0] == L) return {onLine.data() + e[1], onLine.data() + e[2]};
+        const size_t begin = onLine.size();
+        for (int x : all) {
+            const Vert& vx = mVerts[size_t(x)];
+            const bool on = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
+            if (on) onLine.push_back(x);
         }
-        // Classification.
-        SmallVector<char, 32> kept(pieces.size(), 1);
-        // A cap piece inside the solid P: every corner in closed P, and, where
-        // P is the union of the two half-spaces of a concave fold (not convex,
-        // so corners in P do not make the piece so), the piece's side of one
-        // of them. A piece between the fold's planes whose corners all lie on
-        // them is outside (tooth seed 1022: a 2e-3 voxel triangle of an offset
-        // face there closed a cap region over the crease and opened the iso seam).
-        auto inSolid = [&](const Poly& p) {
-            for (int v : p.v)
-                if (member(v) < 0) return false;
-            if (mTriCount == 2 && !mFoldConvex) return std::max(pieceSign(p, kIsoA), pieceSign(p, kIsoB)) >= 0;
+        onLabel.push_back({L, begin, onLine.size()});
+        return {onLine.data() + begin, onLine.data() + onLine.size()};
+    };
+    for (Poly& p : pieces) {
+        Poly q;
+        const size_t n = p.v.size();
+        for (size_t k = 0; k < n; ++k) {
+            const int u = p.v[k], w = p.v[(k + 1) % n];
+            const uint64_t L = p.lab[k];
+            q.v.push_back(u);
+            q.lab.push_back(L);
+            const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
+            const double dd = glm::dot(d, d);
+            SmallVector<std::pair<double, int>, 4> on;
+            const auto [xsBegin, xsEnd] = onLineOf(L);
+            for (const int* it = xsBegin; it != xsEnd; ++it) {
+                const int x = *it;
+                if (x == u || x == w) continue;
+                const Vert& vx = mVerts[size_t(x)];
+                const double t = glm::dot(vx.pos - a, d) / dd;
+                if (!(t > 1e-12 && t < 1 - 1e-12)) continue;
+                if (glm::length(vx.pos - (a + t * d)) > 1e-9 * (1 + std::sqrt(dd))) continue;
+                on.push_back({t, x});
+            }
+            std::sort(on.begin(), on.end());
+            for (const auto& o : on) {
+                q.v.push_back(o.second);
+                q.lab.push_back(L);
+            }
+        }
+        p = std::move(q);
+    }
+    // A piece folded onto itself (it runs out along a line and back
+    // through the same vertex): its loop and the spike, apart.
+    next.clear();
+    for (Poly& p : pieces) pushSimple(std::move(p), next);
+    pieces.swap(next);
+}
+
+void RemeshKernel::classifyPieces(const Surface& s, SmallVector<char, 32>& kept)
+{
+    std::vector<Poly>& pieces = mPieces;
+    kept.assign(pieces.size(), 1);
+    // A cap piece inside the solid P: every corner in closed P, and, where
+    // P is the union of the two half-spaces of a concave fold (not convex,
+    // so corners in P do not make the piece so), the piece's side of one
+    // of them. A piece between the fold's planes whose corners all lie on
+    // them is outside (tooth seed 1022: a 2e-3 voxel triangle of an offset
+    // face there closed a cap region over the crease and opened the iso seam).
+    auto inSolid = [&](const Poly& p) {
+        for (int v : p.v)
+            if (member(v) < 0) return false;
+        if (mTriCount == 2 && !mFoldConvex) return std::max(pieceSign(p, kIsoA), pieceSign(p, kIsoB)) >= 0;
+        return true;
+    };
+    if (mPrism) {
+        // Kerf > 0 (DESIGN's sketch): iso pieces outside every closed prism;
+        // prism face pieces inside closed P, on their own closed face and
+        // outside every other closed prism, except that of two coincident
+        // faces facing the same way the lower quad's is kept.
+        auto insidePrism = [&](const Poly& p, const QuadGeom& q) {
+            for (const auto& sd : q.sides)
+                if (sd.orient * pieceSign(p, sd.id) < 0) return false;
             return true;
         };
-        if (mPrism) {
-            // Kerf > 0 (DESIGN's sketch): iso pieces outside every closed prism;
-            // prism face pieces inside closed P, on their own closed face and
-            // outside every other closed prism, except that of two coincident
-            // faces facing the same way the lower quad's is kept.
-            auto insidePrism = [&](const Poly& p, const QuadGeom& q) {
-                for (const auto& sd : q.sides)
-                    if (sd.orient * pieceSign(p, sd.id) < 0) return false;
-                return true;
-            };
-            for (size_t i = 0; i < pieces.size(); ++i) {
-                const Poly& p = pieces[i];
-                bool ok = true;
-                if (!s.quad) {
-                    for (const QuadGeom* q : mQuads) ok = ok && !insidePrism(p, *q);
-                } else {
-                    ok = inSolid(p);
-                    auto keptBy = [&](const QuadGeom* own) {
-                        bool k = insidePrism(p, *own);
-                        for (const QuadGeom* q : mQuads) {
-                            if (!k) break;
-                            if (q == own || !insidePrism(p, *q)) continue;
-                            bool sameFace = false;
-                            for (const auto& sd : q->sides)
-                                sameFace = sameFace || (pieceSign(p, sd.id) == 0 &&
-                                                        glm::dot(sd.orient * sd.plane.n, s.normal) > 0);
-                            k = sameFace && q->id > own->id;
-                        }
-                        return k;
-                    };
-                    bool any = ok && keptBy(s.quad);
-                    for (const QuadGeom* own : s.also) any = any || (ok && keptBy(own));
-                    ok = any;
-                }
-                kept[i] = ok;
-            }
-        } else if (s.quad) {
-            for (size_t i = 0; i < pieces.size(); ++i) {
-                bool ok = inSolid(pieces[i]);
-                for (const auto& sd : s.quad->sides) ok = ok && sd.orient * pieceSign(pieces[i], sd.id) >= 0;
-                kept[i] = ok;
-            }
-        }
-        // Steiner midpoints on slit chords between rim points (see needsMidpoint).
         for (size_t i = 0; i < pieces.size(); ++i) {
-            if (!kept[i]) continue;
-            Poly& p = pieces[i];
-            for (size_t k = 0; k < p.v.size(); ++k) {
-                const int u = p.v[k], w = p.v[(k + 1) % p.v.size()];
-                for (const QuadGeom* r : mQuads) {
-                    if (!needsMidpoint(u, w, *r)) continue;
-                    const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
-                    uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
-                    uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
-                    PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
-                    const uint8_t sup = uint8_t(vu.support | vw.support);
-                    if (bits(sup) < 4) {
-                        const bool isoU = vu.key.planeCount && vu.key.planes[0] == kIso;
-                        const bool isoW = vw.key.planeCount && vw.key.planes[0] == kIso;
-                        if (isoU && isoW) planes.push_back(kIso);
+            const Poly& p = pieces[i];
+            bool ok = true;
+            if (!s.quad) {
+                for (const QuadGeom* q : mQuads) ok = ok && !insidePrism(p, *q);
+            } else {
+                ok = inSolid(p);
+                auto keptBy = [&](const QuadGeom* own) {
+                    bool k = insidePrism(p, *own);
+                    for (const QuadGeom* q : mQuads) {
+                        if (!k) break;
+                        if (q == own || !insidePrism(p, *q)) continue;
+                        bool sameFace = false;
+                        for (const auto& sd : q->sides)
+                            sameFace = sameFace || (pieceSign(p, sd.id) == 0 &&
+                                                    glm::dot(sd.orient * sd.plane.n, s.normal) > 0);
+                        k = sameFace && q->id > own->id;
                     }
-                    const int m = makeSteiner(sup, planes, 0.5 * (vu.pos + vw.pos));
-                    p.v.insert(p.v.begin() + long(k) + 1, m);
-                    p.lab.insert(p.lab.begin() + long(k) + 1, p.lab[k]);
-                    ++k;
-                    break;
-                }
-            }
-        }
-        for (int side : {1, -1}) {
-            if (s.quad && !mPrism ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
-            // Slit edges: on another quad's plane inside that quad.
-            auto isSlit = [&](int a, int b) {
-                if (mPrism) return false;
-                for (const QuadGeom* r : mQuads) {
-                    if (r == s.quad) continue;
-                    if (sign(a, r->id) == 0 && sign(b, r->id) == 0 && inExtentClosed(a, *r) && inExtentClosed(b, *r))
-                        return true;
-                }
-                return false;
-            };
-            // Union-find over kept pieces across non-slit shared edges: each
-            // later use of an edge joins its piece to the edge's first piece.
-            std::vector<int>& parent = mParent;
-            parent.resize(pieces.size());
-            for (size_t i = 0; i < parent.size(); ++i) parent[i] = int(i);
-            auto find = [&](int x) {
-                int r = x;
-                while (parent[size_t(r)] != r) r = parent[size_t(r)];
-                while (parent[size_t(x)] != r) x = std::exchange(parent[size_t(x)], r);
-                return r;
-            };
-            auto& uses = mEdgeUses; // (lower vertex, higher vertex, sequence, piece)
-            uses.clear();
-            for (size_t i = 0; i < pieces.size(); ++i) {
-                if (!kept[i]) continue;
-                const Poly& p = pieces[i];
-                for (size_t k = 0; k < p.v.size(); ++k) {
-                    int a = p.v[k], b = p.v[(k + 1) % p.v.size()];
-                    if (a > b) std::swap(a, b);
-                    uses.push_back({a, b, int(uses.size()), int(i)});
-                }
-            }
-            auto& order = mEdgeOrder; // first use of the same edge, per use in sequence
-            order.assign(uses.size(), -1);
-            {
-                auto& sorted = mEdgeSorted;
-                sorted.assign(uses.begin(), uses.end());
-                std::sort(sorted.begin(), sorted.end());
-                for (size_t k = 1; k < sorted.size(); ++k) {
-                    const auto& f = sorted[k - 1];
-                    const auto& g = sorted[k];
-                    if (f[0] == g[0] && f[1] == g[1]) order[size_t(g[2])] = order[size_t(f[2])] >= 0 ? order[size_t(f[2])] : f[3];
-                }
-            }
-            for (const auto& u : uses)
-                if (order[size_t(u[2])] >= 0 && !isSlit(u[0], u[1])) parent[size_t(find(u[3]))] = find(order[size_t(u[2])]);
-            // Directed edges per region, with tagged nodes.
-            auto stripSide = [&](const Poly& piece, const QuadGeom* r, int vert) -> int {
-                if (r == s.quad) return side;
-                for (const auto& sd : r->sides) {
-                    if (sd.partnerId == 0 || sign(vert, sd.id) != 0) continue;
-                    const QuadGeom* o = quadById(sd.partnerId);
-                    if (!o) continue;
-                    if (sd.orient * pieceSign(piece, sd.id) < 0) { // the piece is on the partner's half
-                        if (o == s.quad) return side;
-                        const int sg = pieceSign(piece, o->id);
-                        if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
-                        return sg;
-                    }
-                }
-                const int sg = pieceSign(piece, r->id);
-                if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
-                return sg;
-            };
-            // Per root piece (ascending): (from node, to node, label).
-            auto& regionEdges = mRegionEdges;
-            if (regionEdges.size() < pieces.size()) regionEdges.resize(pieces.size());
-            for (size_t i = 0; i < pieces.size(); ++i) regionEdges[i].clear();
-            for (size_t i = 0; i < pieces.size(); ++i) {
-                if (!kept[i]) continue;
-                const Poly& p = pieces[i];
-                const size_t n = p.v.size();
-                SmallVector<int, 16> pn(n);
-                for (size_t k = 0; k < n; ++k) {
-                    Tags tags;
-                    for (const QuadGeom* r : mQuads) {
-                        if (mPrism) break;
-                        if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
-                        const int sg = stripSide(p, r, p.v[k]);
-                        tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
-                    }
-                    pn[k] = nodeOf(p.v[k], tags);
-                }
-                auto& list = regionEdges[size_t(find(int(i)))];
-                const bool reverse = s.quad && !mPrism && side > 0;
-                for (size_t k = 0; k < n; ++k) {
-                    const int a = pn[k], b = pn[(k + 1) % n];
-                    if (reverse) list.push_back({b, a, int64_t(p.lab[k])});
-                    else list.push_back({a, b, int64_t(p.lab[k])});
-                }
-            }
-            const dvec3 outNormal = s.quad && !mPrism && side > 0 ? -s.normal : s.normal;
-            for (size_t root = 0; root < pieces.size(); ++root) {
-                const auto& edges = regionEdges[root];
-                if (edges.empty()) continue;
-                // Boundary edges: those whose reverse is not in the region.
-                auto& keys = mBoundaryKeys;
-                keys.clear();
-                for (const auto& e : edges) keys.push_back({int(e[0]), int(e[1])});
-                std::sort(keys.begin(), keys.end());
-                SmallVector<std::array<int64_t, 3>, 16> bnd;
-                for (const auto& e : edges)
-                    if (!std::binary_search(keys.begin(), keys.end(), std::pair<int, int>(int(e[1]), int(e[0]))))
-                        bnd.push_back(e);
-                if (bnd.empty()) continue;
-                dvec3 e1 = std::abs(outNormal.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
-                e1 = glm::normalize(e1 - outNormal * glm::dot(outNormal, e1));
-                const dvec3 e2 = glm::cross(outNormal, e1);
-                auto p2 = [&](int node) {
-                    const dvec3& x = mVerts[size_t(nodes[size_t(node)].vert)].pos;
-                    return Vec2{glm::dot(x, e1), glm::dot(x, e2)};
+                    return k;
                 };
-                SmallVector<char, 16> used(bnd.size(), 0);
-                Region region;
-                region.normal = outNormal;
-                region.cap = s.quad;
-                region.side = side;
-                for (size_t start = 0; start < bnd.size(); ++start) {
-                    if (used[start]) continue;
-                    Loop loop;
-                    size_t cur = start;
-                    for (size_t guard = 0; guard <= bnd.size(); ++guard) {
-                        used[cur] = 1;
-                        loop.nodes.push_back(int(bnd[cur][0]));
-                        loop.labels.push_back(uint64_t(bnd[cur][2]));
-                        const int at = int(bnd[cur][1]);
-                        if (at == loop.nodes.front()) break;
-                        // Next: unused edge from `at`, the most clockwise from the way back.
-                        size_t best = bnd.size();
-                        double bestAngle = 1e9;
-                        const Vec2 pa = p2(at), pb = p2(int(bnd[cur][0]));
-                        const double back = std::atan2(pb.y - pa.y, pb.x - pa.x);
-                        for (size_t k = 0; k < bnd.size(); ++k) {
-                            if (used[k] || bnd[k][0] != at) continue;
-                            const Vec2 pc = p2(int(bnd[k][1]));
-                            double ang = back - std::atan2(pc.y - pa.y, pc.x - pa.x);
-                            while (ang <= 0) ang += 2 * M_PI;
-                            while (ang > 2 * M_PI) ang -= 2 * M_PI;
-                            if (ang < bestAngle) {
-                                bestAngle = ang;
-                                best = k;
-                            }
-                        }
-                        if (best == bnd.size()) {
-                            throw std::runtime_error("remesh: open boundary loop in cell " + cellText(mCell));
-                        }
-                        cur = best;
-                    }
-                    region.loops.push_back(std::move(loop));
+                bool any = ok && keptBy(s.quad);
+                for (const QuadGeom* own : s.also) any = any || (ok && keptBy(own));
+                ok = any;
+            }
+            kept[i] = ok;
+        }
+    } else if (s.quad) {
+        for (size_t i = 0; i < pieces.size(); ++i) {
+            bool ok = inSolid(pieces[i]);
+            for (const auto& sd : s.quad->sides) ok = ok && sd.orient * pieceSign(pieces[i], sd.id) >= 0;
+            kept[i] = ok;
+        }
+    }
+}
+
+void RemeshKernel::insertSlitMidpoints(const SmallVector<char, 32>& kept)
+{
+    std::vector<Poly>& pieces = mPieces;
+    // Steiner midpoints on slit chords between rim points (see needsMidpoint).
+    for (size_t i = 0; i < pieces.size(); ++i) {
+        if (!kept[i]) continue;
+        Poly& p = pieces[i];
+        for (size_t k = 0; k < p.v.size(); ++k) {
+            const int u = p.v[k], w = p.v[(k + 1) % p.v.size()];
+            for (const QuadGeom* r : mQuads) {
+                if (!needsMidpoint(u, w, *r)) continue;
+                const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
+                uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
+                uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
+                PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
+                const uint8_t sup = uint8_t(vu.support | vw.support);
+                if (bits(sup) < 4) {
+                    const bool isoU = vu.key.planeCount && vu.key.planes[0] == kIso;
+                    const bool isoW = vw.key.planeCount && vw.key.planes[0] == kIso;
+                    if (isoU && isoW) planes.push_back(kIso);
                 }
-                regions.push_back(std::move(region));
+                const int m = makeSteiner(sup, planes, 0.5 * (vu.pos + vw.pos));
+                p.v.insert(p.v.begin() + long(k) + 1, m);
+                p.lab.insert(p.lab.begin() + long(k) + 1, p.lab[k]);
+                ++k;
+                break;
             }
         }
     }
+}
 
+void RemeshKernel::traceRegions(const Surface& s, int side, const SmallVector<char, 32>& kept)
+{
+    std::vector<Poly>& pieces = mPieces;
+    std::vector<Node>& nodes = mNodes;
+    auto& regions = mRegions;
+    // Slit edges: on another quad's plane inside that quad.
+    auto isSlit = [&](int a, int b) {
+        if (mPrism) return false;
+        for (const QuadGeom* r : mQuads) {
+            if (r == s.quad) continue;
+            if (sign(a, r->id) == 0 && sign(b, r->id) == 0 && inExtentClosed(a, *r) && inExtentClosed(b, *r))
+                return true;
+        }
+        return false;
+    };
+    // Union-find over kept pieces across non-slit shared edges: each
+    // later use of an edge joins its piece to the edge's first piece.
+    std::vector<int>& parent = mParent;
+    parent.resize(pieces.size());
+    for (size_t i = 0; i < parent.size(); ++i) parent[i] = int(i);
+    auto find = [&](int x) {
+        int r = x;
+        while (parent[size_t(r)] != r) r = parent[size_t(r)];
+        while (parent[size_t(x)] != r) x = std::exchange(parent[size_t(x)], r);
+        return r;
+    };
+    auto& uses = mEdgeUses; // (lower vertex, higher vertex, sequence, piece)
+    uses.clear();
+    for (size_t i = 0; i < pieces.size(); ++i) {
+        if (!kept[i]) continue;
+        const Poly& p = pieces[i];
+        for (size_t k = 0; k < p.v.size(); ++k) {
+            int a = p.v[k], b = p.v[(k + 1) % p.v.size()];
+            if (a > b) std::swap(a, b);
+            uses.push_back({a, b, int(uses.size()), int(i)});
+        }
+    }
+    auto& order = mEdgeOrder; // first use of the same edge, per use in sequence
+    order.assign(uses.size(), -1);
+    {
+        auto& sorted = mEdgeSorted;
+        sorted.assign(uses.begin(), uses.end());
+        std::sort(sorted.begin(), sorted.end());
+        for (size_t k = 1; k < sorted.size(); ++k) {
+            const auto& f = sorted[k - 1];
+            const auto& g = sorted[k];
+            if (f[0] == g[0] && f[1] == g[1]) order[size_t(g[2])] = order[size_t(f[2])] >= 0 ? order[size_t(f[2])] : f[3];
+        }
+    }
+    for (const auto& u : uses)
+        if (order[size_t(u[2])] >= 0 && !isSlit(u[0], u[1])) parent[size_t(find(u[3]))] = find(order[size_t(u[2])]);
+    // Directed edges per region, with tagged nodes.
+    auto stripSide = [&](const Poly& piece, const QuadGeom* r, int vert) -> int {
+        if (r == s.quad) return side;
+        for (const auto& sd : r->sides) {
+            if (sd.partnerId == 0 || sign(vert, sd.id) != 0) continue;
+            const QuadGeom* o = quadById(sd.partnerId);
+            if (!o) continue;
+            if (sd.orient * pieceSign(piece, sd.id) < 0) { // the piece is on the partner's half
+                if (o == s.quad) return side;
+                const int sg = pieceSign(piece, o->id);
+                if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
+                return sg;
+            }
+        }
+        const int sg = pieceSign(piece, r->id);
+        if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
+        return sg;
+    };
+    // Per root piece (ascending): (from node, to node, label).
+    auto& regionEdges = mRegionEdges;
+    if (regionEdges.size() < pieces.size()) regionEdges.resize(pieces.size());
+    for (size_t i = 0; i < pieces.size(); ++i) regionEdges[i].clear();
+    for (size_t i = 0; i < pieces.size(); ++i) {
+        if (!kept[i]) continue;
+        const Poly& p = pieces[i];
+        const size_t n = p.v.size();
+        SmallVector<int, 16> pn(n);
+        for (size_t k = 0; k < n; ++k) {
+            Tags tags;
+            for (const QuadGeom* r : mQuads) {
+                if (mPrism) break;
+                if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
+                const int sg = stripSide(p, r, p.v[k]);
+                tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
+            }
+            pn[k] = nodeOf(p.v[k], tags);
+        }
+        auto& list = regionEdges[size_t(find(int(i)))];
+        const bool reverse = s.quad && !mPrism && side > 0;
+        for (size_t k = 0; k < n; ++k) {
+            const int a = pn[k], b = pn[(k + 1) % n];
+            if (reverse) list.push_back({b, a, int64_t(p.lab[k])});
+            else list.push_back({a, b, int64_t(p.lab[k])});
+        }
+    }
+    const dvec3 outNormal = s.quad && !mPrism && side > 0 ? -s.normal : s.normal;
+    for (size_t root = 0; root < pieces.size(); ++root) {
+        const auto& edges = regionEdges[root];
+        if (edges.empty()) continue;
+        // Boundary edges: those whose reverse is not in the region.
+        auto& keys = mBoundaryKeys;
+        keys.clear();
+        for (const auto& e : edges) keys.push_back({int(e[0]), int(e[1])});
+        std::sort(keys.begin(), keys.end());
+        SmallVector<std::array<int64_t, 3>, 16> bnd;
+        for (const auto& e : edges)
+            if (!std::binary_search(keys.begin(), keys.end(), std::pair<int, int>(int(e[1]), int(e[0]))))
+                bnd.push_back(e);
+        if (bnd.empty()) continue;
+        dvec3 e1 = std::abs(outNormal.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+        e1 = glm::normalize(e1 - outNormal * glm::dot(outNormal, e1));
+        const dvec3 e2 = glm::cross(outNormal, e1);
+        auto p2 = [&](int node) {
+            const dvec3& x = mVerts[size_t(nodes[size_t(node)].vert)].pos;
+            return Vec2{glm::dot(x, e1), glm::dot(x, e2)};
+        };
+        SmallVector<char, 16> used(bnd.size(), 0);
+        Region region;
+        region.normal = outNormal;
+        region.cap = s.quad;
+        region.side = side;
+        for (size_t start = 0; start < bnd.size(); ++start) {
+            if (used[start]) continue;
+            Loop loop;
+            size_t cur = start;
+            for (size_t guard = 0; guard <= bnd.size(); ++guard) {
+                used[cur] = 1;
+                loop.nodes.push_back(int(bnd[cur][0]));
+                loop.labels.push_back(uint64_t(bnd[cur][2]));
+                const int at = int(bnd[cur][1]);
+                if (at == loop.nodes.front()) break;
+                // Next: unused edge from `at`, the most clockwise from the way back.
+                size_t best = bnd.size();
+                double bestAngle = 1e9;
+                const Vec2 pa = p2(at), pb = p2(int(bnd[cur][0]));
+                const double back = std::atan2(pb.y - pa.y, pb.x - pa.x);
+                for (size_t k = 0; k < bnd.size(); ++k) {
+                    if (used[k] || bnd[k][0] != at) continue;
+                    const Vec2 pc = p2(int(bnd[k][1]));
+                    double ang = back - std::atan2(pc.y - pa.y, pc.x - pa.x);
+                    while (ang <= 0) ang += 2 * M_PI;
+                    while (ang > 2 * M_PI) ang -= 2 * M_PI;
+                    if (ang < bestAngle) {
+                        bestAngle = ang;
+                        best = k;
+                    }
+                }
+                if (best == bnd.size()) {
+                    throw std::runtime_error("remesh: open boundary loop in cell " + cellText(mCell));
+                }
+                cur = best;
+            }
+            region.loops.push_back(std::move(loop));
+        }
+        regions.push_back(std::move(region));
+    }
+}
+
+void RemeshKernel::markCorners(SmallVector<char, 64>& corner)
+{
+    const std::vector<Node>& nodes = mNodes;
+    const auto& regions = mRegions;
     // Corners: a node is kept when it is a corner of some loop of the tet.
     // A point of a quad's rim on the tet's boundary (zero kerf) is always
     // kept: where the rim lies in a tet face (a blade edge exactly on a grid
@@ -1649,7 +1769,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         }
         return false;
     };
-    SmallVector<char, 64> corner(nodes.size(), 0);
+    corner.assign(nodes.size(), 0);
     for (const Region& r : regions) {
         for (const Loop& l : r.loops) {
             const size_t n = l.nodes.size();
@@ -1667,8 +1787,13 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             }
         }
     }
+}
 
-    // Triangulate each region.
+void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCellGeometry& out,
+                                      std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
+{
+    const std::vector<Node>& nodes = mNodes;
+    const auto& regions = mRegions;
     for (const Region& r : regions) {
         const dvec3& nrm = r.normal;
         dvec3 e1 = std::abs(nrm.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
