@@ -1357,12 +1357,26 @@ void RemeshKernel::capSurfaces()
 void RemeshKernel::chooseSplitOrder()
 {
     auto& splitOrder = mSplitOrder;
+    // A blade plane with the whole tet strictly on one side (every corner
+    // farther than kApart from it) splits nothing here: every point of the
+    // tet is on that side, none lies on it (the tie is 1e-13 (1 + |x|)),
+    // so no vertex is named by it. Its signs are still asked (sides).
+    auto apart = [&](const Plane& p) {
+        constexpr double kApart = 1e-9;
+        bool pos = true, neg = true;
+        for (int i = 0; i < 4; ++i) {
+            const double h = p.h(mT.p[i]), e = kApart * (1.0 + std::max({std::abs(mT.p[i].x), std::abs(mT.p[i].y), std::abs(mT.p[i].z)}));
+            pos = pos && h > e;
+            neg = neg && h < -e;
+        }
+        return pos || neg;
+    };
     for (const auto& pl : mPlanes)
         if (pl.first <= kIsoB) splitOrder.push_back({pl.first, nullptr});
     for (const auto& pl : mPlanes)
-        if (pl.first > kIsoB && (pl.first & 15) == kJunctionKind) splitOrder.push_back({pl.first, nullptr});
+        if (pl.first > kIsoB && (pl.first & 15) == kJunctionKind && !apart(pl.second)) splitOrder.push_back({pl.first, nullptr});
     for (const auto& pl : mPlanes) {
-        if (pl.first <= kIsoB || (pl.first & 15) == kJunctionKind) continue;
+        if (pl.first <= kIsoB || (pl.first & 15) == kJunctionKind || apart(pl.second)) continue;
         const QuadGeom* owner = nullptr;
         for (const QuadGeom* q : mQuads)
             if ((q->id >> 4) == (pl.first >> 4)) owner = q;
