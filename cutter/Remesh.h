@@ -290,8 +290,10 @@ private:
     /// match the volume there.
     void uncutCornerEdges(const openvdb::Coord& cell, std::pair<uint32_t, uint32_t> run,
                           std::vector<std::pair<uint64_t, uint64_t>>& out) const;
-    /// The local closedness check of update() over `changed` (sorted cells);
-    /// kerf: the cut has a width (then no two triangles may lie on each other).
+    /// The local check of update() over `changed` (sorted cells), in
+    /// LocalCheck.cpp: closed, 2-manifold, no triangle of zero area in float,
+    /// and with kerf (the cut has a width) no triangle crossing or touching
+    /// another. Throws std::runtime_error ("remesh: ...") naming a cell.
     void checkLocally(const std::vector<openvdb::Coord>& changed, bool kerf) const;
 };
 
