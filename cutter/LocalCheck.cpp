@@ -10,7 +10,12 @@
 
 #include <glm/common.hpp>
 
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -595,6 +600,38 @@ void checkFloatArea(const LocalRegion& reg)
 } // namespace
 
 void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) const
+{
+    // Each check is local to a changed cell's neighbourhood (the region holds
+    // every triangle that can use its edges and vertices, and every triangle
+    // that can meet its triangles), so a chunk of the changed cells checked
+    // over its own region gives that chunk's verdict. Many changed cells (a
+    // whole cut, a kerf change) are checked in chunks in parallel; only when a
+    // chunk fails is the whole set checked again on this thread, so the
+    // refusal names the cell a serial check names.
+    constexpr size_t kChunk = 1024;
+    const size_t threads = std::min(size_t(tbb::this_task_arena::max_concurrency()),
+                                    tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+    mLastCheckChunks = 0;
+    if (threads > 1 && changed.size() >= 2 * kChunk && !std::getenv("MTCUT_REMESH_DEBUG")) {
+        const size_t chunks = (changed.size() + kChunk - 1) / kChunk;
+        mLastCheckChunks = chunks;
+        std::atomic<bool> failed{false};
+        tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+            if (failed.load(std::memory_order_relaxed)) return;
+            const std::vector<Coord> part(changed.begin() + std::ptrdiff_t(c * kChunk),
+                                          changed.begin() + std::ptrdiff_t(std::min(changed.size(), (c + 1) * kChunk)));
+            try {
+                checkRegion(part, kerf);
+            } catch (const std::exception&) {
+                failed.store(true, std::memory_order_relaxed);
+            }
+        });
+        if (!failed) return;
+    }
+    checkRegion(changed, kerf);
+}
+
+void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) const
 {
     if (changed.empty()) return;
     LocalRegion reg;

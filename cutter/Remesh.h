@@ -201,6 +201,10 @@ public:
     /// junction does not reach (the kernel's input there is unchanged). Not
     /// counted in update()'s result.
     size_t lastKeptCells() const { return mLastKept; }
+    /// The chunks the last update's local check ran in parallel (0: one
+    /// serial check; a whole cut of 2,048 cells or more on several threads
+    /// is checked in chunks of 1,024).
+    size_t lastCheckChunks() const { return mLastCheckChunks; }
 
     /// For tests only: re-mesh every kept cell anyway and throw
     /// std::logic_error when the result differs from the kept geometry.
@@ -263,6 +267,7 @@ private:
     IndexFrame mSeenFrame;
     std::vector<openvdb::Coord> mLastChanged;
     size_t mLastKept = 0;
+    mutable size_t mLastCheckChunks = 0; ///< set by checkLocally
     bool mVerifyKept = false;
     const vdb::Volume* mVolume;
     float mIso;
@@ -295,6 +300,8 @@ private:
     /// and with kerf (the cut has a width) no triangle crossing or touching
     /// another. Throws std::runtime_error ("remesh: ...") naming a cell.
     void checkLocally(const std::vector<openvdb::Coord>& changed, bool kerf) const;
+    /// checkLocally over one set of changed cells, on the calling thread.
+    void checkRegion(const std::vector<openvdb::Coord>& changed, bool kerf) const;
 };
 
 /// True when `planeId` (an entry of CutVertexId::planes) is a face of the

@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 #include <glm/geometric.hpp>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
@@ -742,6 +744,83 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
         EXPECT_NE(message.find("remesh: the surface crosses or touches itself"), std::string::npos) << message;
         EXPECT_NE(message.find(where), std::string::npos) << message << " (expected " << where << ")";
         EXPECT_TRUE(sameMesh(remesher.fusedMesh(), good));
+    }
+}
+
+// A whole cut of 2,048 cells or more on several threads is checked in
+// chunks in parallel (CutRemesher::checkLocally). The chunks must give the
+// serial check's verdict: no refusal of a clean cut (chunk boundaries cross
+// the cut), and a broken cell in a late chunk refused with the same message.
+TEST(Remesh, ChunkedLocalCheckGivesTheSerialVerdict)
+{
+    const BallAndTwoStrokes ball;
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(ball.vol), kerf);
+        addStroke(mask, ball.first);
+        addStroke(mask, ball.second);
+        // The cells with new geometry, to pick a victim far along the cut.
+        std::vector<Coord> withGeometry;
+        {
+            CutRemesher probe(ball.vol, 0.0f, ball.uncut);
+            probe.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+                if (g.indices.size() >= 6) withGeometry.push_back(c);
+            });
+            probe.update(mask);
+        }
+        std::sort(withGeometry.begin(), withGeometry.end());
+        ASSERT_GT(withGeometry.size(), 100u);
+        const Coord victim = withGeometry[withGeometry.size() * 4 / 5];
+        for (int corruption : {-1, 0, 1}) { // none, drop a triangle, turn one over
+            struct Run
+            {
+                std::string message;
+                Mesh fused;
+                size_t chunks = 0;
+                size_t cutCells = 0;
+            };
+            auto run = [&](int threads) {
+                Run r;
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+                tbb::task_arena arena(threads);
+                arena.execute([&] {
+                    CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+                    remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+                        if (c != victim || corruption < 0) return;
+                        if (corruption == 0) g.indices.resize(g.indices.size() - 3);
+                        if (corruption == 1) std::swap(g.indices[0], g.indices[1]);
+                    });
+                    try {
+                        r.cutCells = remesher.update(mask);
+                    } catch (const std::runtime_error& e) {
+                        r.message = e.what();
+                    }
+                    r.chunks = remesher.lastCheckChunks();
+                    r.fused = remesher.fusedMesh();
+                });
+                return r;
+            };
+            const Run serial = run(1), chunked = run(4);
+            SCOPED_TRACE("kerf " + std::to_string(kerf) + ", corruption " + std::to_string(corruption));
+            EXPECT_EQ(serial.chunks, 0u);
+            EXPECT_GE(chunked.chunks, 2u) << "the cut was not checked in chunks";
+            EXPECT_EQ(chunked.message, serial.message);
+            EXPECT_TRUE(sameMesh(chunked.fused, serial.fused));
+            if (corruption < 0) {
+                EXPECT_EQ(serial.message, "");
+                EXPECT_GE(serial.cutCells, 2048u);
+                EXPECT_TRUE(checkMesh(serial.fused).ok());
+            } else {
+                // The failing edge's first use names the cell: the victim or
+                // the neighbour sharing the broken triangle's edge.
+                EXPECT_NE(serial.message.find("remesh: open or inconsistent surface"), std::string::npos) << serial.message;
+                const size_t at = serial.message.rfind("in cell (");
+                ASSERT_NE(at, std::string::npos) << serial.message;
+                int x = 0, y = 0, z = 0;
+                ASSERT_EQ(std::sscanf(serial.message.c_str() + at, "in cell (%d, %d, %d)", &x, &y, &z), 3);
+                EXPECT_LE(std::max({std::abs(x - victim.x()), std::abs(y - victim.y()), std::abs(z - victim.z())}), 1)
+                    << serial.message << " (the victim: " << victim << ")";
+            }
+        }
     }
 }
 
