@@ -455,6 +455,48 @@ TEST(CutCli, RefusedStrokeNamesTheCellInWorldMmAndWritesNothing)
     EXPECT_FALSE(fs::exists(out + "/fragment_002.stl"));
 }
 
+// --keep-going on the refused path above (kerf 0): the first stroke is cut
+// whole and the second up to the quad before the one the re-mesher refuses,
+// the rest of it dropped; stdout, stderr and summary.json ("refused") say so,
+// and the files check clean. On a path that goes through whole the flag
+// changes nothing but an empty "refused" list.
+TEST(CutCli, KeepGoingCutsARefusedStrokeUpToWhereItIsRefused)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string single = writeStraightPath(dir);
+    const std::string path = dir.file("twice.csv");
+    {
+        std::ofstream f(path);
+        f << readText(single) << "\nstroke\n";
+        for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",0.37,22,0.02,0,-1,45\n";
+    }
+    const std::string out = dir.file("out");
+    const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --keep-going --check");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const std::string json = readText(out + "/summary.json");
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(json, m, std::regex(R"re("refused": \[\n    \{"stroke": 2, "quads_kept": (\d+), "quads": (\d+), "message": "([^"]*)"\}\n  \])re")))
+        << json;
+    const int kept = std::stoi(m[1]), quads = std::stoi(m[2]);
+    EXPECT_LT(kept, quads);
+    EXPECT_GT(quads, 40);
+    EXPECT_EQ(std::string(m[3]).rfind("remesh: coplanar overlapping quads in cell (", 0), 0u) << m[3];
+    EXPECT_NE(r.output.find("refused:    stroke 2 cut to quad " + std::to_string(kept) + " of " + std::to_string(quads)),
+              std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("warning: 1 stroke(s) cut only in part"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("defects:                0 (valid)"), std::string::npos) << r.output;
+    EXPECT_TRUE(fs::exists(out + "/fragment_001.stl")) << "the first stroke cuts the ball in two";
+
+    const std::string a = dir.file("a"), b = dir.file("b");
+    ASSERT_EQ(runMtcut("cut " + ball + " --iso 0 --path " + single + " -o " + a + " --keep-going").exitCode, 0);
+    ASSERT_EQ(runMtcut("cut " + ball + " --iso 0 --path " + single + " -o " + b).exitCode, 0);
+    EXPECT_NE(readText(a + "/summary.json").find("\"refused\": [],\n"), std::string::npos);
+    for (const std::string file : {"fragment_000.stl", "fragment_001.stl"})
+        EXPECT_EQ(readText(a + "/" + file), readText(b + "/" + file)) << file;
+}
+
 TEST(CutCli, BadPathFileFailsNamingTheLine)
 {
     openvdb::initialize();

@@ -71,6 +71,13 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
     os << "  \"path\": " << (r.pathFile.empty() ? std::string("null") : jsonString(r.pathFile)) << ",\n";
     os << "  \"stroke\": " << jsonString(stroke) << ",\n";
     os << "  \"cut_cells\": " << cutCells << ",\n";
+    os << "  \"refused\": [";
+    for (size_t i = 0; i < r.refused.size(); ++i) {
+        const RefusedStroke& x = r.refused[i];
+        os << (i ? ",\n" : "\n") << "    {\"stroke\": " << x.stroke << ", \"quads_kept\": " << x.quadsKept
+           << ", \"quads\": " << x.quads << ", \"message\": " << jsonString(x.message) << "}";
+    }
+    os << (r.refused.empty() ? "],\n" : "\n  ],\n");
     os << "  \"fragments\": [";
     for (size_t i = 0; i < fragments.size(); ++i) {
         const FragmentRecord& f = fragments[i];

@@ -36,6 +36,16 @@ struct FragmentRecord
     double cutArea = 0.0;            ///< mm^2 of its surface on the blade (0: the cut did not touch it)
 };
 
+/// A stroke the re-mesher refused part of (mtcut cut --keep-going): it was
+/// cut up to the quad before the refused one, and the rest of it dropped.
+struct RefusedStroke
+{
+    size_t stroke = 0;     ///< 1-based, in the path file's order
+    size_t quadsKept = 0;  ///< of its quads (after the path filter), the first ones kept
+    size_t quads = 0;      ///< all its quads
+    std::string message;   ///< the re-mesher's reason, with the cell in world mm
+};
+
 /// What to write and what summary.json says about it.
 struct CutOutputRequest
 {
@@ -50,6 +60,8 @@ struct CutOutputRequest
     /// and level sets; empty = all. Files keep their index in the full list
     /// (fragment_003.stl stays fragment 3), so a partial save is unambiguous.
     std::vector<bool> selected;
+    /// Strokes cut only in part (summary's "refused"; empty: every stroke whole).
+    std::vector<RefusedStroke> refused;
 };
 
 /// Throws InputError unless `format` is stl, obj, ply or off.

@@ -75,6 +75,63 @@ std::string amountText(double v)
     return text;
 }
 
+/// --keep-going, after the re-mesher refused the whole cut: the strokes cut
+/// one after another into `mask` (fresh, of the same frame and kerf) and
+/// `remesher` (holding no cut, as a refused update leaves it). A stroke the
+/// re-mesher refuses is cut quad by quad to the last quad that goes through
+/// and the rest of it dropped, as the viewer stops a stroke where it is
+/// refused; it is listed in `refused`. The path filter sees only the quads
+/// kept. Returns the quads kept.
+size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
+                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused)
+{
+    size_t count = 0;
+    cutter::PathFilter filter(mask.frame());
+    for (size_t i = 0; i < strokes.size(); ++i) {
+        const std::vector<cutter::Quad> quads = filter.pushStroke(strokes[i]);
+        if (quads.empty()) continue;
+        mask.beginStroke();
+        for (const cutter::Quad& q : quads) mask.addQuad(q);
+        std::string why;
+        try {
+            remesher.update(mask);
+        } catch (const InputError&) {
+            throw;
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::runtime_error& e) {
+            why = e.what();
+        }
+        size_t kept = quads.size();
+        if (!why.empty()) {
+            mask.undoStroke(); // as the remesher holds it
+            mask.beginStroke();
+            kept = 0;
+            for (const cutter::Quad& q : quads) {
+                mask.addQuad(q);
+                try {
+                    remesher.update(mask);
+                } catch (const InputError&) {
+                    throw;
+                } catch (const Cancelled&) {
+                    throw;
+                } catch (const std::runtime_error& e) {
+                    why = e.what();
+                    if (kept == 0) mask.undoStroke();
+                    else mask.undoToQuad(uint32_t(kept));
+                    break;
+                }
+                ++kept;
+            }
+            if (kept < quads.size())
+                refused.push_back({i + 1, kept, quads.size(), describeRefusal(why, mask.frame(), mask.kerf())});
+        }
+        for (size_t k = 0; k < kept; ++k) filter.addEarlierQuad(quads[k]);
+        count += kept;
+    }
+    return count;
+}
+
 int runCut(const Args& args)
 {
     // -- arguments: everything checked before the long work --------------------
@@ -116,7 +173,7 @@ int runCut(const Args& args)
     bool onPhantom = false;
     if (strokes.empty()) strokes.push_back(builtinStroke(vol, frame, uncut, &onPhantom));
     cutter::CutMask mask(frame, kerf);
-    const size_t quadCount = addStrokes(mask, strokes);
+    size_t quadCount = addStrokes(mask, strokes);
     t.mask = secondsSince(t0);
 
     // -- re-mesh and fuse ---------------------------------------------------------
@@ -125,11 +182,26 @@ int runCut(const Args& args)
     std::vector<uint8_t> onBlade; // per fused triangle: a cut face
     std::vector<cutter::Fragment> fragments;
     size_t surfaceCells = 0; // cut cells with new geometry: the blade meets the solid there
+    const bool keepGoing = args.has("keep-going");
+    std::vector<RefusedStroke> refused;
     try {
         cutter::CutRemesher remesher(vol, iso, uncut);
-        {
+        bool whole = true;
+        try {
             ProgressBar progress;
             remesher.update(mask, &progress);
+        } catch (const InputError&) {
+            throw;
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::runtime_error&) {
+            if (!keepGoing) throw;
+            whole = false;
+        }
+        if (!whole) {
+            std::fprintf(stderr, "mtcut: the re-mesher refused the cut; --keep-going: cutting stroke by stroke\n");
+            mask = cutter::CutMask(frame, kerf);
+            quadCount = cutStrokeByStroke(remesher, mask, strokes, refused);
         }
         for (const auto& [cell, geometry] : remesher.cells()) surfaceCells += geometry.indices.empty() ? 0 : 1;
         std::vector<uint32_t> source;
@@ -161,6 +233,7 @@ int runCut(const Args& args)
     request.pathFile = pathFile;
     request.isovalue = iso;
     request.kerfMm = kerf;
+    request.refused = refused;
     std::vector<FragmentRecord> records;
     {
         ProgressBar progress;
@@ -172,6 +245,9 @@ int runCut(const Args& args)
                 pathFile.empty() ? (onPhantom ? "built-in LeFort I (phantom's LeFort plane)" : "built-in LeFort I")
                                  : pathFile.c_str(),
                 strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "");
+    for (const RefusedStroke& r : refused)
+        std::printf("refused:    stroke %zu cut to quad %zu of %zu, the rest dropped: %s\n", r.stroke, r.quadsKept,
+                    r.quads, r.message.c_str());
     std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),
@@ -208,6 +284,9 @@ int runCut(const Args& args)
                 fragments.size() - 1, ext.c_str());
 
     std::fflush(stdout); // warnings after the report, also when both go to one pipe
+    if (!refused.empty())
+        std::fprintf(stderr, "mtcut: warning: %zu stroke(s) cut only in part (--keep-going; summary.json \"refused\")\n",
+                     refused.size());
     if (surfaceCells == 0) {
         // Not an error (the files are a faithful, uncut copy), but almost
         // certainly not what was meant: say so rather than look like a cut.
@@ -240,13 +319,15 @@ std::vector<std::string> cutOptions()
     return o;
 }
 
-const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--check]",
+const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--check] [--keep-going]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
                             "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
                             "going back into the cut adds nothing there. --kerf: saw width in mm (0: a zero-width blade, the "
-                            "carved volume equals the input); --check: exit 1 on any mesh defect",
-                            cutOptions(), {"check"}, 1, 1, runCut});
+                            "carved volume equals the input); --check: exit 1 on any mesh defect; --keep-going: when the re-mesher refuses a "
+                            "stroke, cut it up to where it is refused, drop the rest, say so and go on (default: exit 1, "
+                            "nothing written)",
+                            cutOptions(), {"check", "keep-going"}, 1, 1, runCut});
 
 } // namespace
 
