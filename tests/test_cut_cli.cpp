@@ -477,13 +477,22 @@ TEST(CutCli, KeepGoingCutsARefusedStrokeUpToWhereItIsRefused)
     ASSERT_EQ(r.exitCode, 0) << r.output;
     const std::string json = readText(out + "/summary.json");
     std::smatch m;
-    ASSERT_TRUE(std::regex_search(json, m, std::regex(R"re("refused": \[\n    \{"stroke": 2, "quads_kept": (\d+), "quads": (\d+), "message": "([^"]*)"\}\n  \])re")))
+    ASSERT_TRUE(std::regex_search(json, m, std::regex(R"re("refused": \[\n    \{"stroke": 2, "quads_kept": (\d+), "quads": (\d+), "refused_at_t": ([-.e0-9]+), "message": "([^"]*)"\}\n  \])re")))
         << json;
     const int kept = std::stoi(m[1]), quads = std::stoi(m[2]);
     EXPECT_LT(kept, quads);
     EXPECT_GT(quads, 40);
-    EXPECT_EQ(std::string(m[3]).rfind("remesh: coplanar overlapping quads in cell (", 0), 0u) << m[3];
-    EXPECT_NE(r.output.find("refused:    stroke 2 cut to quad " + std::to_string(kept) + " of " + std::to_string(quads)),
+    EXPECT_EQ(std::string(m[4]).rfind("remesh: coplanar overlapping quads in cell (", 0), 0u) << m[4];
+    // The pose that made the refused quad: the second stroke's poses are 1 ms
+    // and 0.25 mm apart from x = -25 mm, and the refused cell holds that x.
+    const double t = std::stod(m[3]);
+    EXPECT_GT(t, 0.0);
+    EXPECT_LE(t, 0.2);
+    const std::string message = m[4];
+    std::smatch c;
+    ASSERT_TRUE(std::regex_search(message, c, std::regex(R"(centred at \(([-.0-9]+), )"))) << message;
+    EXPECT_NEAR(std::stod(c[1]), -25.0 + 250.0 * t, 1.5) << "t " << t << ": " << message;
+    EXPECT_NE(r.output.find("refused:    stroke 2 at quad " + std::to_string(kept + 1) + " of " + std::to_string(quads)),
               std::string::npos) << r.output;
     EXPECT_NE(r.output.find("warning: 1 stroke(s) cut only in part"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("defects:                0 (valid)"), std::string::npos) << r.output;

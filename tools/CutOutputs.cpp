@@ -75,7 +75,8 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
     for (size_t i = 0; i < r.refused.size(); ++i) {
         const RefusedStroke& x = r.refused[i];
         os << (i ? ",\n" : "\n") << "    {\"stroke\": " << x.stroke << ", \"quads_kept\": " << x.quadsKept
-           << ", \"quads\": " << x.quads << ", \"message\": " << jsonString(x.message) << "}";
+           << ", \"quads\": " << x.quads << ", \"refused_at_t\": " << jsonNumber(x.time)
+           << ", \"message\": " << jsonString(x.message) << "}";
     }
     os << (r.refused.empty() ? "],\n" : "\n  ],\n");
     os << "  \"fragments\": [";

@@ -43,6 +43,7 @@ struct RefusedStroke
     size_t stroke = 0;     ///< 1-based, in the path file's order
     size_t quadsKept = 0;  ///< of its quads (after the path filter), the first ones kept
     size_t quads = 0;      ///< all its quads
+    double time = 0.0;     ///< t (s) of the pose that made the refused quad
     std::string message;   ///< the re-mesher's reason, with the cell in world mm
 };
 

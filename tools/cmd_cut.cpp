@@ -88,7 +88,15 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
     size_t count = 0;
     cutter::PathFilter filter(mask.frame());
     for (size_t i = 0; i < strokes.size(); ++i) {
-        const std::vector<cutter::Quad> quads = filter.pushStroke(strokes[i]);
+        // As filter.pushStroke, knowing which pose made each quad.
+        std::vector<cutter::Quad> quads;
+        std::vector<double> times; // per quad: the time of the pose that made it
+        for (const cutter::Pose& pose : strokes[i]) {
+            filter.push(pose, quads);
+            times.resize(quads.size(), pose.time);
+        }
+        for (const cutter::Quad& q : filter.endStroke()) quads.push_back(q);
+        times.resize(quads.size(), strokes[i].empty() ? 0.0 : strokes[i].back().time);
         if (quads.empty()) continue;
         mask.beginStroke();
         for (const cutter::Quad& q : quads) mask.addQuad(q);
@@ -124,7 +132,7 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                 ++kept;
             }
             if (kept < quads.size())
-                refused.push_back({i + 1, kept, quads.size(), describeRefusal(why, mask.frame(), mask.kerf())});
+                refused.push_back({i + 1, kept, quads.size(), times[kept], describeRefusal(why, mask.frame(), mask.kerf())});
         }
         for (size_t k = 0; k < kept; ++k) filter.addEarlierQuad(quads[k]);
         count += kept;
@@ -246,8 +254,9 @@ int runCut(const Args& args)
                                  : pathFile.c_str(),
                 strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "");
     for (const RefusedStroke& r : refused)
-        std::printf("refused:    stroke %zu cut to quad %zu of %zu, the rest dropped: %s\n", r.stroke, r.quadsKept,
-                    r.quads, r.message.c_str());
+        std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
+                    "rest dropped: %s\n",
+                    r.stroke, r.quadsKept + 1, r.quads, r.time, r.quadsKept, r.message.c_str());
     std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),
