@@ -498,6 +498,22 @@ TEST(CutCli, KeepGoingCutsARefusedStrokeUpToWhereItIsRefused)
     EXPECT_NE(r.output.find("defects:                0 (valid)"), std::string::npos) << r.output;
     EXPECT_TRUE(fs::exists(out + "/fragment_001.stl")) << "the first stroke cuts the ball in two";
 
+    // mtcut render: the same refusal (named in world mm, nothing written), and
+    // with --keep-going the same partial cut, reported alike.
+    const std::string png = dir.file("cut.png");
+    const test::RunResult refusedRender = runMtcut("render " + ball + " --iso 0 --path " + path + " -o " + png + " --width 64 --height 48");
+    EXPECT_EQ(refusedRender.exitCode, 1) << refusedRender.output;
+    EXPECT_NE(refusedRender.output.find("coplanar overlapping quads in cell ("), std::string::npos) << refusedRender.output;
+    EXPECT_NE(refusedRender.output.find("mm; the re-mesher refuses"), std::string::npos) << refusedRender.output;
+    EXPECT_FALSE(fs::exists(png));
+    const test::RunResult partialRender =
+        runMtcut("render " + ball + " --iso 0 --path " + path + " -o " + png + " --width 64 --height 48 --keep-going");
+    EXPECT_EQ(partialRender.exitCode, 0) << partialRender.output;
+    EXPECT_NE(partialRender.output.find("refused:    stroke 2 at quad " + std::to_string(kept + 1) + " of " +
+                                        std::to_string(quads)),
+              std::string::npos) << partialRender.output;
+    EXPECT_TRUE(fs::exists(png));
+
     const std::string a = dir.file("a"), b = dir.file("b");
     ASSERT_EQ(runMtcut("cut " + ball + " --iso 0 --path " + single + " -o " + a + " --keep-going").exitCode, 0);
     ASSERT_EQ(runMtcut("cut " + ball + " --iso 0 --path " + single + " -o " + b).exitCode, 0);

@@ -2,6 +2,8 @@
 
 #include "cutter/Isosurface.h"
 #include "cutter/PathFile.h"
+#include "cutter/Remesh.h"
+#include "vdb/Error.h"
 
 #include <csignal>
 #include <cstdio>
@@ -113,6 +115,64 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
             filter.addEarlierQuad(q);
         }
         count += quads.size();
+    }
+    return count;
+}
+
+size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
+                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused)
+{
+    size_t count = 0;
+    cutter::PathFilter filter(mask.frame());
+    for (size_t i = 0; i < strokes.size(); ++i) {
+        // As filter.pushStroke, knowing which pose made each quad.
+        std::vector<cutter::Quad> quads;
+        std::vector<double> times; // per quad: the time of the pose that made it
+        for (const cutter::Pose& pose : strokes[i]) {
+            filter.push(pose, quads);
+            times.resize(quads.size(), pose.time);
+        }
+        for (const cutter::Quad& q : filter.endStroke()) quads.push_back(q);
+        times.resize(quads.size(), strokes[i].empty() ? 0.0 : strokes[i].back().time);
+        if (quads.empty()) continue;
+        mask.beginStroke();
+        for (const cutter::Quad& q : quads) mask.addQuad(q);
+        std::string why;
+        try {
+            remesher.update(mask);
+        } catch (const InputError&) {
+            throw;
+        } catch (const Cancelled&) {
+            throw;
+        } catch (const std::runtime_error& e) {
+            why = e.what();
+        }
+        size_t kept = quads.size();
+        if (!why.empty()) {
+            mask.undoStroke(); // as the remesher holds it
+            mask.beginStroke();
+            kept = 0;
+            for (const cutter::Quad& q : quads) {
+                mask.addQuad(q);
+                try {
+                    remesher.update(mask);
+                } catch (const InputError&) {
+                    throw;
+                } catch (const Cancelled&) {
+                    throw;
+                } catch (const std::runtime_error& e) {
+                    why = e.what();
+                    if (kept == 0) mask.undoStroke();
+                    else mask.undoToQuad(uint32_t(kept));
+                    break;
+                }
+                ++kept;
+            }
+            if (kept < quads.size())
+                refused.push_back({i + 1, kept, quads.size(), times[kept], describeRefusal(why, mask.frame(), mask.kerf())});
+        }
+        for (size_t k = 0; k < kept; ++k) filter.addEarlierQuad(quads[k]);
+        count += kept;
     }
     return count;
 }

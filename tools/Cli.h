@@ -16,6 +16,10 @@
 #include <string>
 #include <vector>
 
+namespace mtcut::cutter {
+class CutRemesher;
+}
+
 namespace mtcut::cli {
 
 /// Parsed arguments of one command. Options are "--name value" or "--name=value";
@@ -100,5 +104,27 @@ std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile);
 /// mask's quads, then each stroke's), so a stroke going back into the cut
 /// adds nothing there (PathFilter rule 2b). Returns the quads added.
 size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes);
+
+/// A stroke the re-mesher refused part of (mtcut cut --keep-going): it was
+/// cut up to the quad before the refused one, and the rest of it dropped.
+struct RefusedStroke
+{
+    size_t stroke = 0;     ///< 1-based, in the path file's order
+    size_t quadsKept = 0;  ///< of its quads (after the path filter), the first ones kept
+    size_t quads = 0;      ///< all its quads
+    double time = 0.0;     ///< t (s) of the pose that made the refused quad
+    std::string message;   ///< the re-mesher's reason, with the cell in world mm
+};
+
+/// --keep-going, once the re-mesher refused the whole cut: the strokes cut
+/// one after another into `mask` (fresh: the strokes' frame and kerf, no
+/// quads) and `remesher` (holding no cut, as a refused update leaves it). A
+/// stroke the re-mesher refuses is cut quad by quad to the last quad that
+/// goes through and the rest of it dropped, as the viewer stops a stroke
+/// where it is refused; it is listed in `refused`. The path filter sees only
+/// the quads kept. Returns the quads kept. Throws what update() throws other
+/// than a refusal (InputError, Cancelled).
+size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
+                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused);
 
 } // namespace mtcut::cli

@@ -8,6 +8,7 @@
 #include "cutter/CutMask.h"
 #include "cutter/Fusion.h"
 #include "cutter/MeshCheck.h"
+#include "tools/Cli.h"
 #include "vdb/Progress.h"
 #include "vdb/Volume.h"
 
@@ -34,17 +35,6 @@ struct FragmentRecord
     double volume = 0.0, area = 0.0; ///< mm^3 of solid (cavities taken out), mm^2
     size_t cavities = 0;             ///< cavity shells inside the outer one
     double cutArea = 0.0;            ///< mm^2 of its surface on the blade (0: the cut did not touch it)
-};
-
-/// A stroke the re-mesher refused part of (mtcut cut --keep-going): it was
-/// cut up to the quad before the refused one, and the rest of it dropped.
-struct RefusedStroke
-{
-    size_t stroke = 0;     ///< 1-based, in the path file's order
-    size_t quadsKept = 0;  ///< of its quads (after the path filter), the first ones kept
-    size_t quads = 0;      ///< all its quads
-    double time = 0.0;     ///< t (s) of the pose that made the refused quad
-    std::string message;   ///< the re-mesher's reason, with the cell in world mm
 };
 
 /// What to write and what summary.json says about it.

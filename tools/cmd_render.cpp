@@ -98,6 +98,7 @@ int runRender(const Args& args)
     // -- the cut (CPU re-mesher) ---------------------------------------------------
     render::SurfaceRenderer renderer(width, height);
     size_t cutCells = 0, fragments = 0, cutTriangles = 0;
+    std::vector<RefusedStroke> refused; // --keep-going
     if (strokes.empty()) {
         const std::vector<uint32_t> ids = render::fragmentIdsOf(uncut);
         fragments = ids.empty() ? 0 : *std::max_element(ids.begin(), ids.end());
@@ -108,7 +109,18 @@ int runRender(const Args& args)
         addStrokes(mask, strokes);
         try {
             cutter::CutRemesher remesher(vol, iso, uncut);
-            remesher.update(mask);
+            try {
+                remesher.update(mask);
+            } catch (const InputError&) {
+                throw;
+            } catch (const Cancelled&) {
+                throw;
+            } catch (const std::runtime_error&) {
+                if (!args.has("keep-going")) throw;
+                std::fprintf(stderr, "mtcut: the re-mesher refused the cut; --keep-going: cutting stroke by stroke\n");
+                mask = cutter::CutMask(frame, kerf);
+                cutStrokeByStroke(remesher, mask, strokes, refused);
+            }
             std::vector<uint32_t> source;
             const cutter::Mesh fused = remesher.fusedMesh(&source);
             const render::CutGeometry cut = render::cutGeometryOf(remesher, vol, iso);
@@ -126,7 +138,7 @@ int runRender(const Args& args)
         } catch (const Cancelled&) {
             throw;
         } catch (const std::runtime_error& e) {
-            throw InputError(e.what()); // "remesh: ... cell (i,j,k)": a configuration the kernel refuses
+            throw InputError(describeRefusal(e.what(), frame, kerf)); // a configuration the kernel refuses
         }
     }
     const double cutSeconds = secondsSince(t0);
@@ -149,6 +161,10 @@ int runRender(const Args& args)
     if (!strokes.empty()) {
         std::printf("cut:        %s, %zu cut cells, %zu cut-geometry triangles\n", pathFile.c_str(), cutCells,
                     cutTriangles);
+        for (const RefusedStroke& r : refused)
+            std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
+                        "rest dropped: %s\n",
+                        r.stroke, r.quadsKept + 1, r.quads, r.time, r.quadsKept, r.message.c_str());
     }
     std::printf("view:       %s, eye (%.1f, %.1f, %.1f) mm, target (%.1f, %.1f, %.1f) mm\n", view.c_str(), camera.eye.x,
                 camera.eye.y, camera.eye.z, camera.target.x, camera.target.y, camera.target.z);
@@ -156,6 +172,10 @@ int runRender(const Args& args)
     std::printf("time:       read %.2f s, surface and cut %.2f s, render %.2f s\n", readSeconds, cutSeconds,
                 renderSeconds);
     std::printf("wrote:      %s (%dx%d)\n", out.c_str(), width, height);
+    if (!refused.empty()) {
+        std::fflush(stdout);
+        std::fprintf(stderr, "mtcut: warning: %zu stroke(s) cut only in part (--keep-going)\n", refused.size());
+    }
     return 0;
 }
 
@@ -169,11 +189,12 @@ std::vector<std::string> renderOptions()
 const CommandRegistrar renderCommand(
     {"render",
      "render INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUT.{png,exr} [--width W --height H] "
-     "[--view front|side|top|iso|EX,EY,EZ:TX,TY,TZ[:UX,UY,UZ[:FOV]]] [--highlight]",
+     "[--view front|side|top|iso|EX,EY,EZ:TX,TY,TZ[:UX,UY,UZ[:FOV]]] [--highlight] [--keep-going]",
      "draw the isosurface (cut along PATH.csv when given) headless on the GPU into a PNG, or an EXR with RGBA, Z "
      "(depth, mm), N.X/N.Y/N.Z (world normal) and fragment (uint id) channels; default 1024x1024, front view; "
-     "--highlight colours the cut geometry",
-     renderOptions(), {"highlight"}, 1, 1, runRender});
+     "--highlight colours the cut geometry; --keep-going: a stroke the re-mesher refuses is cut up to where it is "
+     "refused, as mtcut cut --keep-going",
+     renderOptions(), {"highlight", "keep-going"}, 1, 1, runRender});
 
 } // namespace
 
