@@ -119,6 +119,22 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
     return count;
 }
 
+/// remesher.update(mask): "" when it went through, else the re-mesher's
+/// refusal; what else it throws (InputError, Cancelled) goes on.
+std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask)
+{
+    try {
+        remesher.update(mask);
+    } catch (const InputError&) {
+        throw;
+    } catch (const Cancelled&) {
+        throw;
+    } catch (const std::runtime_error& e) {
+        return e.what();
+    }
+    return {};
+}
+
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused)
 {
@@ -137,16 +153,7 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
         if (quads.empty()) continue;
         mask.beginStroke();
         for (const cutter::Quad& q : quads) mask.addQuad(q);
-        std::string why;
-        try {
-            remesher.update(mask);
-        } catch (const InputError&) {
-            throw;
-        } catch (const Cancelled&) {
-            throw;
-        } catch (const std::runtime_error& e) {
-            why = e.what();
-        }
+        std::string why = refusalOf(remesher, mask);
         size_t kept = quads.size();
         if (!why.empty()) {
             mask.undoStroke(); // as the remesher holds it
@@ -154,14 +161,8 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
             kept = 0;
             for (const cutter::Quad& q : quads) {
                 mask.addQuad(q);
-                try {
-                    remesher.update(mask);
-                } catch (const InputError&) {
-                    throw;
-                } catch (const Cancelled&) {
-                    throw;
-                } catch (const std::runtime_error& e) {
-                    why = e.what();
+                why = refusalOf(remesher, mask);
+                if (!why.empty()) {
                     if (kept == 0) mask.undoStroke();
                     else mask.undoToQuad(uint32_t(kept));
                     break;

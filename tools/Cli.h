@@ -124,6 +124,10 @@ struct RefusedStroke
 /// where it is refused; it is listed in `refused`. The path filter sees only
 /// the quads kept. Returns the quads kept. Throws what update() throws other
 /// than a refusal (InputError, Cancelled).
+/// remesher.update(mask): "" when it went through, else the re-mesher's
+/// refusal ("remesh: ..."); InputError and Cancelled are thrown on.
+std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask);
+
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused);
 

@@ -109,14 +109,8 @@ int runRender(const Args& args)
         addStrokes(mask, strokes);
         try {
             cutter::CutRemesher remesher(vol, iso, uncut);
-            try {
-                remesher.update(mask);
-            } catch (const InputError&) {
-                throw;
-            } catch (const Cancelled&) {
-                throw;
-            } catch (const std::runtime_error&) {
-                if (!args.has("keep-going")) throw;
+            if (const std::string why = refusalOf(remesher, mask); !why.empty()) {
+                if (!args.has("keep-going")) throw InputError(describeRefusal(why, frame, kerf));
                 std::fprintf(stderr, "mtcut: the re-mesher refused the cut; --keep-going: cutting stroke by stroke\n");
                 mask = cutter::CutMask(frame, kerf);
                 cutStrokeByStroke(remesher, mask, strokes, refused);
