@@ -1695,6 +1695,23 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
     expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
 }
 
+// The tooth at 400, kerf 0, random strokes seed 1018, stroke 3: in the face
+// x = 84 of cells (83, 24, 19) and (84, 24, 19) the iso line and the blade's
+// line cross twice, 1e-5 mm apart, on either side of the face's diagonal.
+// The face rule merged both crossings into the blade's vertex on the
+// diagonal; the second merge failed the link condition (the iso vertex on
+// the diagonal was a common neighbour) and 94c87e6's tent rule cancelled
+// triangles in both cells, leaving the lens between the two lines as a
+// closed bubble in each: the edge between it and the blade's vertex used
+// twice each way (refused). The same refused seed 1026 at kerf 0.5. A
+// common neighbour inside the face now keeps the pair apart in both cells.
+TEST(CutPropsDefects, AFacePairWithACommonNeighbourInTheFaceStaysApart)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanRandomCut(path, "tooth at 400", 1018, 4, 0.0);
+    expectCleanRandomCut(path, "tooth at 400", 1026, 4, 0.5);
+}
+
 // The 1 mm head at kerf 1 (and 0.9 to 2; not 0.5), random strokes seed 3015,
 // the first stroke: a non-planar stick split into two triangles, one a 50 mm
 // sliver whose sharp end lies in cell (259, 332, 168). There its prism's two
