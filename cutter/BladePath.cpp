@@ -759,8 +759,9 @@ LeFortOptions leFortOptionsFittedTo(const std::vector<glm::vec3>& bone)
         }
     options.boxLo = lo;
     options.boxHi = hi;
+    options.path = LeFortOptions::Path::Across;
     options.zFraction = 0.42;
-    options.faceFraction = 0.25;
+    options.reachFraction = 0.52;
     options.jitter = 0.0;
     options.tilt = 0.1;
     return options;
@@ -772,6 +773,31 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
     const glm::dvec3 lo = box ? o.boxLo : frame.toWorld(glm::dvec3(0.0));
     const glm::dvec3 hi = box ? o.boxHi : frame.toWorld(glm::dvec3(glm::max(frame.dims - 1, glm::ivec3(0))));
     const glm::dvec3 size = hi - lo;
+    // Hand tremor; none at all when jitter is 0 (a normal distribution needs
+    // a positive deviation).
+    std::mt19937 rng(o.seed);
+    std::normal_distribution<double> noise(0.0, o.jitter > 0.0 ? o.jitter : 1.0);
+    auto tremor = [&] {
+        if (!(o.jitter > 0.0)) return glm::dvec3(0.0);
+        return glm::dvec3(noise(rng), noise(rng), noise(rng));
+    };
+    if (o.path == LeFortOptions::Path::Across) {
+        constexpr double kMargin = 10.0; // mm in front of the box and past its sides
+        const double x0 = lo.x - kMargin, x1 = hi.x + kMargin, y = lo.y - kMargin;
+        const double z = lo.z + o.zFraction * size.z;
+        const glm::dvec3 direction(0.0, std::cos(o.tilt), -std::sin(o.tilt));
+        const double length = (lo.y + o.reachFraction * size.y - y) / direction.y;
+        const int count = std::max(2, int((x1 - x0) / o.speed * o.rate));
+        std::vector<Pose> poses(static_cast<size_t>(count));
+        for (int i = 0; i < count; ++i) {
+            Pose& pose = poses[size_t(i)];
+            pose.time = double(i) / o.rate;
+            pose.base = glm::dvec3(x0 + (x1 - x0) * double(i) / double(count - 1), y, z) + tremor();
+            pose.direction = direction;
+            pose.length = length;
+        }
+        return poses;
+    }
     const double cx = lo.x + 0.5 * size.x;
     const double cy = lo.y + o.faceFraction * size.y;
     const double z = lo.z + o.zFraction * size.z;
@@ -788,8 +814,6 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
     // Half ellipse over the face side (y < cy): angle from pi (left, -x) .. 2 pi.
     const double arc = 3.14159265358979 * 0.5 * (ax + ay); // approx half perimeter
     const int count = std::max(2, int(arc / o.speed * o.rate));
-    std::mt19937 rng(o.seed);
-    std::normal_distribution<double> noise(0.0, o.jitter);
     std::vector<Pose> poses;
     poses.reserve(size_t(count));
     for (int i = 0; i < count; ++i) {
@@ -803,8 +827,7 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
         inward = glm::dvec3(std::cos(o.tilt) * inward.x, std::cos(o.tilt) * inward.y, -std::sin(o.tilt));
         Pose pose;
         pose.time = double(i) / o.rate;
-        pose.base = p + 0.3 * bladeLength * outward +
-                    glm::dvec3(noise(rng), noise(rng), noise(rng));
+        pose.base = p + 0.3 * bladeLength * outward + tremor();
         pose.direction = inward;
         pose.length = bladeLength;
         poses.push_back(pose);

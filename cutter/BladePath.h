@@ -427,19 +427,33 @@ void voxelizeCut(const Quad& quad, double kerfMm, const IndexFrame& frame, std::
 // ---------------------------------------------------------------------------
 // Path generators (tests and benchmarks)
 
-/// A LeFort I-like osteotomy: one horizontal stroke around the front (-y
-/// side, the face) of the maxilla, the blade pointing posteriorly (+y) and
-/// slightly inward, cutting a horizontal plane above the teeth. Geometry is a
-/// fraction of the scan box so it lands on the head phantom: the stroke is
-/// a half ellipse centred at x = box centre, in the plane z = zFraction of the
-/// box height, from the left to the right side of the face.
+/// A LeFort I-like osteotomy: one horizontal stroke in front of the face (-y
+/// side), the blade pointing posteriorly (+y), cutting a plane above the
+/// teeth. Geometry is a fraction of a box (the scan box, or boxLo..boxHi) so
+/// it lands on the head phantom and on a fitted head. Two paths:
+/// - HalfEllipse (the default; the phantom's LeFort plane): the base runs a
+///   half ellipse centred at x = box centre, in the plane z = zFraction of
+///   the box height, from the left to the right side of the face, every
+///   blade aiming at one focus behind the front;
+/// - Across (leFortOptionsFittedTo): the base runs straight along x across
+///   the box's whole width, 10 mm in front of it and 10 mm past each side,
+///   the blade's tip reaching reachFraction of the box depth behind its
+///   front: on a head scan a plane through the whole face at that height,
+///   short of the spine.
 struct LeFortOptions
 {
-    double zFraction = 0.32;   ///< height of the cut in the box, 0 = bottom
-    double halfWidthFraction = 0.16; ///< x half-axis of the ellipse / box width
-    double depthFraction = 0.16;     ///< y half-axis / box depth
-    double faceFraction = 0.30;      ///< y of the ellipse centre / box depth from -y
-    double bladeLength = 30.0;       ///< mm
+    enum class Path
+    {
+        HalfEllipse,
+        Across,
+    };
+    Path path = Path::HalfEllipse;
+    double zFraction = 0.32;   ///< height of the cut in the box, 0 = bottom (Across: at the box's front)
+    double halfWidthFraction = 0.16; ///< HalfEllipse: x half-axis of the ellipse / box width
+    double depthFraction = 0.16;     ///< HalfEllipse: y half-axis / box depth
+    double faceFraction = 0.30;      ///< HalfEllipse: y of the ellipse centre / box depth from -y
+    double reachFraction = 0.52;     ///< Across: y of the blade's tip / box depth from -y
+    double bladeLength = 30.0;       ///< mm (HalfEllipse; Across: as long as the reach needs)
     double speed = 10.0;             ///< mm/s of the base
     double rate = 1000.0;            ///< poses per second
     double jitter = 0.05;            ///< mm of hand tremor (seeded)
@@ -452,9 +466,14 @@ struct LeFortOptions
 std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions& options = {});
 /// LeFortOptions fitted to a head scan from the vertex to the neck through
 /// its bone's points (world mm, e.g. the isosurface's vertices): the
-/// fractions refer to their bounding box, the ellipse at 42 % of its height
-/// with its front a quarter of its depth back (through the maxilla), no
-/// tremor, the blade sloping down 0.1 rad. The defaults when `bone` is empty.
+/// fractions refer to their bounding box; the path goes Across at 42 % of
+/// its height, the tip reaching 52 % of its depth, no tremor, the blade
+/// sloping down 0.1 rad. On the VHM head (1, 2 and 4 mm) that frees the
+/// lower face: the maxilla with the upper teeth, and the mandible, whose
+/// teeth touch them in the scan, its rami cut in the same plane. Reaches of
+/// 47-56 % do so on all three; 45 % stops short of the rami's back edges
+/// (nothing comes off), 58 % cuts the spine too (the 1 and 4 mm heads lose
+/// the neck). The defaults when `bone` is empty.
 LeFortOptions leFortOptionsFittedTo(const std::vector<glm::vec3>& bone);
 
 /// Seeded random strokes inside the scan box: smooth random walks of the base

@@ -1024,3 +1024,38 @@ TEST(Generators, LeFortAndRandomStrokesAreValidPaths)
     ASSERT_EQ(strokes.size(), 5u);
     for (const auto& st : strokes) EXPECT_NO_THROW(filterStroke(st, head));
 }
+
+// The stroke fitted to a bone box (mtcut cut's default on a head scan): the
+// base runs straight along x from 10 mm left of the box to 10 mm right of
+// it, 10 mm in front of it, at 42 % of its height; every blade points
+// posteriorly, 0.1 rad down, its tip at 52 % of the box depth.
+TEST(Generators, FittedLeFortStrokeCrossesTheWholeBoxToItsReach)
+{
+    const std::vector<glm::vec3> bone{{186.0f, 145.0f, 1000.0f}, {322.0f, 342.0f, 1244.0f}, {250.0f, 200.0f, 1100.0f}};
+    const LeFortOptions o = leFortOptionsFittedTo(bone);
+    EXPECT_EQ(o.path, LeFortOptions::Path::Across);
+    IndexFrame head;
+    head.dims = ivec3(512, 512, 245);
+    head.origin = dvec3(0.0, 0.0, 1000.0);
+    const std::vector<Pose> poses = makeLeFortStroke(head, o);
+    ASSERT_EQ(poses.size(), 15600u); // 156 mm at 10 mm/s, 1 kHz
+    EXPECT_DOUBLE_EQ(poses.front().base.x, 176.0);
+    EXPECT_DOUBLE_EQ(poses.back().base.x, 332.0);
+    const double z = 1000.0 + 0.42 * 244.0, reachY = 145.0 + 0.52 * 197.0;
+    for (size_t i = 0; i < poses.size(); ++i) {
+        const Pose& p = poses[i];
+        ASSERT_EQ(p.base.y, 135.0) << i;
+        ASSERT_EQ(p.base.z, z) << i;
+        ASSERT_NEAR(p.direction.y, std::cos(0.1), 1e-15) << i;
+        ASSERT_NEAR(p.direction.z, -std::sin(0.1), 1e-15) << i;
+        ASSERT_EQ(p.direction.x, 0.0) << i;
+        ASSERT_NEAR((p.base + p.length * p.direction).y, reachY, 1e-9) << i;
+        if (i > 0) {
+            ASSERT_GT(p.base.x, poses[i - 1].base.x) << i;
+        }
+        ASSERT_DOUBLE_EQ(p.time, double(i) / 1000.0) << i;
+    }
+    EXPECT_NO_THROW(filterStroke(poses, head));
+    // No bone, no box: the phantom's half ellipse, as before.
+    EXPECT_EQ(leFortOptionsFittedTo({}).path, LeFortOptions::Path::HalfEllipse);
+}

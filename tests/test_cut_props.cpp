@@ -1788,7 +1788,10 @@ TEST(CutPropsDefects, AnIsoRegionWithACrackInsideIsTriangulated)
 // folded it over; then 3, where a chord of an iso region passed within
 // 50 nm of such a seam corner (a grid-edge vertex a few um from the
 // seam). Regions of up to 9 corners now take the triangulation whose worst
-// triangle is best (bestTriangulation, kerf > 0).
+// triangle is best (bestTriangulation, kerf > 0). The stroke now crosses
+// the whole face (LeFortOptions::Path::Across) and frees the lower face:
+// the maxilla with the upper teeth and the mandible (65,635 mm^3, 1,031 mm^2
+// of cut face), which the 30 mm half ellipse it replaced did not.
 TEST(CutPropsDefects, LeFortCutOfThe1mmHeadWithKerfDoesNotIntersectItself)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
@@ -1798,10 +1801,19 @@ TEST(CutPropsDefects, LeFortCutOfThe1mmHeadWithKerfDoesNotIntersectItself)
     addStroke(mask, makeLeFortStroke(mask.frame(), leFortOptionsFittedTo(uncut.positions)));
     CutRemesher remesher(vol, 400.0f, uncut);
     UPDATE_OR_SKIP(remesher, mask);
-    const Mesh fused = remesher.fusedMesh();
+    std::vector<uint32_t> source;
+    const Mesh fused = remesher.fusedMesh(&source);
     const MeshCheck check = checkMesh(fused);
     EXPECT_TRUE(check.ok()) << check.report();
-    EXPECT_GT(fragmentsOf(fused).size(), 1u) << "the stroke no longer cuts the maxilla off";
+    // The freed lower face: the second fragment, a tenth of the skull's
+    // volume or more, with a cut face of its own (the rest are specks).
+    const std::vector<Fragment> pieces = fragmentsOf(fused, remesher.bladeTriangles(source));
+    ASSERT_GE(pieces.size(), 2u);
+    std::printf("LeFort, 1 mm head, kerf 0.5: fragments of %.1f and %.1f mm^3, %.1f and %.1f mm^2 cut\n",
+                pieces[0].volume, pieces[1].volume, pieces[0].cutArea, pieces[1].cutArea);
+    EXPECT_GT(pieces[1].volume, 0.1 * pieces[0].volume) << "the stroke no longer frees the lower face";
+    EXPECT_GT(pieces[1].cutArea, 500.0);
+    EXPECT_GT(pieces[0].cutArea, 500.0);
     const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
     std::printf("LeFort, 1 mm head, kerf 0.5: %zu cut cells, %zu intersecting pairs near the cut (%.1f s)\n",
                 remesher.cells().size(), t.pairs, t.findSeconds);
