@@ -6,6 +6,7 @@
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/MeshIO.h"
+#include "cutter/PathFile.h"
 #include "vdb/VolumeIO.h"
 
 #include <openvdb/openvdb.h>
@@ -590,18 +591,43 @@ TEST(CutCli, DemoLeFortStrokeSeparatesThePhantomMaxilla)
 }
 
 // The built-in stroke fitted to a small bone box (the 103 x 94 x 161 mm tooth
-// scan): every blade points at one focus, and a 30 mm blade passed through it
-// from every pose, so one cell held all 78 quads and the re-mesher ran for
-// minutes. makeLeFortStroke now shortens the blade to stop short of the focus
-// (at most 9 quads in a cell there); the cut must finish clean, both kerfs.
+// scan). When it was a half ellipse whose blades all aimed at one focus, a
+// 30 mm blade passed through it from every pose, so one cell held all 78
+// quads and the re-mesher ran for minutes; the cut must finish clean, both
+// kerfs. The built-in stroke's poses are written to stroke.csv, and cutting
+// along that file gives the same cut; a cut along a path file writes none
+// and removes the one an earlier run left.
 TEST(CutCli, BuiltInStrokeOnTheToothScanIsClean)
 {
     MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
     TempDir dir;
+    const std::string out = dir.file("out"), replay = dir.file("replay");
+    // summary.json from the cut cells to the timings: what was cut and written.
+    auto cutPart = [](const std::string& json) {
+        const size_t a = json.find("\"cut_cells\""), b = json.find("\"timings_s\"");
+        return a == std::string::npos || b == std::string::npos ? std::string() : json.substr(a, b - a);
+    };
     for (const char* kerf : {"0", "0.5"}) {
-        const auto cut = runMtcut("cut " + tooth + " --iso 656 --kerf " + kerf + " -o " + dir.file("out") + " --check");
+        const auto cut = runMtcut("cut " + tooth + " --iso 656 --kerf " + kerf + " -o " + out + " --check");
         ASSERT_EQ(cut.exitCode, 0) << cut.output;
         EXPECT_NE(cut.output.find("defects:                0 (valid)"), std::string::npos) << cut.output;
         EXPECT_NE(cut.output.find("built-in LeFort I"), std::string::npos) << cut.output;
+        EXPECT_NE(cut.output.find("stroke.csv, summary.json}"), std::string::npos) << cut.output;
+        const std::string json = readText(out + "/summary.json");
+        EXPECT_NE(json.find("\"stroke_file\": \"stroke.csv\","), std::string::npos) << json;
+        ASSERT_TRUE(fs::exists(out + "/stroke.csv"));
+        EXPECT_EQ(cutter::readPathFile(out + "/stroke.csv").size(), 1u);
+
+        const auto again = runMtcut("cut " + tooth + " --iso 656 --kerf " + kerf + " --path " + out +
+                                    "/stroke.csv -o " + replay + " --check");
+        ASSERT_EQ(again.exitCode, 0) << again.output;
+        const std::string replayed = readText(replay + "/summary.json");
+        EXPECT_NE(replayed.find("\"stroke_file\": null,"), std::string::npos) << replayed;
+        EXPECT_FALSE(fs::exists(replay + "/stroke.csv"));
+        EXPECT_FALSE(cutPart(json).empty()) << json;
+        EXPECT_EQ(cutPart(replayed), cutPart(json));
     }
+    fs::copy_file(out + "/stroke.csv", dir.file("path.csv"));
+    ASSERT_EQ(runMtcut("cut " + tooth + " --iso 656 --path " + dir.file("path.csv") + " -o " + out).exitCode, 0);
+    EXPECT_FALSE(fs::exists(out + "/stroke.csv")) << "an earlier run's stroke.csv is not this cut's";
 }

@@ -1,6 +1,7 @@
 #include "tools/CutOutputs.h"
 
 #include "cutter/MeshIO.h"
+#include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
 #include "vdb/AtomicFile.h"
 #include "vdb/CutOutputs.h"
@@ -70,6 +71,7 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
     os << "  \"kerf_mm\": " << jsonNumber(r.kerfMm) << ",\n";
     os << "  \"path\": " << (r.pathFile.empty() ? std::string("null") : jsonString(r.pathFile)) << ",\n";
     os << "  \"stroke\": " << jsonString(stroke) << ",\n";
+    os << "  \"stroke_file\": " << (r.strokesWithoutFile.empty() ? "null" : "\"stroke.csv\"") << ",\n";
     os << "  \"cut_cells\": " << cutCells << ",\n";
     os << "  \"refused\": [";
     for (size_t i = 0; i < r.refused.size(); ++i) {
@@ -196,6 +198,17 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     const auto tSlices = Clock::now();
     vdb::writeSliceStack(exrPath, carved, cutMaskGrid, request.isovalue, interrupter);
     timings.writeSlices = since(tSlices);
+    const std::string strokePath = (fs::path(outDir) / "stroke.csv").string();
+    if (!request.strokesWithoutFile.empty()) {
+        writeFileAtomically(strokePath, [&](const std::string& tmp) {
+            std::ofstream out(tmp, std::ios::binary);
+            cutter::writePath(out, request.strokesWithoutFile);
+            out.close();
+            if (!out) throw InputError(strokePath + ": cannot write");
+        });
+    } else {
+        fs::remove(strokePath, ec); // an earlier run's built-in stroke: not this cut's
+    }
     timings.write = since(t0);
     const std::string json = summaryJson(request, mask.cutCellCount(), records, check, timings);
     writeFileAtomically(jsonPath, [&](const std::string& tmp) {

@@ -1,10 +1,11 @@
 // The outputs of a cut, as `mtcut cut -o OUTDIR` writes them and the viewer
 // saves them: fragment_NNN.{stl,obj,ply,off} (one closed mesh per fragment,
-// largest first), cut.vdb (vdb/CutOutputs.h), slices.exr (vdb/SliceExr.h) and
-// summary.json (written last). Every file is atomic; nothing is written before
+// largest first), cut.vdb (vdb/CutOutputs.h), slices.exr (vdb/SliceExr.h),
+// stroke.csv (a built-in stroke's poses) and summary.json (written last). Every file is atomic; nothing is written before
 // the caller has the whole cut.
 #pragma once
 
+#include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 #include "cutter/Fusion.h"
 #include "cutter/MeshCheck.h"
@@ -53,6 +54,13 @@ struct CutOutputRequest
     std::vector<bool> selected;
     /// Strokes cut only in part (summary's "refused"; empty: every stroke whole).
     std::vector<RefusedStroke> refused;
+    /// The poses cut when no path file holds them (mtcut cut's built-in
+    /// stroke): written to stroke.csv in the path file format
+    /// (cutter/PATH_FORMAT.md), so the cut can be rendered (`mtcut render
+    /// --path`), replayed or edited; summary's "stroke_file" names it. Empty:
+    /// no stroke.csv (one an earlier run left is removed) and "stroke_file"
+    /// is null.
+    std::vector<std::vector<cutter::Pose>> strokesWithoutFile;
 };
 
 /// Throws InputError unless `format` is stl, obj, ply or off.

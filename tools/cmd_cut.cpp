@@ -177,6 +177,7 @@ int runCut(const Args& args)
     request.isovalue = iso;
     request.kerfMm = kerf;
     request.refused = refused;
+    if (pathFile.empty()) request.strokesWithoutFile = strokes;
     std::vector<FragmentRecord> records;
     {
         ProgressBar progress;
@@ -224,8 +225,8 @@ int runCut(const Args& args)
     std::printf("time:       read %.2f s, extract %.2f s, mask %.2f s, remesh %.2f s, check %.2f s, write %.2f s\n"
                 "            (write: fragment files %.2f s, cut.vdb with the level sets %.2f s, slices.exr %.2f s)\n",
                 t.read, t.extract, t.mask, t.remesh, t.check, t.write, t.writeMeshes, t.writeVdb, t.writeSlices);
-    std::printf("wrote:      %s/{fragment_000..%03zu.%s, cut.vdb, slices.exr, summary.json}\n", outDir.c_str(),
-                fragments.size() - 1, ext.c_str());
+    std::printf("wrote:      %s/{fragment_000..%03zu.%s, cut.vdb, slices.exr, %ssummary.json}\n", outDir.c_str(),
+                fragments.size() - 1, ext.c_str(), pathFile.empty() ? "stroke.csv, " : "");
 
     std::fflush(stdout); // warnings after the report, also when both go to one pipe
     if (!refused.empty())
