@@ -96,7 +96,9 @@ struct CutVertexId
     std::array<uint64_t, 3> feature{};
     std::array<uint64_t, 8> planes{}; ///< sorted plane ids (1 = iso surface)
     /// Sorted side tags (quad plane id << 1 | minus); kerf > 0: 2^63 | k for
-    /// the k-th copy of a vertex where the removed region pinches.
+    /// the k-th copy of a vertex where the removed region pinches (inside a
+    /// tet, or an isosurface vertex on a grid edge that touches one of its
+    /// planes there).
     std::array<uint64_t, 4> tags{};
 
     bool operator==(const CutVertexId& o) const;

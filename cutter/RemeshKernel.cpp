@@ -468,6 +468,8 @@ private:
     /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
     void pushSimple(Poly o, std::vector<Poly>& out);
     void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
+    void splitIsoPinches(CutCellGeometry& out);
+    bool isoStarOffPlane(const CutVertexId& v, const Plane& plane);
     // ---- remeshTet, phase by phase (its state: the members below and above)
     struct Surface
     {
@@ -969,7 +971,104 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
         }
         remeshTet(out, cellIndex);
     }
-    if (mPrism) splitPinches(cell, out);
+    if (mPrism) {
+        splitPinches(cell, out);
+        splitIsoPinches(out);
+    }
+}
+
+/// Kerf > 0: a marching-tetrahedra vertex exactly on one plane of the removed
+/// region (integer CT values put a crossing at a quarter of an edge, and a
+/// stroke at a whole-mm height with a 0.5 mm kerf puts an offset plane
+/// there: 1 mm head, z = 1106 mm) whose isosurface star lies strictly on one
+/// side of that plane: the isosurface touches the plane at that one point,
+/// so the surface is a cone of it and the disc of cap round it, meeting only
+/// there (a pinch). The vertex is on a grid edge, and the cells round the
+/// edge each hold part of both: the cap triangles at it get a copy of the
+/// vertex (pinch tag 1), as splitPinches does inside a tet. The rule is a
+/// function of the edge's tets and the plane alone, so every cell round the
+/// edge applies it alike.
+void RemeshKernel::splitIsoPinches(CutCellGeometry& out)
+{
+    const uint32_t nv = uint32_t(out.vertexIds.size());
+    for (uint32_t v = 0; v < nv; ++v) {
+        const CutVertexId& id = out.vertexIds[v];
+        if (id.dim != 1 || id.planeCount != 2 || id.planes[0] != 1 || id.tagCount != 0) continue;
+        const uint64_t planeId = id.planes[1];
+        const Plane* plane = nullptr;
+        for (const QuadGeom& q : *mCellQuads) {
+            if (q.id == planeId) plane = &q.pi;
+            for (const QuadGeom::Side& side : q.sides)
+                if (side.id == planeId) plane = &side.plane;
+        }
+        if (!plane || !isoStarOffPlane(id, *plane)) continue;
+        auto onPlane = [&](uint32_t w) {
+            const CutVertexId& k = out.vertexIds[w];
+            return std::binary_search(k.planes.begin(), k.planes.begin() + k.planeCount, planeId);
+        };
+        uint32_t copy = UINT32_MAX;
+        for (size_t t = 0; t + 2 < out.indices.size(); t += 3) {
+            uint32_t* tri = &out.indices[t];
+            if ((tri[0] != v && tri[1] != v && tri[2] != v) || !onPlane(tri[0]) || !onPlane(tri[1]) || !onPlane(tri[2]))
+                continue;
+            if (copy == UINT32_MAX) {
+                CutVertexId c = id;
+                c.tags[c.tagCount++] = kPinchTag | 1u;
+                copy = uint32_t(out.vertexIds.size());
+                out.vertexIds.push_back(c);
+                out.indexPositions.push_back(out.indexPositions[v]);
+            }
+            for (int k = 0; k < 3; ++k)
+                if (tri[k] == v) tri[k] = copy;
+        }
+    }
+}
+
+/// Whether every marching-tetrahedra crossing of the tets round grid edge
+/// v.feature[0..1] (in every cell that has the edge), but v's own, lies
+/// strictly on one side of `plane`: v's isosurface star then meets the plane
+/// at v alone.
+bool RemeshKernel::isoStarOffPlane(const CutVertexId& v, const Plane& plane)
+{
+    const Coord a = gridVertexCoord(v.feature[0]), b = gridVertexCoord(v.feature[1]);
+    const Coord lo(std::min(a.x(), b.x()), std::min(a.y(), b.y()), std::min(a.z(), b.z()));
+    auto local = [](const Coord& g, const Coord& c) {
+        const Coord d = g - c;
+        if (d.x() < 0 || d.y() < 0 || d.z() < 0 || d.x() > 1 || d.y() > 1 || d.z() > 1) return -1;
+        return d.x() | d.y() << 1 | d.z() << 2;
+    };
+    auto sample = [&](const Coord& g, float& value) {
+        const bool inBox = g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < mDims.x() && g.y() < mDims.y() &&
+                           g.z() < mDims.z();
+        value = inBox ? this->value(g) : mBackground;
+        return inBox && value >= mIso;
+    };
+    int side = 0;
+    for (int e = 0; e < 8; ++e) {
+        const Coord c = lo - Coord(e & 1, e >> 1 & 1, e >> 2 & 1);
+        const int la = local(a, c), lb = local(b, c);
+        if (la < 0 || lb < 0) continue;
+        for (const auto& tet : cellTets(cellParity(c.x(), c.y(), c.z()))) {
+            if (std::find(tet.begin(), tet.end(), la) == tet.end() || std::find(tet.begin(), tet.end(), lb) == tet.end())
+                continue;
+            for (int i = 0; i < 4; ++i)
+                for (int j = i + 1; j < 4; ++j) {
+                    if ((tet[size_t(i)] == la && tet[size_t(j)] == lb) || (tet[size_t(i)] == lb && tet[size_t(j)] == la))
+                        continue; // v's own edge
+                    Coord gl = c + Coord(tet[size_t(i)] & 1, tet[size_t(i)] >> 1 & 1, tet[size_t(i)] >> 2 & 1);
+                    Coord gh = c + Coord(tet[size_t(j)] & 1, tet[size_t(j)] >> 1 & 1, tet[size_t(j)] >> 2 & 1);
+                    if (gridVertexId(gh.x(), gh.y(), gh.z()) < gridVertexId(gl.x(), gl.y(), gl.z())) std::swap(gl, gh);
+                    float vl, vh;
+                    if (sample(gl, vl) == sample(gh, vh)) continue;
+                    const dvec3 pl(gl.x(), gl.y(), gl.z()), ph(gh.x(), gh.y(), gh.z());
+                    const double h = plane.h(pl + edgeCrossing(vl, vh, mIso) * (ph - pl));
+                    const int s = h > 0 ? 1 : h < 0 ? -1 : 0;
+                    if (s == 0 || (side != 0 && s != side)) return false;
+                    side = s;
+                }
+        }
+    }
+    return side != 0;
 }
 
 namespace {

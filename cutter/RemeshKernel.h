@@ -30,7 +30,9 @@ constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local 
 constexpr int kJunctionKind = 7;
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
 /// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
-/// vertex inside a tet where the removed region's boundary pinches.
+/// vertex inside a tet where the removed region's boundary pinches; k = 1
+/// also for the cap's copy of a marching-tetrahedra vertex exactly on a
+/// plane of the removed region that the isosurface only touches there.
 constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 
 inline uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)

@@ -1695,6 +1695,42 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
     expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
 }
 
+// The 1 mm head at kerf 0.5, a straight stroke at the whole-mm height z =
+// 1106 mm with the blade level: the prism's top plane z = 1106.25 holds a
+// marching-tetrahedra vertex exactly (integer CT values put it at a quarter
+// of its grid edge), and the isosurface round it lies above the plane, so
+// the surface touches itself there: a cone of isosurface and a disc of cap
+// meeting at one point on the grid edge (222, 184, 1106)-(223, 184, 1107),
+// which two cells share. Each cell held part of both; the vertex had two
+// fans and the cut was refused ("a vertex where the surface pinches"). The
+// cap's triangles at such a vertex now take a copy of it, in both cells.
+TEST(CutPropsDefects, AnIsoVertexTouchingAKerfPlaneIsAPinchInEveryCellRoundIt)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    const vdb::Volume vol = vdb::readVolume(dir);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.5);
+    std::vector<Pose> poses(2001);
+    for (size_t i = 0; i < poses.size(); ++i) {
+        poses[i].time = double(i) / 1000.0;
+        poses[i].base = glm::dvec3(212.0 + 0.01 * double(i), 135.0, 1106.0);
+        poses[i].direction = glm::dvec3(0.0, 1.0, 0.0);
+        poses[i].length = 110.0;
+    }
+    addStroke(mask, poses);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const UpdateResult r = tryUpdate(remesher, mask);
+    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    std::printf("1 mm head, level stroke at z = 1106 mm, kerf 0.5: %zu cut cells, %zu intersecting pairs, %zu pinch "
+                "contacts\n", remesher.cells().size(), t.pairs, t.pinchContacts);
+    EXPECT_EQ(t.pairs, 0u);
+    EXPECT_GT(t.pinchContacts, 0u); // the touching cone and disc
+}
+
 // The tooth at 400, kerf 0, random strokes seed 1018, stroke 3: in the face
 // x = 84 of cells (83, 24, 19) and (84, 24, 19) the iso line and the blade's
 // line cross twice, 1e-5 mm apart, on either side of the face's diagonal.
