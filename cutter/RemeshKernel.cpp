@@ -661,12 +661,23 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
     on.erase(std::unique(on.begin(), on.end()), on.end());
     // Prisms: the offset planes of two quads meet on their mitre (it bisects
     // them), so a point on the mitre and on one quad's offset plane is on the
-    // partner's same-side offset plane too.
+    // partner's same-side offset plane too; a point in neither closed prism
+    // is on no face of them, and names none of their planes (the cells round
+    // it need not know the quads: a level stroke whose tip face lies in a grid
+    // plane, 1 mm head at z = 1106 mm, kerf 1, named a crossing one grid step
+    // beyond the tip by the mitre in one cell and by nothing in the next).
+    auto inClosedPrism = [&](const QuadGeom* q) {
+        if (!q) return false;
+        for (const auto& s : q->sides)
+            if (s.orient * s.plane.h(pos0) < -eps) return false;
+        return true;
+    };
     for (const QuadGeom* q : mQuads) {
         if (!mPrism) break;
         auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
         for (const auto& sd : q->sides) {
             if (sd.partnerId == 0 || !has(sd.id)) continue;
+            if (!inClosedPrism(q) && !inClosedPrism(quadById(sd.partnerId))) continue;
             for (int kind : {kPlusKind, kMinusKind}) {
                 const uint64_t mine = (q->id & ~uint64_t(15)) | uint64_t(kind);
                 const uint64_t theirs = (sd.partnerId & ~uint64_t(15)) | uint64_t(kind);

@@ -1731,6 +1731,41 @@ TEST(CutPropsDefects, AnIsoVertexTouchingAKerfPlaneIsAPinchInEveryCellRoundIt)
     EXPECT_GT(t.pinchContacts, 0u); // the touching cone and disc
 }
 
+// The same level stroke at kerf 1, its blade ending at y = 245 mm: the
+// prism's tip face lies in the grid plane y = 245, so cell (266, 245, 105)
+// holds the prism (it touches the cell's face) while the cell beyond it
+// does not. A crossing one grid step beyond the tip, at y = 246, lies on the
+// mitre of quads 6 and 7 and on their bottom plane z = 1105.5, outside both
+// prisms; the first cell named it by those planes, the next by none, and
+// the seam opened (refused: "an edge used 1 time(s) one way and 0 the
+// other"). A point in neither prism of a mitre now names none of their
+// planes.
+TEST(CutPropsDefects, APointBeyondTheTipOnAMitreNamesNoPlaneOfIt)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    const vdb::Volume vol = vdb::readVolume(dir);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 1.0);
+    std::vector<Pose> poses(1201);
+    for (size_t i = 0; i < poses.size(); ++i) {
+        poses[i].time = double(i) / 1000.0;
+        poses[i].base = glm::dvec3(260.0 + 0.01 * double(i), 135.0, 1106.0);
+        poses[i].direction = glm::dvec3(0.0, 1.0, 0.0);
+        poses[i].length = 110.0;
+    }
+    addStroke(mask, poses);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const UpdateResult r = tryUpdate(remesher, mask);
+    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    std::printf("1 mm head, level stroke at z = 1106 mm to y = 245 mm, kerf 1: %zu cut cells, %zu intersecting pairs\n",
+                remesher.cells().size(), t.pairs);
+    EXPECT_EQ(t.pairs, 0u);
+}
+
 // The tooth at 400, kerf 0, random strokes seed 1018, stroke 3: in the face
 // x = 84 of cells (83, 24, 19) and (84, 24, 19) the iso line and the blade's
 // line cross twice, 1e-5 mm apart, on either side of the face's diagonal.
