@@ -3,6 +3,7 @@
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
+#include "cutter/RemeshKernel.h"
 
 #include <tbb/parallel_for.h>
 
@@ -23,6 +24,54 @@ struct Group
     std::vector<uint32_t> shells; ///< the outer (or lone) shell first, then its cavities
     double volume = 0.0, area = 0.0;
 };
+
+/// Kerf > 0: the new vertices (index firstVertex on) of the triangles from
+/// firstTriangle on whose fans are several closed discs (remesh_detail::
+/// linkFans): every fan but the first (in triangle order) gets its own copy
+/// of the vertex, at the same position, so the mesh is a 2-manifold that
+/// touches itself there. Such a pinch spans cells: the exact shape where an
+/// offset plane of the blade meets the isosurface at a saddle that sits on a
+/// cell face (1 mm head, a level stroke at z = 1103 mm, kerf 1: the solid
+/// under the plane is two wedges that meet at one marching-tetrahedra
+/// vertex of a face diagonal; each cell holds part of both). The split is a
+/// function of the fused triangles, so incremental, from-scratch and undone
+/// meshes stay equal. Cost O(new triangles).
+void splitCrossCellPinches(Mesh& m, size_t firstTriangle, size_t firstVertex)
+{
+    const size_t nv = m.positions.size();
+    if (nv <= firstVertex) return;
+    const bool normals = m.normals.size() == nv;
+    // The corners (3 t + k) at each new vertex, by a counting sort.
+    std::vector<uint32_t> start(nv - firstVertex + 1, 0);
+    for (size_t c = 3 * firstTriangle; c < m.indices.size(); ++c)
+        if (m.indices[c] >= firstVertex) ++start[m.indices[c] - firstVertex + 1];
+    for (size_t v = 0; v + 1 < start.size(); ++v) start[v + 1] += start[v];
+    std::vector<uint32_t> corners(start.back());
+    {
+        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+        for (size_t c = 3 * firstTriangle; c < m.indices.size(); ++c)
+            if (m.indices[c] >= firstVertex) corners[fill[m.indices[c] - firstVertex]++] = uint32_t(c);
+    }
+    std::vector<std::pair<uint32_t, uint32_t>> link;
+    std::vector<int> fan;
+    for (size_t v = firstVertex; v < nv; ++v) {
+        const uint32_t b = start[v - firstVertex], e = start[v - firstVertex + 1];
+        if (e - b < 6) continue; // two fans need three triangles each
+        link.clear();
+        for (uint32_t i = b; i < e; ++i) {
+            const size_t t = corners[i] / 3, k = corners[i] % 3;
+            link.push_back({m.indices[3 * t + (k + 1) % 3], m.indices[3 * t + (k + 2) % 3]});
+        }
+        const int fans = remesh_detail::linkFans(link, fan);
+        for (int f = 1; f < fans; ++f) {
+            const uint32_t copy = uint32_t(m.positions.size());
+            m.positions.push_back(m.positions[v]);
+            if (normals) m.normals.push_back(glm::vec3(0.0f));
+            for (uint32_t i = b; i < e; ++i)
+                if (fan[i - b] == f) m.indices[corners[i]] = copy;
+        }
+    }
+}
 
 std::vector<Group> fragmentGroups(const std::vector<Shell>& shells, const std::vector<int>& parent)
 {
@@ -284,6 +333,7 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         m.triangleVoxels.push_back(newVoxels[t]);
         if (source) source->push_back(uint32_t(nt + t));
     }
+    if (mSeenKerf > 0) splitCrossCellPinches(m, firstNew, uncutVertices);
     if (normals) {
         // Only the cut cells' triangles can hold a new vertex.
         for (size_t t = firstNew; t < m.triangleCount(); ++t) {
@@ -300,5 +350,42 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     }
     return m;
 }
+
+namespace remesh_detail {
+
+int linkFans(const std::vector<std::pair<uint32_t, uint32_t>>& link, std::vector<int>& fanOf)
+{
+    const size_t n = link.size();
+    if (n < 3) return 0;
+    // Every link vertex starts one edge and ends one: the starts are distinct,
+    // the ends are distinct, and they are the same set.
+    std::vector<std::pair<uint32_t, uint32_t>> starts(n); // (start vertex, edge)
+    std::vector<uint32_t> ends(n);
+    for (size_t i = 0; i < n; ++i) {
+        starts[i] = {link[i].first, uint32_t(i)};
+        ends[i] = link[i].second;
+    }
+    std::sort(starts.begin(), starts.end());
+    std::sort(ends.begin(), ends.end());
+    for (size_t i = 0; i < n; ++i)
+        if (starts[i].first != ends[i] || (i > 0 && ends[i] == ends[i - 1])) return 0;
+    // Each edge is followed by the one starting where it ends; walk the cycles.
+    auto next = [&](size_t i) {
+        const auto it = std::lower_bound(starts.begin(), starts.end(), std::make_pair(link[i].second, uint32_t(0)));
+        return size_t(it->second);
+    };
+    fanOf.assign(n, -1);
+    int fans = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (fanOf[i] >= 0) continue;
+        size_t length = 0;
+        for (size_t j = i; fanOf[j] < 0; j = next(j), ++length) fanOf[j] = fans;
+        if (length < 3) return 0; // two triangles back to back: no disc
+        ++fans;
+    }
+    return fans;
+}
+
+} // namespace remesh_detail
 
 } // namespace mtcut::cutter

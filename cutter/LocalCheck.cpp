@@ -142,6 +142,7 @@ struct LocalRegion
     std::vector<glm::vec3> world;                ///< per name, as fusedMesh() writes it
     std::vector<char> known;                     ///< world[name] is set
     bool debug = false;                          ///< MTCUT_REMESH_DEBUG
+    bool kerf = false;                           ///< the cut has a width (pinches are split in fusion)
     bool isChanged(const Coord& c) const { return std::binary_search(changed->begin(), changed->end(), c); }
     [[noreturn]] void fail(const std::string& what, const Coord& c) const
     {
@@ -544,6 +545,10 @@ void checkVertexLinks(const LocalRegion& reg)
             if (at == link[0].second) break;
         }
         if (steps == link.size()) continue;
+        // With kerf, fans that are each a closed disc are a pinch that
+        // fusedMesh() splits (a copy of the vertex per fan but the first).
+        std::vector<int> fanOf;
+        if (reg.kerf && !ids[v].isIsoEdgeVertex() && linkFans(link, fanOf) >= 2) continue;
         Coord lo, hi;
         cellsHolding(ids[v], lo, hi);
         Coord cell = changed.front();
@@ -739,6 +744,7 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     }
     snapRound(reg);
     reg.debug = std::getenv("MTCUT_REMESH_DEBUG") != nullptr;
+    reg.kerf = kerf;
     checkEdgeUses(reg);
     checkVertexLinks(reg);
     checkFloatArea(reg);

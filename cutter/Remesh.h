@@ -176,7 +176,9 @@ public:
     /// those cells, must be used by exactly two triangles of the fused mesh,
     /// once each way; no triangle may repeat a vertex or have zero area in
     /// float world mm (as fusedMesh() writes it); and every vertex of the
-    /// changed cells must have one fan (no pinch points); otherwise it throws
+    /// changed cells must have one fan (no pinch points; with kerf > 0, a
+    /// new vertex whose fans are each a closed disc is a pinch, which
+    /// fusedMesh() splits); otherwise it throws
     /// std::runtime_error("remesh: open or inconsistent surface ... in cell
     /// (i, j, k)"). With kerf > 0, no triangle of the changed cells may
     /// cross or touch another in float world mm, decided exactly
@@ -225,7 +227,11 @@ public:
     /// then the new ones; marching-tetrahedra vertices of cut cells are the
     /// uncut mesh's own (welded by edge key). Normals when the uncut mesh has
     /// them (new vertices: area-weighted triangle normals). Snap rounding
-    /// (file comment) can drop collapsed triangles. With `source`, for each
+    /// (file comment) can drop collapsed triangles. With kerf > 0, a new
+    /// vertex whose triangles form several fans, each a closed disc (a pinch
+    /// that spans cells: an offset plane through a saddle of the isosurface
+    /// on a cell face), gets a copy per fan but the first, at its position,
+    /// appended after the new vertices. With `source`, for each
     /// fused triangle where it came from: an uncut triangle's index, or
     /// uncut().triangleCount() + j for the j-th triangle of cells() (cells
     /// ascending, each cell's triangles in order). Cost O(mesh).

@@ -159,4 +159,18 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
                         CutCellGeometry& out);
 
+/// The fans of a vertex from its link (the edge b -> c opposite it in each
+/// of its triangles, in triangle order): when every link vertex starts
+/// exactly one link edge and ends exactly one, the link is a union of
+/// disjoint closed cycles, one per fan (a disc of triangles round the
+/// vertex); returns their number and, in `fanOf`, each edge's fan (numbered
+/// in order of first edge). Returns 0 (fanOf unspecified) for any other
+/// link: an open or doubly used edge round the vertex, or a cycle of two
+/// edges (two triangles back to back). A vertex with two or
+/// more fans is where the surface touches itself at one point (a pinch);
+/// with kerf > 0, where the removed region's boundary meets the isosurface
+/// in a saddle across cells (CutRemesher::fusedMesh), each fan but the first
+/// gets its own copy of the vertex. Cost O(link log link).
+int linkFans(const std::vector<std::pair<uint32_t, uint32_t>>& link, std::vector<int>& fanOf);
+
 } // namespace mtcut::cutter::remesh_detail

@@ -1766,6 +1766,48 @@ TEST(CutPropsDefects, APointBeyondTheTipOnAMitreNamesNoPlaneOfIt)
     EXPECT_EQ(t.pairs, 0u);
 }
 
+// A level stroke at z = 1103 mm, kerf 1: its bottom plane z = 1102.5 passes
+// through the marching-tetrahedra vertex at the middle of the face diagonal
+// (255, 185, 102)-(255, 184, 103) (values symmetric about 400), where the
+// isosurface is a saddle: under the plane the solid is two wedges, towards
+// y = 184 and y = 185, that meet only at that vertex, and each of the cells
+// (254, 184, 102) and (255, 184, 102) holds part of both. The vertex had one
+// name and two fans (refused: "a vertex where the surface pinches"; the same
+// without a pose at x = 255, i.e. no mitre in the face). fusedMesh() now
+// gives the second fan its own copy; the two wedges touch at one point.
+TEST(CutPropsDefects, ASaddleOnAKerfPlaneAcrossACellFaceIsAPinch)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    const vdb::Volume vol = vdb::readVolume(dir);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 1.0);
+    std::vector<Pose> poses(1201);
+    for (size_t i = 0; i < poses.size(); ++i) {
+        poses[i].time = double(i) / 1000.0;
+        poses[i].base = glm::dvec3(double(25000 + i) / 100.0, 135.0, 1103.0);
+        poses[i].direction = glm::dvec3(0.0, 1.0, 0.0);
+        poses[i].length = 114.0;
+    }
+    addStroke(mask, poses);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const UpdateResult r = tryUpdate(remesher, mask);
+    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    std::printf("1 mm head, level stroke at z = 1103 mm, kerf 1: %zu cut cells, %zu intersecting pairs, %zu pinch "
+                "contacts\n", remesher.cells().size(), t.pairs, t.pinchContacts);
+    EXPECT_EQ(t.pairs, 0u);
+    EXPECT_GT(t.pinchContacts, 0u); // the two wedges
+    // The copy sits where the vertex is: two new vertices of the fused mesh
+    // at (255, 184.5, 1102.5) mm (the uncut mesh's, unused now, stays too).
+    size_t at = 0;
+    for (size_t v = uncut.positions.size(); v < fused.positions.size(); ++v)
+        at += fused.positions[v] == glm::vec3(255.0f, 184.5f, 1102.5f);
+    EXPECT_EQ(at, 2u);
+}
+
 // The tooth at 400, kerf 0, random strokes seed 1018, stroke 3: in the face
 // x = 84 of cells (83, 24, 19) and (84, 24, 19) the iso line and the blade's
 // line cross twice, 1e-5 mm apart, on either side of the face's diagonal.

@@ -450,3 +450,24 @@ TEST(FloatFolds, AFacePairClosingATentOfTheCellsOwnBecomesOneWithTheTentGone)
     EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, far), 0u);
     EXPECT_EQ(far.indices.size(), 18u);
 }
+
+// remesh_detail::linkFans, on which the split of pinches across cells
+// (CutRemesher::fusedMesh, kerf > 0) and the local check rely: a vertex's
+// link that is one cycle is one fan; two disjoint cycles are two fans, each
+// edge numbered by its cycle in order of first edge; anything else (an open
+// link, a link vertex starting two edges, two cycles sharing a vertex, a
+// cycle of two edges: two triangles back to back) is 0.
+TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
+{
+    using mtcut::cutter::remesh_detail::linkFans;
+    std::vector<int> fan;
+    EXPECT_EQ(linkFans({{1, 2}, {2, 3}, {3, 1}}, fan), 1);
+    EXPECT_EQ(fan, (std::vector<int>{0, 0, 0}));
+    EXPECT_EQ(linkFans({{1, 2}, {4, 5}, {2, 3}, {5, 6}, {6, 4}, {3, 1}}, fan), 2);
+    EXPECT_EQ(fan, (std::vector<int>{0, 1, 0, 1, 1, 0}));
+    EXPECT_EQ(linkFans({{1, 2}, {2, 3}, {3, 4}}, fan), 0);                          // open
+    EXPECT_EQ(linkFans({{1, 2}, {2, 3}, {3, 1}, {1, 4}, {4, 5}, {5, 1}}, fan), 0);   // two cycles through 1
+    EXPECT_EQ(linkFans({{1, 2}, {2, 1}, {1, 2}, {2, 1}}, fan), 0);                   // an edge used twice
+    EXPECT_EQ(linkFans({{1, 2}, {2, 1}}, fan), 0);                                   // too short for a disc
+    EXPECT_EQ(linkFans({{1, 2}, {2, 3}, {3, 1}, {4, 5}, {5, 4}}, fan), 0);          // and beside a disc
+}
