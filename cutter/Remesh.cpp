@@ -707,6 +707,16 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
     return removed;
 }
 
+std::vector<QuadGeom> remesh_detail::kernelQuadsOf(const CutMask& mask, const Coord& cell)
+{
+    std::vector<QuadGeom> quads;
+    const std::vector<QuadRef>* refs = mask.quadsAt(cell);
+    if (!refs) return quads;
+    PrismCache cache;
+    cellQuads(mask, *refs, cache, nullptr, quads);
+    return quads;
+}
+
 void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, const openvdb::Coord& cell,
                 CutCellGeometry& out)
 {

@@ -80,6 +80,8 @@ public:
 
     /// prism: the quads are kerf > 0 prisms (makePrismGeom), else zero-kerf quads.
     void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
+    /// The first phase of tet t of the cell alone (CellKernel::phaseOneForTesting).
+    TetPhaseOne phaseOne(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, int t);
 
 private:
     // ---- per tet state
@@ -508,6 +510,8 @@ private:
     SmallVector<Surface, 8> mSurfaces;
     SmallVector<SplitPlane, 16> mSplitOrder;
     SmallVector<Region, 8> mRegions;
+    /// mT, mTet: corner t's of the cell's tet `t` (positions, ids, values, inside).
+    void loadTet(int t);
     void resetTet();
     /// Quads whose region can reach the tet, and their planes (mQuads, mPlanes).
     void gatherQuads();
@@ -965,27 +969,53 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
     mCell = cell;
     mCellQuads = &quads;
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> cellIndex;
-    const int parity = cellParity(cell.x(), cell.y(), cell.z());
-    const auto& tets = cellTets(parity);
     for (int t = 0; t < kTetsPerCell; ++t) {
-        mTet = t;
-        for (int i = 0; i < 4; ++i) {
-            const int c = tets[size_t(t)][size_t(i)];
-            const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-            mT.p[i] = dvec3(g.x(), g.y(), g.z());
-            mT.id[i] = gridVertexId(g.x(), g.y(), g.z());
-            // As the isosurface: outside the scan box, the background and outside.
-            const bool inBox = g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < mDims.x() && g.y() < mDims.y() &&
-                               g.z() < mDims.z();
-            mT.value[i] = inBox ? value(g) : mBackground;
-            mT.inside[i] = inBox && mT.value[i] >= mIso;
-        }
+        loadTet(t);
         remeshTet(out, cellIndex);
     }
     if (mPrism) {
         splitPinches(cell, out);
         splitIsoPinches(out);
     }
+}
+
+void RemeshKernel::loadTet(int t)
+{
+    mTet = t;
+    const auto& tet = cellTets(cellParity(mCell.x(), mCell.y(), mCell.z()))[size_t(t)];
+    for (int i = 0; i < 4; ++i) {
+        const int c = tet[size_t(i)];
+        const Coord g = mCell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        mT.p[i] = dvec3(g.x(), g.y(), g.z());
+        mT.id[i] = gridVertexId(g.x(), g.y(), g.z());
+        // As the isosurface: outside the scan box, the background and outside.
+        const bool inBox =
+            g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < mDims.x() && g.y() < mDims.y() && g.z() < mDims.z();
+        mT.value[i] = inBox ? value(g) : mBackground;
+        mT.inside[i] = inBox && mT.value[i] >= mIso;
+    }
+}
+
+TetPhaseOne RemeshKernel::phaseOne(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, int t)
+{
+    mPrism = prism;
+    mCell = cell;
+    mCellQuads = &quads;
+    loadTet(t);
+    TetPhaseOne r;
+    if (!mT.inside[0] && !mT.inside[1] && !mT.inside[2] && !mT.inside[3]) return r;
+    r.solid = true;
+    resetTet();
+    gatherQuads();
+    for (const QuadGeom* q : mQuads) r.quads.push_back(uint32_t(q - quads.data()));
+    isoTriangles();
+    r.triCount = mTriCount;
+    for (int k = 0; k < mTriCount; ++k) {
+        r.triEdges[size_t(k)].assign(mTriEdges[size_t(k)].begin(), mTriEdges[size_t(k)].end());
+        r.triPts[size_t(k)].assign(mTriPts[k].begin(), mTriPts[k].end());
+        r.triPlane[size_t(k)] = mTriPlane[k];
+    }
+    return r;
 }
 
 /// Kerf > 0: a marching-tetrahedra vertex exactly on one plane of the removed
@@ -2053,6 +2083,14 @@ CellKernel::CellKernel(const vdb::Volume& volume, float iso)
 }
 
 CellKernel::~CellKernel() = default;
+
+std::array<TetPhaseOne, kTetsPerCell> CellKernel::phaseOneForTesting(const Coord& cell,
+                                                                      const std::vector<QuadGeom>& quads, bool prism)
+{
+    std::array<TetPhaseOne, kTetsPerCell> r;
+    for (int t = 0; t < kTetsPerCell; ++t) r[size_t(t)] = mKernel->phaseOne(cell, quads, prism, t);
+    return r;
+}
 
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {

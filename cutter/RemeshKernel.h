@@ -4,6 +4,7 @@
 // Not part of the library's interface; no GL.
 #pragma once
 
+#include "cutter/Isosurface.h"
 #include "cutter/Remesh.h"
 #include "vdb/Volume.h"
 
@@ -80,6 +81,21 @@ struct QuadGeom
 
 class RemeshKernel; // RemeshKernel.cpp
 
+/// The kernel's first phase in one tet of a cell, as the GPU cut pass's
+/// port computes it too (shaders/cut_kernel.glsl), for the tests that hold
+/// the two equal: which of the cell's quads can reach the tet (gatherQuads),
+/// and the tet's marching-tetrahedra polygons with their planes
+/// (isoTriangles). Nothing but `solid` is set when no corner is inside.
+struct TetPhaseOne
+{
+    bool solid = false;
+    std::vector<uint32_t> quads; ///< indices into the cell's quad list, ascending
+    int triCount = 0;            ///< marching-tetrahedra polygons: 0, 1 (a triangle or a flat quad) or 2
+    std::array<std::vector<std::array<int, 2>>, 2> triEdges; ///< each corner's tet edge (tet-local vertices)
+    std::array<std::vector<dvec3>, 2> triPts;                ///< each corner, index space
+    std::array<Plane, 2> triPlane;                           ///< ISO_A, ISO_B
+};
+
 /// The re-meshing kernel of one thread (its scratch is reused from cell to
 /// cell). remesh() re-meshes one cut cell of `volume` at `iso` from the
 /// geometry of the quads that cut it (zero kerf: quads, each with its sides
@@ -101,11 +117,20 @@ public:
     CellKernel& operator=(const CellKernel&) = delete;
 
     void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
+    /// For tests of the GPU port: the first phase of each of the cell's tets.
+    std::array<TetPhaseOne, kTetsPerCell> phaseOneForTesting(const Coord& cell, const std::vector<QuadGeom>& quads,
+                                                             bool prism);
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;
     openvdb::Vec3d mOrigin, mSpacing;
 };
+
+/// The quads of `cell` of `mask` as update() hands them to the kernel (in
+/// the cell's order, degenerate ones left out, partners resolved), built
+/// without update()'s caches; empty when the cell is not cut. For the GPU
+/// cut pass's input (cutter/KernelInput.h) and tests.
+std::vector<QuadGeom> kernelQuadsOf(const CutMask& mask, const Coord& cell);
 
 /// Sub-float clusters at a grid vertex: a new vertex of `out` (not a plain
 /// marching-tetrahedra vertex, which is the uncut mesh's) whose exact world

@@ -1,0 +1,70 @@
+// See CutKernelGpu.h.
+#include "render/CutKernelGpu.h"
+
+#include "render/Shaders.h"
+
+#include <cstring>
+#include <stdexcept>
+
+namespace mtcut::render {
+
+namespace {
+
+constexpr size_t kStrideU = 48, kStrideD = 32; // per tet, as cut_phase_one.comp
+
+/// A storage buffer of `bytes` (at least one element, GL wants a size) from `data`.
+Buffer storage(size_t bytes, const void* data, size_t minimum)
+{
+    if (bytes == 0) return Buffer(minimum, nullptr);
+    return Buffer(bytes, data);
+}
+
+} // namespace
+
+GpuCutKernel::GpuCutKernel() : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))) {}
+
+std::vector<GpuTetPhaseOne> GpuCutKernel::phaseOne(const cutter::PackedKernelInput& input) const
+{
+    const size_t tets = 5 * input.cells.size();
+    std::vector<GpuTetPhaseOne> out(tets);
+    if (tets == 0) return out;
+    const Buffer cells = storage(input.cells.size() * sizeof(cutter::PackedKernelCell), input.cells.data(),
+                                 sizeof(cutter::PackedKernelCell));
+    const Buffer quads = storage(input.quads.size() * sizeof(cutter::PackedKernelQuad), input.quads.data(),
+                                 sizeof(cutter::PackedKernelQuad));
+    const Buffer sides = storage(input.sides.size() * sizeof(cutter::PackedKernelSide), input.sides.data(),
+                                 sizeof(cutter::PackedKernelSide));
+    const Buffer tetTable(sizeof(input.tets), input.tets.data());
+    const Buffer outU(tets * kStrideU * sizeof(uint32_t), nullptr, GL_MAP_READ_BIT);
+    const Buffer outD(tets * kStrideD * sizeof(double), nullptr, GL_MAP_READ_BIT);
+    mPhaseOne.use();
+    glProgramUniform1f(mPhaseOne.id(), mPhaseOne.uniform("uIsovalue"), input.isovalue);
+    glProgramUniform1i(mPhaseOne.id(), mPhaseOne.uniform("uPrism"), input.prism ? 1 : 0);
+    glProgramUniform1ui(mPhaseOne.id(), mPhaseOne.uniform("uTetCount"), GLuint(tets));
+    const Buffer* bound[] = {&cells, &quads, &sides, &tetTable, &outU, &outD};
+    for (GLuint b = 0; b < 6; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]->id());
+    glDispatchCompute(GLuint((tets + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<uint32_t> u(tets * kStrideU);
+    std::vector<double> d(tets * kStrideD);
+    glGetNamedBufferSubData(outU.id(), 0, GLsizeiptr(u.size() * sizeof(uint32_t)), u.data());
+    glGetNamedBufferSubData(outD.id(), 0, GLsizeiptr(d.size() * sizeof(double)), d.data());
+    glUseProgram(0);
+    checkGlError("GpuCutKernel::phaseOne");
+    for (size_t t = 0; t < tets; ++t) {
+        const uint32_t* w = &u[t * kStrideU];
+        GpuTetPhaseOne& r = out[t];
+        r.flags = w[0];
+        r.quadCount = w[1];
+        r.triCount = w[2];
+        r.corners[0] = w[3];
+        r.corners[1] = w[4];
+        std::memcpy(r.edges, w + 5, sizeof(r.edges));
+        std::memcpy(r.quads, w + 13, sizeof(r.quads));
+        std::memcpy(r.points, &d[t * kStrideD], sizeof(r.points));
+        std::memcpy(r.planes, &d[t * kStrideD + 24], sizeof(r.planes));
+    }
+    return out;
+}
+
+} // namespace mtcut::render

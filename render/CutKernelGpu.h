@@ -1,0 +1,47 @@
+// The GPU cut pass (DESIGN "GPU passes", pass 3) as far as the re-meshing
+// kernel is ported to GLSL (shaders/cut_kernel.glsl): for now its first
+// phase in every tet of a batch of cut cells, read back for the tests that
+// hold it equal, bit for bit, to the CPU kernel's
+// (remesh_detail::CellKernel::phaseOneForTesting). The draw still takes
+// the CPU's cut geometry (CutGeometry.h) until the port is whole.
+#pragma once
+
+#include "cutter/KernelInput.h"
+#include "render/GlObjects.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace mtcut::render {
+
+/// Phase one of one tet as the shader writes it (cut_phase_one.comp).
+struct GpuTetPhaseOne
+{
+    static constexpr uint32_t kMaxQuads = 35;
+    uint32_t flags = 0;     ///< bit 0: some corner inside (else nothing is set); bit 1: more quads than kMaxQuads
+    uint32_t quadCount = 0; ///< quads[0 .. quadCount): the reaching quads, indices into the cell's list
+    uint32_t triCount = 0;  ///< marching-tetrahedra polygons
+    uint32_t corners[2] = {0, 0};
+    uint32_t edges[2][4] = {};           ///< tet edge of each corner: a | b << 2
+    uint32_t quads[kMaxQuads] = {};
+    double points[2][4][3] = {};          ///< each corner, index space
+    double planes[2][4] = {};             ///< n.x, n.y, n.z, d per polygon
+};
+
+/// The ported kernel's programs. Needs a current OpenGL 4.5 context with
+/// GL_ARB_gpu_shader_fp64 (core in 4.0) and GL_ARB_gpu_shader_int64; the
+/// constructor throws std::runtime_error when the shaders do not build.
+class GpuCutKernel
+{
+public:
+    GpuCutKernel();
+
+    /// Phase one of the 5 tets of every cell of `input` (5 c + t for tet t
+    /// of cell c). Cost: one dispatch, O(cells' quads) on the GPU.
+    std::vector<GpuTetPhaseOne> phaseOne(const cutter::PackedKernelInput& input) const;
+
+private:
+    Program mPhaseOne;
+};
+
+} // namespace mtcut::render

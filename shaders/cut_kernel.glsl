@@ -1,0 +1,249 @@
+// The re-meshing kernel (cutter/RemeshKernel.cpp) ported to GLSL, phase by
+// phase, for the GPU cut pass (DESIGN "GPU passes", pass 3). Its output must
+// equal the CPU kernel's triangle for triangle, so every decision is made on
+// the same doubles in the same order: no fma (Mesa's double fma is not
+// fused), no dot()/length()/cross() builtins (their order of operations is
+// the driver's), double literals with the lf suffix, and every product that
+// feeds a sum or difference computed into a `precise` variable: without it
+// llvmpipe (Mesa 22.3.6) contracts some of them into fused multiply-adds
+// (the Newell normal's cross products differed from the CPU's in 1 % of
+// tets), which x86-64 C++ without -mfma never does. What the C++ uses that
+// GLSL lacks is replaced on both sides before it is ported (atan2, hypot,
+// hash maps, exceptions). Ported so far: the input (cutter/KernelInput.h,
+// the std430 twins of PackedKernelCell/Quad/Side) and phase one of a tet:
+// the quads that can reach it (gatherQuads) and its marching-tetrahedra
+// polygons with their planes (isoTriangles). Checked bit for bit against the
+// CPU by tests/test_render_cut_kernel.cpp.
+#extension GL_ARB_gpu_shader_int64 : require
+
+struct KernelCell
+{
+    int x, y, z;
+    uint firstQuad, quadCount;
+    uint insideMask; // bit c: corner c (x = c & 1, y = c >> 1 & 1, z = c >> 2 & 1) inside
+    uint pad0, pad1;
+    float values[8];
+};
+struct KernelQuad
+{
+    dvec4 plane; // n, d: h(x) = dot(n, x) - d
+    uint64_t id;
+    uint firstSide, sideCount;
+    uint64_t pad0, pad1;
+};
+struct KernelSide
+{
+    dvec4 plane;
+    uint64_t id;
+    uint64_t partnerId;
+    double orient; // inside the quad: orient * h >= 0
+    int partner;   // junction partner's index in the cell's list (-1: rim)
+    uint pad;
+    uint64_t cornerSides[4];
+};
+
+layout(std430, binding = 0) readonly buffer KernelCells { KernelCell kCells[]; };
+layout(std430, binding = 1) readonly buffer KernelQuads { KernelQuad kQuads[]; };
+layout(std430, binding = 2) readonly buffer KernelSides { KernelSide kSides[]; };
+layout(std430, binding = 3) readonly buffer KernelTets { uint kTets[40]; }; // [parity][tet][corner]
+
+uniform float uIsovalue;
+uniform bool uPrism; // kerf > 0: the quads are closed prisms
+
+const double kEdgeClamp = 1.0lf / 256.0lf; // cutter/Isosurface.h
+
+// ---- double arithmetic in the CPU's order (glm: dot = (x + y) + z)
+double dot3(dvec3 a, dvec3 b)
+{
+    precise double r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+dvec3 cross3(dvec3 x, dvec3 y)
+{
+    precise dvec3 r = dvec3(x.y * y.z - y.y * x.z, x.z * y.x - y.z * x.x, x.x * y.y - y.x * x.y);
+    return r;
+}
+double length3(dvec3 v) { return sqrt(dot3(v, v)); }
+double planeH(dvec4 p, dvec3 x)
+{
+    precise double r = dot3(p.xyz, x) - p.w;
+    return r;
+}
+/// The kernel's tie for a point: 1e-13 (1 + its largest |coordinate|).
+double epsAt(dvec3 x) { return 1e-13lf * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z))); }
+
+/// cutter::edgeCrossing: the crossing's fraction from the lower-keyed end.
+double edgeCrossing(float valueLo, float valueHi, float isovalue)
+{
+    const double d = double(valueHi) - double(valueLo);
+    double t = d != 0.0lf ? (double(isovalue) - double(valueLo)) / d : 0.5lf;
+    if (!(t >= kEdgeClamp)) t = kEdgeClamp;
+    if (t > 1.0lf - kEdgeClamp) t = 1.0lf - kEdgeClamp;
+    return t;
+}
+
+/// cutter::gridVertexId: ordered by (k, j, i).
+uint64_t gridVertexId(ivec3 g)
+{
+    const int64_t off = int64_t(1) << 20;
+    return (uint64_t(int64_t(g.z) + off) << 42) | (uint64_t(int64_t(g.y) + off) << 21) | uint64_t(int64_t(g.x) + off);
+}
+
+// ---- one tet of a cell (RemeshKernel::loadTet)
+struct Tet
+{
+    dvec3 p[4];
+    uint64_t id[4];
+    float value[4];
+    bool inside[4];
+};
+
+Tet loadTet(uint cell, int t)
+{
+    const KernelCell c = kCells[cell];
+    const int parity = (c.x + c.y + c.z) & 1;
+    Tet T;
+    for (int i = 0; i < 4; ++i) {
+        const uint k = kTets[20 * parity + 4 * t + i];
+        const ivec3 g = ivec3(c.x, c.y, c.z) + ivec3(int(k & 1u), int((k >> 1) & 1u), int((k >> 2) & 1u));
+        T.p[i] = dvec3(g);
+        T.id[i] = gridVertexId(g);
+        T.value[i] = c.values[k];
+        T.inside[i] = ((c.insideMask >> k) & 1u) != 0u;
+    }
+    return T;
+}
+
+/// RemeshKernel::mtPoint: the crossing on tet edge (a, b).
+dvec3 mtPoint(Tet T, int a, int b)
+{
+    int lo = a, hi = b;
+    if (T.id[hi] < T.id[lo]) {
+        lo = b;
+        hi = a;
+    }
+    const double t = edgeCrossing(T.value[lo], T.value[hi], uIsovalue);
+    precise dvec3 r = T.p[lo] + t * (T.p[hi] - T.p[lo]);
+    return r;
+}
+
+/// gatherQuads' test: can quad q's region reach the tet?
+bool quadReaches(Tet T, uint q)
+{
+    const KernelQuad Q = kQuads[q];
+    if (!uPrism) {
+        bool pos = false, neg = false;
+        for (int i = 0; i < 4; ++i) {
+            const double h = planeH(Q.plane, T.p[i]), e = epsAt(T.p[i]);
+            pos = pos || h >= -e;
+            neg = neg || h <= e;
+        }
+        if (!(pos && neg)) return false;
+    }
+    bool reach = true;
+    for (uint s = Q.firstSide; s < Q.firstSide + Q.sideCount; ++s) {
+        bool any = false;
+        for (int i = 0; i < 4; ++i) any = any || kSides[s].orient * planeH(kSides[s].plane, T.p[i]) >= -epsAt(T.p[i]);
+        reach = reach && any;
+    }
+    return reach;
+}
+
+/// The even permutation of (0, 1, 2, 3) starting with `first` (count 1 or 2)
+/// (the isosurface tables' evenPerm).
+void evenPerm(int count, int f0, int f1, out int p[4])
+{
+    p[0] = f0;
+    p[1] = f1;
+    int n = count;
+    for (int v = 0; v < 4; ++v) {
+        bool used = false;
+        for (int i = 0; i < count; ++i) used = used || p[i] == v;
+        if (!used) p[n++] = v;
+    }
+    int inv = 0;
+    for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) inv += p[a] > p[b] ? 1 : 0;
+    if ((inv & 1) != 0) {
+        const int s = p[2];
+        p[2] = p[3];
+        p[3] = s;
+    }
+}
+
+/// RemeshKernel::isoTriangles: the tet's marching-tetrahedra polygons
+/// (triCount 0..2; corners 3, or 4 for a flat quad), each corner's tet
+/// edge (a | b << 2) and point, and each polygon's plane (n, d).
+struct IsoPolygons
+{
+    int triCount;
+    int corners[2];
+    int edges[2][4];
+    dvec3 pts[2][4];
+    dvec4 plane[2];
+};
+
+IsoPolygons isoTriangles(Tet T)
+{
+    IsoPolygons r;
+    r.triCount = 0;
+    int ni = 0, no = 0, ins[4], outs[4];
+    for (int i = 0; i < 4; ++i) {
+        if (T.inside[i]) ins[ni++] = i;
+        else outs[no++] = i;
+    }
+    if (ni == 0) return r;
+    int p[4];
+    if (ni == 1 || ni == 3) {
+        evenPerm(1, ni == 1 ? ins[0] : outs[0], 0, p);
+        const int a = p[0], b = p[1], c = p[2], d = p[3];
+        r.triCount = 1;
+        r.corners[0] = 3;
+        r.edges[0][0] = a | b << 2;
+        if (ni == 1) {
+            r.edges[0][1] = a | c << 2;
+            r.edges[0][2] = a | d << 2;
+        } else {
+            r.edges[0][1] = a | d << 2;
+            r.edges[0][2] = a | c << 2;
+        }
+    } else if (ni == 2) {
+        evenPerm(2, ins[0], ins[1], p);
+        const int a = p[0], b = p[1], c = p[2], d = p[3];
+        // The marching-tetrahedra quad; when its corners are not coplanar it
+        // is the two triangles of the isosurface, a fold.
+        const dvec3 pac = mtPoint(T, a, c), pad = mtPoint(T, a, d), pbd = mtPoint(T, b, d), pbc = mtPoint(T, b, c);
+        const dvec3 nrm = cross3(pad - pac, pbd - pac);
+        const double dev = dot3(nrm, pbc - pac) / length3(nrm);
+        if (abs(dev) <= 1e-7lf) {
+            r.triCount = 1;
+            r.corners[0] = 4;
+            r.edges[0][0] = a | c << 2;
+            r.edges[0][1] = a | d << 2;
+            r.edges[0][2] = b | d << 2;
+            r.edges[0][3] = b | c << 2;
+        } else {
+            r.triCount = 2;
+            r.corners[0] = 3;
+            r.corners[1] = 3;
+            r.edges[0][0] = a | c << 2;
+            r.edges[0][1] = a | d << 2;
+            r.edges[0][2] = b | d << 2;
+            r.edges[1][0] = a | c << 2;
+            r.edges[1][1] = b | d << 2;
+            r.edges[1][2] = b | c << 2;
+        }
+    }
+    for (int k = 0; k < r.triCount; ++k) {
+        const int n = r.corners[k];
+        for (int c = 0; c < n; ++c) r.pts[k][c] = mtPoint(T, r.edges[k][c] & 3, r.edges[k][c] >> 2);
+        dvec3 nrm = dvec3(0.0lf); // Newell
+        for (int c = 0; c < n; ++c) nrm = nrm + cross3(r.pts[k][c], r.pts[k][(c + 1) % n]);
+        const double len = length3(nrm);
+        const dvec3 unit = len > 0.0lf ? (-nrm) / len : dvec3(0.0lf);
+        dvec3 centre = dvec3(0.0lf);
+        for (int c = 0; c < n; ++c) centre = centre + r.pts[k][c] / double(n);
+        r.plane[k] = dvec4(unit, dot3(unit, centre));
+    }
+    return r;
+}
