@@ -24,8 +24,8 @@ bool segmentsIntersect(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& 
 
 double minSine(const Vec2& a, const Vec2& b, const Vec2& c)
 {
-    const double lab = std::hypot(a.x - b.x, a.y - b.y), lbc = std::hypot(b.x - c.x, b.y - c.y),
-                 lca = std::hypot(c.x - a.x, c.y - a.y);
+    const double lab = length2(a.x - b.x, a.y - b.y), lbc = length2(b.x - c.x, b.y - c.y),
+                 lca = length2(c.x - a.x, c.y - a.y);
     if (!(lab > 0 && lbc > 0 && lca > 0)) return -1.0;
     const double area2 = cross2(a, b, c);
     return std::min({area2 / (lab * lbc), area2 / (lbc * lca), area2 / (lca * lab)});
@@ -39,7 +39,7 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
     for (size_t i = 0; i < n; ++i)
         for (size_t j = i + 1; j < n; ++j)
             if (same2(P(i), P(j))) return false;
-    auto len = [](const Vec2& a, const Vec2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
+    auto len = [](const Vec2& a, const Vec2& b) { return length2(a.x - b.x, a.y - b.y); };
     // A chord (i, j) of the polygon, not a side: crosses no side.
     auto chordOk = [&](size_t i, size_t j) {
         if ((i + 1) % n == j || (j + 1) % n == i) return true;
@@ -98,7 +98,7 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
 bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<int>& tris)
 {
     auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
-    auto len = [](const Vec2& a, const Vec2& b) { return std::hypot(a.x - b.x, a.y - b.y); };
+    auto len = [](const Vec2& a, const Vec2& b) { return length2(a.x - b.x, a.y - b.y); };
     while (poly.size() > 3) {
         const size_t n = poly.size();
         if (n == 4) {

@@ -4,6 +4,7 @@
 // the relative tolerances stated per function. No GL, no OpenVDB.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -20,6 +21,11 @@ inline double cross2(const Vec2& o, const Vec2& a, const Vec2& b)
     return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
 }
 inline bool same2(const Vec2& a, const Vec2& b) { return a.x == b.x && a.y == b.y; }
+
+/// The length of (dx, dy) as sqrt(dx^2 + dy^2), each operation rounded on its
+/// own, not std::hypot: the GPU cut pass (shaders/poly2.glsl) must compute the
+/// same bits, and GLSL has no double hypot (its + * sqrt are IEEE-exact).
+inline double length2(double dx, double dy) { return std::sqrt(dx * dx + dy * dy); }
 
 /// Do segments ab and cd cross (properly, or touching away from shared endpoints)?
 bool segmentsIntersect(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d);

@@ -1976,7 +1976,7 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
             double perim = 0.0;
             for (size_t i = 0; i < loop.size(); ++i) {
                 const Vec2 &a = pts[size_t(loop[i])], &b = pts[size_t(loop[(i + 1) % loop.size()])];
-                perim += std::hypot(a.x - b.x, a.y - b.y);
+                perim += poly2::length2(a.x - b.x, a.y - b.y);
             }
             const double area = signedArea(loop, pts);
             (area > 1e-9 * perim * perim ? outers : holes).push_back(loop);
@@ -2026,7 +2026,7 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                            &c = pts[size_t(poly[(i + 1) % poly.size()])];
                 // Straight within rounding counts as convex: the corners of a slit
                 // chord's Steiner midpoint are collinear only up to rounding.
-                convex = cross2(a, b, c) >= -1e-9 * std::hypot(b.x - a.x, b.y - a.y) * std::hypot(c.x - b.x, c.y - b.y);
+                convex = cross2(a, b, c) >= -1e-9 * poly2::length2(b.x - a.x, b.y - a.y) * poly2::length2(c.x - b.x, c.y - b.y);
             }
             // A triangle inside its own slit (every corner tagged with this
             // cap's side, so the other side's triangle shares no vertex)

@@ -5,9 +5,9 @@
 // fused), no dot()/length()/cross() builtins (their order of operations is
 // the driver's), double literals with the lf suffix, and every product that
 // feeds a sum or difference computed into a `precise` variable: without it
-// llvmpipe (Mesa 22.3.6) contracts some of them into fused multiply-adds
-// (the Newell normal's cross products differed from the CPU's in 1 % of
-// tets), which x86-64 C++ without -mfma never does. What the C++ uses that
+// Mesa 22.3.6 (llvmpipe) rearranges some of them (the Newell normal's cross
+// products differed from the CPU's in 1 % of tets; poly2.glsl saw a sum in a
+// loop reassociated), which the C++ (-ffp-contract=off) never does. What the C++ uses that
 // GLSL lacks is replaced on both sides before it is ported (atan2, hypot,
 // hash maps, exceptions). Ported so far: the input (cutter/KernelInput.h,
 // the std430 twins of PackedKernelCell/Quad/Side) and phase one of a tet:
