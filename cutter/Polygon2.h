@@ -22,6 +22,41 @@ inline double cross2(const Vec2& o, const Vec2& a, const Vec2& b)
 }
 inline bool same2(const Vec2& a, const Vec2& b) { return a.x == b.x && a.y == b.y; }
 
+/// Direction u before direction v by polar angle, as their std::atan2(y, x)
+/// would order them, without atan2 (the GPU port has no double atan2): by
+/// part of the plane (the -x axis with y = -0, where atan2 gives -pi; y < 0;
+/// the +x axis and the zero vector; y > 0; the -x axis, pi), then within a
+/// half plane by the sign of their cross product. Directions that compare
+/// equal either way keep their order in a stable sort. (Components whose
+/// products underflow, below 1e-154, are beyond it; the kernel's are not.)
+inline bool angleLess(const Vec2& u, const Vec2& v)
+{
+    auto half = [](const Vec2& d) {
+        if (d.y == 0 && d.x < 0) return std::signbit(d.y) ? -1 : 3;
+        return d.y < 0 ? 0 : d.y == 0 ? 1 : 2;
+    };
+    const int hu = half(u), hv = half(v);
+    if (hu != hv) return hu < hv;
+    return u.x * v.y - u.y * v.x > 0;
+}
+
+/// The turn from direction `back` clockwise to direction d, as a rank that
+/// orders like the angle in (0, 2 pi] (d along `back` is 2 pi, the last):
+/// clockwiseLess(back, d1, d2) when d1 is reached first turning clockwise
+/// from back. Without atan2, for the GPU port; and exact where atan2 is not:
+/// a turn too small for atan2 to see (it rounds both directions to one
+/// angle) is a small turn here, not a full one.
+inline bool clockwiseLess(const Vec2& back, const Vec2& d1, const Vec2& d2)
+{
+    auto half = [&](const Vec2& d) {
+        const double c = back.x * d.y - back.y * d.x, dot = back.x * d.x + back.y * d.y;
+        return c < 0 ? 0 : c == 0 && dot < 0 ? 1 : c > 0 ? 2 : 3;
+    };
+    const int h1 = half(d1), h2 = half(d2);
+    if (h1 != h2) return h1 < h2;
+    return d1.x * d2.y - d1.y * d2.x < 0; // d2 clockwise of d1
+}
+
 /// The length of (dx, dy) as sqrt(dx^2 + dy^2), each operation rounded on its
 /// own, not std::hypot: the GPU cut pass (shaders/poly2.glsl) must compute the
 /// same bits, and GLSL has no double hypot (its + * sqrt are IEEE-exact).

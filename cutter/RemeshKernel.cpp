@@ -1476,12 +1476,14 @@ void RemeshKernel::capSurfaces()
         dvec3 e1 = glm::normalize(pts[0].second - c);
         const dvec3 e2 = glm::cross(s.normal, e1);
         {
-            // By angle about the centre (each angle computed once).
-            SmallVector<std::pair<double, std::pair<int, dvec3>>, 8> byAngle;
+            // By angle about the centre (poly2::angleLess, atan2's order), in
+            // a stable insertion sort (at most four corners).
+            SmallVector<std::pair<Vec2, std::pair<int, dvec3>>, 8> byAngle;
             for (const auto& p : pts)
-                byAngle.push_back({std::atan2(glm::dot(p.second - c, e2), glm::dot(p.second - c, e1)), p});
-            std::sort(byAngle.begin(), byAngle.end(),
-                      [](const auto& a, const auto& b) { return a.first < b.first; });
+                byAngle.push_back({Vec2{glm::dot(p.second - c, e1), glm::dot(p.second - c, e2)}, p});
+            for (size_t i = 1; i < byAngle.size(); ++i)
+                for (size_t j = i; j > 0 && poly2::angleLess(byAngle[j].first, byAngle[j - 1].first); --j)
+                    std::swap(byAngle[j], byAngle[j - 1]);
             for (size_t i = 0; i < pts.size(); ++i) pts[i] = byAngle[i].second;
         }
         for (size_t i = 0; i < pts.size(); ++i) {
@@ -1879,17 +1881,15 @@ void RemeshKernel::traceRegions(const Surface& s, int side, const SmallVector<ch
                 if (at == loop.nodes.front()) break;
                 // Next: unused edge from `at`, the most clockwise from the way back.
                 size_t best = bnd.size();
-                double bestAngle = 1e9;
+                Vec2 bestDir{0.0, 0.0};
                 const Vec2 pa = p2(at), pb = p2(int(bnd[cur][0]));
-                const double back = std::atan2(pb.y - pa.y, pb.x - pa.x);
+                const Vec2 back{pb.x - pa.x, pb.y - pa.y};
                 for (size_t k = 0; k < bnd.size(); ++k) {
                     if (used[k] || bnd[k][0] != at) continue;
                     const Vec2 pc = p2(int(bnd[k][1]));
-                    double ang = back - std::atan2(pc.y - pa.y, pc.x - pa.x);
-                    while (ang <= 0) ang += 2 * M_PI;
-                    while (ang > 2 * M_PI) ang -= 2 * M_PI;
-                    if (ang < bestAngle) {
-                        bestAngle = ang;
+                    const Vec2 dir{pc.x - pa.x, pc.y - pa.y};
+                    if (best == bnd.size() || poly2::clockwiseLess(back, dir, bestDir)) {
+                        bestDir = dir;
                         best = k;
                     }
                 }

@@ -192,3 +192,58 @@ TEST(Polygon2, BestTriangulationIsNoWorseThanEarClipping)
     EXPECT_FALSE(bestTriangulation(iota(many.size()), many, tris));
     EXPECT_EQ(tris, std::vector<int>{7});
 }
+
+// angleLess and clockwiseLess replace std::atan2 in the kernel (a cap's
+// corners ordered about its centre, a region's loop turning most clockwise)
+// because the GPU port has no double atan2. They must order as atan2 does
+// wherever atan2 tells two directions apart, signed zeros included (a
+// corner opposite the first one of a parallelogram cap sits on the -x axis
+// with y = -0 or +0: atan2 says -pi or pi, first or last).
+TEST(Polygon2, AngleOrdersAsAtan2WithoutIt)
+{
+    std::vector<Vec2> dirs;
+    uint64_t state = 12345;
+    auto next = [&]() {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return double(state >> 11) / double(1ull << 53) * 2.0 - 1.0;
+    };
+    for (int i = 0; i < 2000; ++i) dirs.push_back({next(), next()});
+    // (Components of the kernel's directions are differences of coordinates
+    // of 1e-6 to 1e4 voxels: their products never underflow, as 1e-300's would.)
+    for (double x : {-1.0, -0.5, 0.0, 0.5, 1.0, 1e-9, -1e-9})
+        for (double y : {-1.0, -0.0, 0.0, 1.0, 1e-9, -1e-9}) dirs.push_back({x, y});
+    dirs.push_back({-2.0, -0.0});
+    dirs.push_back({-2.0, 0.0});
+    size_t pairs = 0;
+    for (const Vec2& u : dirs)
+        for (size_t k = 0; k < 40; ++k) {
+            const Vec2& v = dirs[(&u - dirs.data() + 7919 * k) % dirs.size()];
+            if (u.x == 0 && u.y == 0) continue; // atan2(0, -0) is pi: a zero vector has no angle
+            if (v.x == 0 && v.y == 0) continue;
+            const double au = std::atan2(u.y, u.x), av = std::atan2(v.y, v.x);
+            if (au != av) {
+                EXPECT_EQ(angleLess(u, v), au < av) << u.x << "," << u.y << " vs " << v.x << "," << v.y;
+                ++pairs;
+            }
+            // Clockwise from u: as the kernel's old rank, back - atan2(d) in (0, 2 pi].
+            auto rank = [&](const Vec2& d) {
+                double a = au - std::atan2(d.y, d.x);
+                while (a <= 0) a += 2 * M_PI;
+                while (a > 2 * M_PI) a -= 2 * M_PI;
+                return a;
+            };
+            const Vec2& w = dirs[(&u - dirs.data() + 104729 * k + 1) % dirs.size()];
+            if (w.x == 0 && w.y == 0) continue;
+            const double rv = rank(v), rw = rank(w);
+            if (std::abs(rv - rw) > 1e-12) {
+                EXPECT_EQ(clockwiseLess(u, v, w), rv < rw) << u.x << "," << u.y << " to " << v.x << "," << v.y << " or " << w.x << "," << w.y;
+            }
+        }
+    EXPECT_GT(pairs, 50000u);
+    EXPECT_TRUE(angleLess({-1.0, -0.0}, {1.0, -1e-9})); // -pi first
+    EXPECT_FALSE(angleLess({-1.0, 0.0}, {-1.0, 1e9}));   // pi last
+    // Where atan2 rounds two directions to one angle, the cross product
+    // still tells them apart: (0, 1) is a turn of 1e-20 rad clockwise from
+    // (-1e-20, 1), which atan2 makes a full turn (back where it came from).
+    EXPECT_TRUE(clockwiseLess({-1e-20, 1.0}, {0.0, 1.0}, {1.0, 0.0}));
+}
