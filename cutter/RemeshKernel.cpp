@@ -82,6 +82,8 @@ public:
     void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
     /// The first phase of tet t of the cell alone (CellKernel::phaseOneForTesting).
     TetPhaseOne phaseOne(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, int t);
+    /// remesh() records each tet's vertices here when set (CellKernel::verticesForTesting).
+    std::array<std::vector<VertexProbe>, kTetsPerCell>* mCapture = nullptr;
 
 private:
     // ---- per tet state
@@ -972,6 +974,8 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
     for (int t = 0; t < kTetsPerCell; ++t) {
         loadTet(t);
         remeshTet(out, cellIndex);
+        if (mCapture && (mT.inside[0] || mT.inside[1] || mT.inside[2] || mT.inside[3]))
+            for (const Vert& v : mVerts) (*mCapture)[size_t(t)].push_back({v.key, v.support, v.pos});
     }
     if (mPrism) {
         splitPinches(cell, out);
@@ -2089,6 +2093,23 @@ std::array<TetPhaseOne, kTetsPerCell> CellKernel::phaseOneForTesting(const Coord
 {
     std::array<TetPhaseOne, kTetsPerCell> r;
     for (int t = 0; t < kTetsPerCell; ++t) r[size_t(t)] = mKernel->phaseOne(cell, quads, prism, t);
+    return r;
+}
+
+std::array<std::vector<VertexProbe>, kTetsPerCell> CellKernel::verticesForTesting(const Coord& cell,
+                                                                                   const std::vector<QuadGeom>& quads,
+                                                                                   bool prism)
+{
+    std::array<std::vector<VertexProbe>, kTetsPerCell> r;
+    CutCellGeometry out;
+    mKernel->mCapture = &r;
+    try {
+        mKernel->remesh(cell, quads, prism, out);
+    } catch (...) {
+        mKernel->mCapture = nullptr;
+        throw;
+    }
+    mKernel->mCapture = nullptr;
     return r;
 }
 

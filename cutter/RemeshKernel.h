@@ -81,6 +81,16 @@ struct QuadGeom
 
 class RemeshKernel; // RemeshKernel.cpp
 
+/// A vertex the kernel made in a tet: its name (no tags), the tet-local
+/// vertices of the smallest simplex holding it, and its position (index
+/// space). For the tests of the GPU port's vertex positions.
+struct VertexProbe
+{
+    CutVertexId key;
+    uint8_t support = 0;
+    dvec3 pos{0.0};
+};
+
 /// The kernel's first phase in one tet of a cell, as the GPU cut pass's
 /// port computes it too (shaders/cut_kernel.glsl), for the tests that hold
 /// the two equal: which of the cell's quads can reach the tet (gatherQuads),
@@ -120,6 +130,10 @@ public:
     /// For tests of the GPU port: the first phase of each of the cell's tets.
     std::array<TetPhaseOne, kTetsPerCell> phaseOneForTesting(const Coord& cell, const std::vector<QuadGeom>& quads,
                                                              bool prism);
+    /// For tests of the GPU port: the vertices the kernel makes in each of
+    /// the cell's tets (none in a tet without solid), in order of making.
+    std::array<std::vector<VertexProbe>, kTetsPerCell> verticesForTesting(const Coord& cell,
+                                                                          const std::vector<QuadGeom>& quads, bool prism);
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;

@@ -21,7 +21,56 @@ Buffer storage(size_t bytes, const void* data, size_t minimum)
 
 } // namespace
 
-GpuCutKernel::GpuCutKernel() : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))) {}
+GpuCutKernel::GpuCutKernel()
+    : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
+      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl")))
+{
+}
+
+namespace {
+
+/// The kernel's input buffers bound at 0-3 (KernelCells, KernelQuads,
+/// KernelSides, KernelTets) and the uniforms of `program` set.
+struct BoundInput
+{
+    Buffer cells, quads, sides, tets;
+    BoundInput(const cutter::PackedKernelInput& input, const Program& program)
+        : cells(storage(input.cells.size() * sizeof(cutter::PackedKernelCell), input.cells.data(),
+                        sizeof(cutter::PackedKernelCell))),
+          quads(storage(input.quads.size() * sizeof(cutter::PackedKernelQuad), input.quads.data(),
+                        sizeof(cutter::PackedKernelQuad))),
+          sides(storage(input.sides.size() * sizeof(cutter::PackedKernelSide), input.sides.data(),
+                        sizeof(cutter::PackedKernelSide))),
+          tets(sizeof(input.tets), input.tets.data())
+    {
+        glProgramUniform1f(program.id(), program.uniform("uIsovalue"), input.isovalue);
+        glProgramUniform1i(program.id(), program.uniform("uPrism"), input.prism ? 1 : 0);
+        const Buffer* bound[] = {&cells, &quads, &sides, &tets};
+        for (GLuint b = 0; b < 4; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]->id());
+    }
+};
+
+} // namespace
+
+std::vector<double> GpuCutKernel::vertexPositions(const cutter::PackedKernelInput& input,
+                                                  const std::vector<GpuVertexQuery>& queries) const
+{
+    std::vector<double> out(3 * queries.size());
+    if (queries.empty()) return out;
+    mVertexPositions.use();
+    const BoundInput bound(input, mVertexPositions);
+    const Buffer in(queries.size() * sizeof(GpuVertexQuery), queries.data());
+    const Buffer positions(out.size() * sizeof(double), nullptr, GL_MAP_READ_BIT);
+    glProgramUniform1ui(mVertexPositions.id(), mVertexPositions.uniform("uQueryCount"), GLuint(queries.size()));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, in.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, positions.id());
+    glDispatchCompute(GLuint((queries.size() + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    glGetNamedBufferSubData(positions.id(), 0, GLsizeiptr(out.size() * sizeof(double)), out.data());
+    glUseProgram(0);
+    checkGlError("GpuCutKernel::vertexPositions");
+    return out;
+}
 
 std::vector<GpuTetPhaseOne> GpuCutKernel::phaseOne(const cutter::PackedKernelInput& input) const
 {

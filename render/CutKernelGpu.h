@@ -28,6 +28,21 @@ struct GpuTetPhaseOne
     double planes[2][4] = {};             ///< n.x, n.y, n.z, d per polygon
 };
 
+/// A vertex whose position the GPU computes from its name
+/// (cut_vertex_positions.comp; 128 bytes, std430).
+struct GpuVertexQuery
+{
+    uint32_t cell = 0; ///< index into PackedKernelInput::cells
+    uint32_t tet = 0;
+    uint32_t dim = 0;        ///< CutVertexId::dim
+    uint32_t planeCount = 0; ///< CutVertexId::planeCount
+    uint32_t support = 0;    ///< tet-local vertices of the smallest simplex holding it
+    uint32_t pad[3] = {0, 0, 0};
+    uint64_t planes[8] = {}; ///< CutVertexId::planes
+    double pos0[4] = {0, 0, 0, 0}; ///< where it was made (kept for names that do not fix a point)
+};
+static_assert(sizeof(GpuVertexQuery) == 128, "std430 layout of VertexQuery");
+
 /// The ported kernel's programs. Needs a current OpenGL 4.5 context with
 /// GL_ARB_gpu_shader_fp64 (core in 4.0) and GL_ARB_gpu_shader_int64; the
 /// constructor throws std::runtime_error when the shaders do not build.
@@ -39,9 +54,14 @@ public:
     /// Phase one of the 5 tets of every cell of `input` (5 c + t for tet t
     /// of cell c). Cost: one dispatch, O(cells' quads) on the GPU.
     std::vector<GpuTetPhaseOne> phaseOne(const cutter::PackedKernelInput& input) const;
+    /// The position (index space) of each queried vertex from its name, as
+    /// the CPU kernel's canonicalPosition gives it. 3 doubles per query.
+    std::vector<double> vertexPositions(const cutter::PackedKernelInput& input,
+                                        const std::vector<GpuVertexQuery>& queries) const;
 
 private:
     Program mPhaseOne;
+    Program mVertexPositions;
 };
 
 } // namespace mtcut::render

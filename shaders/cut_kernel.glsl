@@ -247,3 +247,140 @@ IsoPolygons isoTriangles(Tet T)
     }
     return r;
 }
+
+// ---- vertex positions from names (RemeshKernel::canonicalPosition)
+const uint64_t kIso = 1ul, kIsoA = 2ul, kIsoB = 3ul, kMid = 4ul, kCentroid = 5ul;
+
+/// RemeshKernel::planeById: a plane of the tet (its marching-tetrahedra
+/// polygons' planes, and those of the quads that can reach it) by id.
+bool planeById(Tet T, IsoPolygons iso, uint cell, uint64_t id, out dvec4 plane)
+{
+    plane = dvec4(0.0lf);
+    if (id == kIsoA && iso.triCount > 0) {
+        plane = iso.plane[0];
+        return true;
+    }
+    if (id == kIsoB && iso.triCount > 1) {
+        plane = iso.plane[1];
+        return true;
+    }
+    const KernelCell c = kCells[cell];
+    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
+        if (!quadReaches(T, q)) continue;
+        if (!uPrism && kQuads[q].id == id) {
+            plane = kQuads[q].plane;
+            return true;
+        }
+        for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
+            if (kSides[s].id == id) {
+                plane = kSides[s].plane;
+                return true;
+            }
+    }
+    return false;
+}
+
+/// The corners of tet face `mask` (3 bits) ascending by grid vertex id.
+void faceCorners(Tet T, uint mask, out int v[3])
+{
+    int n = 0;
+    for (int i = 0; i < 4; ++i)
+        if (((mask >> i) & 1u) != 0u) v[n++] = i;
+    for (int i = 1; i < 3; ++i)
+        for (int j = i; j > 0 && T.id[v[j]] < T.id[v[j - 1]]; --j) {
+            const int s = v[j];
+            v[j] = v[j - 1];
+            v[j - 1] = s;
+        }
+}
+
+/// RemeshKernel::faceIsoLine: the face's iso line p1, p2 (false when the
+/// isosurface does not cross the face).
+bool faceIsoLine(Tet T, uint mask, out dvec3 p1, out dvec3 p2)
+{
+    int v[3];
+    faceCorners(T, mask, v);
+    p1 = dvec3(0.0lf);
+    p2 = dvec3(0.0lf);
+    const int ni = (T.inside[v[0]] ? 1 : 0) + (T.inside[v[1]] ? 1 : 0) + (T.inside[v[2]] ? 1 : 0);
+    if (ni == 0 || ni == 3) return false;
+    int k = 0;
+    dvec3 pts[2];
+    const int ends[6] = int[6](v[0], v[1], v[0], v[2], v[1], v[2]);
+    for (int e = 0; e < 3; ++e)
+        if (T.inside[ends[2 * e]] != T.inside[ends[2 * e + 1]]) pts[k++] = mtPoint(T, ends[2 * e], ends[2 * e + 1]);
+    p1 = pts[0];
+    p2 = pts[1];
+    return true;
+}
+
+/// RemeshKernel::canonicalPosition: the position of the vertex named by
+/// (dim, planes) on the tet's simplex `support`, made at pos0.
+dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeCount, uint64_t planes[8], uint support,
+                        dvec3 pos0)
+{
+    if (dim == 0u) {
+        for (int i = 0; i < 4; ++i)
+            if (((support >> i) & 1u) != 0u) return T.p[i];
+    }
+    if (dim == 3u) return pos0;
+    for (uint i = 0u; i < planeCount; ++i)
+        if (planes[i] == kMid || planes[i] == kCentroid) return pos0;
+    dvec4 p, q;
+    if (dim == 1u) {
+        int a = -1, b = -1;
+        for (int i = 0; i < 4; ++i)
+            if (((support >> i) & 1u) != 0u) {
+                if (a < 0) a = i;
+                else b = i;
+            }
+        if (T.id[b] < T.id[a]) {
+            const int s = a;
+            a = b;
+            b = s;
+        }
+        if (planes[0] == kIso) return mtPoint(T, a, b);
+        for (uint i = 0u; i < planeCount; ++i) {
+            if (!planeById(T, iso, cell, planes[i], p)) continue;
+            const double ha = planeH(p, T.p[a]), hb = planeH(p, T.p[b]);
+            if (!(abs(ha - hb) > 1e-12lf)) continue;
+            double t = ha / (ha - hb);
+            t = t < 0.0lf ? 0.0lf : 1.0lf < t ? 1.0lf : t; // std::clamp
+            precise dvec3 r = T.p[a] + t * (T.p[b] - T.p[a]);
+            return r;
+        }
+        return pos0;
+    }
+    // dim 2: a face.
+    if (planes[0] == kIso) {
+        dvec3 p1, p2;
+        if (faceIsoLine(T, support, p1, p2)) {
+            const double len = length3(p2 - p1);
+            for (uint i = 1u; i < planeCount; ++i) {
+                if (!planeById(T, iso, cell, planes[i], p)) continue;
+                const double h1 = planeH(p, p1), h2 = planeH(p, p2);
+                if (!(abs(h1 - h2) > 1e-9lf * len)) continue;
+                const double u = h1 / (h1 - h2);
+                precise dvec3 r = p1 + u * (p2 - p1);
+                return r;
+            }
+        }
+        return pos0;
+    }
+    int v[3];
+    faceCorners(T, support, v);
+    const dvec3 A = T.p[v[0]], e1 = T.p[v[1]] - A, e2 = T.p[v[2]] - A;
+    for (uint i = 0u; i < planeCount; ++i)
+        for (uint j = i + 1u; j < planeCount; ++j) {
+            if (!planeById(T, iso, cell, planes[i], p) || !planeById(T, iso, cell, planes[j], q)) continue;
+            const double a11 = dot3(p.xyz, e1), a12 = dot3(p.xyz, e2), b1 = -planeH(p, A);
+            const double a21 = dot3(q.xyz, e1), a22 = dot3(q.xyz, e2), b2 = -planeH(q, A);
+            precise double det = a11 * a22 - a12 * a21;
+            if (!(abs(det) > 1e-9lf)) continue;
+            precise double s = (b1 * a22 - a12 * b2) / det;
+            precise double t = (a11 * b2 - b1 * a21) / det;
+            precise dvec3 r = A + s * e1 + t * e2;
+            return r;
+        }
+    return pos0;
+}

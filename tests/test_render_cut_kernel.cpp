@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -142,6 +143,88 @@ TEST(CutKernelGpu, PhaseOneEqualsTheCpuKernelBitForBit)
     const Tally t = compare(gpu, vol, 400.0f, 1.0, 101, 20);
     report("2 mm head, kerf 1", t);
     EXPECT_EQ(t.differ, 0u) << t.first;
+}
+
+// Vertex positions from names: every vertex the CPU kernel makes in the
+// tets of the cut cells (after the whole cell's arrangement), its position
+// computed on the GPU from its name and simplex alone (canonicalPosition:
+// marching-tetrahedra points, plane crossings of tet edges, two planes
+// meeting in a face, the iso line of a face crossing a plane). Once with
+// the CPU's position as the fallback (names that do not fix a point keep
+// where they were made), once with NaN, to count the positions the GPU
+// made itself: both equal bit for bit.
+TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
+{
+    MTCUT_REQUIRE_GL();
+    const render::GpuCutKernel gpu;
+    vdb::PhantomOptions options;
+    options.dims = openvdb::Coord(160, 160, 128);
+    const vdb::Volume vol = vdb::makePhantom(options);
+    for (double kerf : {0.0, 0.5}) {
+        size_t vertices = 0, fromName = 0, differ = 0, refused = 0, byDim[4] = {0, 0, 0, 0};
+        std::string first;
+        CellKernel cpu(vol, 400.0f);
+        for (uint32_t seed = 1; seed <= 12; ++seed) {
+            CutMask mask(cutter::frameOf(vol), kerf);
+            for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
+                                                               20.0 + 10.0 * (seed % 4))) {
+                mask.beginStroke();
+                for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
+            }
+            std::vector<openvdb::Coord> cells;
+            mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
+            std::sort(cells.begin(), cells.end());
+            const cutter::PackedKernelInput input = cutter::packKernelInput(vol, 400.0f, mask, cells);
+            std::vector<render::GpuVertexQuery> queries;
+            std::vector<glm::dvec3> want;
+            for (size_t i = 0; i < cells.size(); ++i) {
+                std::array<std::vector<cutter::remesh_detail::VertexProbe>, cutter::kTetsPerCell> probes;
+                try {
+                    probes = cpu.verticesForTesting(cells[i], cutter::remesh_detail::kernelQuadsOf(mask, cells[i]), kerf > 0);
+                } catch (const std::runtime_error&) {
+                    ++refused; // a cell the kernel refuses: nothing to compare
+                    continue;
+                }
+                for (int t = 0; t < cutter::kTetsPerCell; ++t)
+                    for (const auto& v : probes[size_t(t)]) {
+                        render::GpuVertexQuery q;
+                        q.cell = uint32_t(i);
+                        q.tet = uint32_t(t);
+                        q.dim = v.key.dim;
+                        q.planeCount = v.key.planeCount;
+                        q.support = v.support;
+                        std::copy(v.key.planes.begin(), v.key.planes.end(), q.planes);
+                        q.pos0[0] = v.pos.x;
+                        q.pos0[1] = v.pos.y;
+                        q.pos0[2] = v.pos.z;
+                        queries.push_back(q);
+                        want.push_back(v.pos);
+                        ++byDim[v.key.dim];
+                    }
+            }
+            const std::vector<double> got = gpu.vertexPositions(input, queries);
+            for (auto& q : queries) q.pos0[0] = q.pos0[1] = q.pos0[2] = std::nan("");
+            const std::vector<double> named = gpu.vertexPositions(input, queries);
+            for (size_t k = 0; k < queries.size(); ++k) {
+                bool same = true;
+                for (int j = 0; j < 3; ++j) same = same && sameBits(got[3 * k + size_t(j)], want[k][j]);
+                if (!std::isnan(named[3 * k])) {
+                    ++fromName;
+                    for (int j = 0; j < 3; ++j) same = same && sameBits(named[3 * k + size_t(j)], want[k][j]);
+                }
+                if (same) continue;
+                if (differ++ == 0)
+                    first = "seed " + std::to_string(seed) + " dim " + std::to_string(queries[k].dim) + " planes " +
+                            std::to_string(queries[k].planeCount);
+            }
+            vertices += queries.size();
+        }
+        std::printf("phantom, kerf %.1f: %zu vertices (dim 0/1/2/3: %zu/%zu/%zu/%zu), %zu placed from the name alone, "
+                    "%zu differ, %zu cells refused\n",
+                    kerf, vertices, byDim[0], byDim[1], byDim[2], byDim[3], fromName, differ, refused);
+        EXPECT_EQ(differ, 0u) << first;
+        EXPECT_GT(fromName, vertices / 2);
+    }
 }
 
 // The comparison can fail: the GPU given an isovalue one float step higher
