@@ -12,8 +12,9 @@
 // hash maps, exceptions). Ported so far: the input (cutter/KernelInput.h,
 // the std430 twins of PackedKernelCell/Quad/Side) and phase one of a tet:
 // the quads that can reach it (gatherQuads) and its marching-tetrahedra
-// polygons with their planes (isoTriangles). Checked bit for bit against the
-// CPU by tests/test_render_cut_kernel.cpp.
+// polygons with their planes (isoTriangles); and a vertex's position from
+// its name (canonicalPosition). Checked bit for bit against the CPU by
+// tests/test_render_cut_kernel.cpp. The 2-D polygon helpers are poly2.glsl.
 #extension GL_ARB_gpu_shader_int64 : require
 
 struct KernelCell
