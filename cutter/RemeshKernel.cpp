@@ -84,6 +84,8 @@ public:
     TetPhaseOne phaseOne(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, int t);
     /// remesh() records each tet's vertices here when set (CellKernel::verticesForTesting).
     std::array<std::vector<VertexProbe>, kTetsPerCell>* mCapture = nullptr;
+    /// makeVertex() records each name here when set (CellKernel::namesForTesting).
+    std::vector<NameProbe>* mNameCapture = nullptr;
 
 private:
     // ---- per tet state
@@ -612,6 +614,8 @@ dvec3 RemeshKernel::canonicalPosition(const CutVertexId& key, uint8_t support, c
 
 int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0)
 {
+    if (mNameCapture)
+        mNameCapture->push_back({mTet, support, std::vector<uint64_t>(defining.begin(), defining.end()), pos0, {}, false});
     CutVertexId key = featureKey(support);
     const double eps = epsAt(pos0);
     // The name is the set of ACTIVE planes through the point (the iso surface,
@@ -756,8 +760,10 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
         }
     }
     if (planes.size() > key.planes.size()) {
+        if (mNameCapture) mNameCapture->back().refused = true;
         throw std::runtime_error("remesh: a point lies on more than 8 blade planes in cell " + cellText(mCell));
     }
+    if (mNameCapture) mNameCapture->back().planes.assign(planes.begin(), planes.end());
     key.planeCount = uint8_t(planes.size());
     for (size_t i = 0; i < planes.size(); ++i) key.planes[i] = planes[i];
     const uint64_t hash = CutVertexIdHash()(key);
@@ -2110,6 +2116,20 @@ std::array<std::vector<VertexProbe>, kTetsPerCell> CellKernel::verticesForTestin
         throw;
     }
     mKernel->mCapture = nullptr;
+    return r;
+}
+
+std::vector<NameProbe> CellKernel::namesForTesting(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism)
+{
+    std::vector<NameProbe> r;
+    CutCellGeometry out;
+    mKernel->mNameCapture = &r;
+    try {
+        mKernel->remesh(cell, quads, prism, out);
+    } catch (const std::runtime_error&) {
+        // a refusal: the names up to it stand
+    }
+    mKernel->mNameCapture = nullptr;
     return r;
 }
 

@@ -91,6 +91,20 @@ struct VertexProbe
     dvec3 pos{0.0};
 };
 
+/// A name the kernel gave a point in a tet (makeVertex, before it looks
+/// for a vertex of that name): the call's simplex, the planes that made the
+/// point and where, and the planes of the name (empty with `refused` when
+/// more than a name holds). For the tests of the GPU port's naming.
+struct NameProbe
+{
+    int tet = 0;
+    uint8_t support = 0;
+    std::vector<uint64_t> defining;
+    dvec3 pos0{0.0};
+    std::vector<uint64_t> planes;
+    bool refused = false;
+};
+
 /// The kernel's first phase in one tet of a cell, as the GPU cut pass's
 /// port computes it too (shaders/cut_kernel.glsl), for the tests that hold
 /// the two equal: which of the cell's quads can reach the tet (gatherQuads),
@@ -134,6 +148,9 @@ public:
     /// the cell's tets (none in a tet without solid), in order of making.
     std::array<std::vector<VertexProbe>, kTetsPerCell> verticesForTesting(const Coord& cell,
                                                                           const std::vector<QuadGeom>& quads, bool prism);
+    /// For tests of the GPU port: every name the kernel computes in the cell
+    /// (all tets, in order; stops at a refusal, which it records).
+    std::vector<NameProbe> namesForTesting(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism);
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;

@@ -3,6 +3,7 @@
 
 #include "render/Shaders.h"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
@@ -23,7 +24,8 @@ Buffer storage(size_t bytes, const void* data, size_t minimum)
 
 GpuCutKernel::GpuCutKernel()
     : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
-      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl")))
+      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
+      mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl")))
 {
 }
 
@@ -112,6 +114,34 @@ std::vector<GpuTetPhaseOne> GpuCutKernel::phaseOne(const cutter::PackedKernelInp
         std::memcpy(r.quads, w + 13, sizeof(r.quads));
         std::memcpy(r.points, &d[t * kStrideD], sizeof(r.points));
         std::memcpy(r.planes, &d[t * kStrideD + 24], sizeof(r.planes));
+    }
+    return out;
+}
+
+std::vector<GpuName> GpuCutKernel::names(const cutter::PackedKernelInput& input,
+                                         const std::vector<GpuNameQuery>& queries) const
+{
+    std::vector<GpuName> out(queries.size());
+    if (queries.empty()) return out;
+    mNames.use();
+    const BoundInput bound(input, mNames);
+    const Buffer in(queries.size() * sizeof(GpuNameQuery), queries.data());
+    const Buffer names(10 * queries.size() * sizeof(uint64_t), nullptr, GL_MAP_READ_BIT);
+    glProgramUniform1ui(mNames.id(), mNames.uniform("uQueryCount"), GLuint(queries.size()));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, in.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, names.id());
+    glDispatchCompute(GLuint((queries.size() + 63) / 64), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<uint64_t> words(10 * queries.size());
+    glGetNamedBufferSubData(names.id(), 0, GLsizeiptr(words.size() * sizeof(uint64_t)), words.data());
+    glUseProgram(0);
+    checkGlError("GpuCutKernel::names");
+    for (size_t i = 0; i < queries.size(); ++i) {
+        const uint64_t* w = &words[10 * i];
+        out[i].named = (w[0] & 1u) != 0;
+        out[i].overflow = (w[0] & 2u) != 0;
+        out[i].count = uint32_t(w[1]);
+        std::copy(w + 2, w + 10, out[i].planes);
     }
     return out;
 }

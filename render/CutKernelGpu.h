@@ -43,6 +43,29 @@ struct GpuVertexQuery
 };
 static_assert(sizeof(GpuVertexQuery) == 128, "std430 layout of VertexQuery");
 
+/// A point the GPU names (cut_names.comp; 128 bytes, std430): makeVertex's
+/// call.
+struct GpuNameQuery
+{
+    uint32_t cell = 0; ///< index into PackedKernelInput::cells
+    uint32_t tet = 0;
+    uint32_t support = 0;       ///< tet-local vertices of the smallest simplex holding it
+    uint32_t definingCount = 0; ///< the planes that made it (at most 8)
+    uint32_t pad[4] = {0, 0, 0, 0};
+    uint64_t defining[8] = {};
+    double pos0[4] = {0, 0, 0, 0}; ///< where it was made, index space
+};
+static_assert(sizeof(GpuNameQuery) == 128, "std430 layout of NameQuery");
+
+/// The GPU's name for a GpuNameQuery.
+struct GpuName
+{
+    bool named = false;    ///< false: more planes than a name holds (the CPU refuses the cell)
+    bool overflow = false; ///< a list outgrew the shader's capacity (the CPU would take the cell)
+    uint32_t count = 0;
+    uint64_t planes[8] = {};
+};
+
 /// The ported kernel's programs. Needs a current OpenGL 4.5 context with
 /// GL_ARB_gpu_shader_fp64 (core in 4.0) and GL_ARB_gpu_shader_int64; the
 /// constructor throws std::runtime_error when the shaders do not build.
@@ -58,10 +81,14 @@ public:
     /// the CPU kernel's canonicalPosition gives it. 3 doubles per query.
     std::vector<double> vertexPositions(const cutter::PackedKernelInput& input,
                                         const std::vector<GpuVertexQuery>& queries) const;
+    /// The name (its planes, ascending) of each queried point, as the CPU
+    /// kernel's makeVertex gives it before looking the name up.
+    std::vector<GpuName> names(const cutter::PackedKernelInput& input, const std::vector<GpuNameQuery>& queries) const;
 
 private:
     Program mPhaseOne;
     Program mVertexPositions;
+    Program mNames;
 };
 
 } // namespace mtcut::render

@@ -12,8 +12,9 @@
 // hash maps, exceptions). Ported so far: the input (cutter/KernelInput.h,
 // the std430 twins of PackedKernelCell/Quad/Side) and phase one of a tet:
 // the quads that can reach it (gatherQuads) and its marching-tetrahedra
-// polygons with their planes (isoTriangles); and a vertex's position from
-// its name (canonicalPosition). Checked bit for bit against the CPU by
+// polygons with their planes (isoTriangles); a point's name (the planes
+// makeVertex names it by) and a vertex's position from its name
+// (canonicalPosition). Checked bit for bit against the CPU by
 // tests/test_render_cut_kernel.cpp. The 2-D polygon helpers are poly2.glsl.
 #extension GL_ARB_gpu_shader_int64 : require
 
@@ -384,4 +385,333 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
             return r;
         }
     return pos0;
+}
+
+// ---- naming a point (RemeshKernel::makeVertex, the planes of the name)
+#define NAME_LIST_MAX 32 // planes gathered while naming, before the name's 8
+const int kJunctionKind = 7, kPlusKind = 8, kMinusKind = 9;
+
+// Plane id lists, ascending once sorted, in per-invocation globals, one row
+// per list, each id as two 32-bit halves (uvec2: low, high).
+const int kPlanesList = 0, kDefiningList = 1, kOnList = 2, kAddList = 3, kChosenList = 4;
+uvec2 gIds[5 * NAME_LIST_MAX]; // list l, entry i: gIds[l * NAME_LIST_MAX + i]
+int gIdCount[5];
+bool gIdOverflow;
+
+void idClear(int l) { gIdCount[l] = 0; }
+
+void idPush(int l, uint64_t id)
+{
+    if (gIdCount[l] == NAME_LIST_MAX) {
+        gIdOverflow = true;
+        return;
+    }
+    gIds[l * NAME_LIST_MAX + gIdCount[l]++] = unpackUint2x32(id);
+}
+
+uint64_t idAt(int l, int i) { return packUint2x32(gIds[l * NAME_LIST_MAX + i]); }
+
+bool idLess(uvec2 a, uvec2 b) { return a.y < b.y || (a.y == b.y && a.x < b.x); }
+
+/// std::sort then std::unique, as a selection of the next larger id into a
+/// scratch row (an in-place insertion sort lost entries: Mesa 22.3.6 read a
+/// stale element after a store to the same array in the loop).
+uvec2 gIdScratch[NAME_LIST_MAX];
+void idSortUnique(int l)
+{
+    const int n = gIdCount[l];
+    int m = 0;
+    bool have = false;
+    uvec2 last = uvec2(0u);
+    for (int k = 0; k < n; ++k) {
+        bool found = false;
+        uvec2 best = uvec2(0u);
+        for (int i = 0; i < n; ++i) {
+            const uvec2 v = gIds[l * NAME_LIST_MAX + i];
+            if (have && !idLess(last, v)) continue; // not above the last taken
+            if (!found || idLess(v, best)) {
+                best = v;
+                found = true;
+            }
+        }
+        if (!found) break;
+        gIdScratch[m++] = best;
+        last = best;
+        have = true;
+    }
+    for (int i = 0; i < m; ++i) gIds[l * NAME_LIST_MAX + i] = gIdScratch[i];
+    gIdCount[l] = m;
+}
+
+bool idHas(int l, uint64_t id)
+{
+    const uvec2 x = unpackUint2x32(id);
+    for (int i = 0; i < gIdCount[l]; ++i)
+        if (gIds[l * NAME_LIST_MAX + i] == x) return true;
+    return false;
+}
+
+void idCopy(int to, int from)
+{
+    gIdCount[to] = gIdCount[from];
+    for (int i = 0; i < gIdCount[from]; ++i) gIds[to * NAME_LIST_MAX + i] = gIds[from * NAME_LIST_MAX + i];
+}
+
+/// What the iso polygons own (RemeshKernel::triOwns once isoSurfaces ran):
+/// the tet face each polygon's sides lie on, and its corners' tet edges.
+struct IsoOwnership
+{
+    int faceTri[4];
+    uint edgeMask[2][4];
+};
+
+IsoOwnership isoOwnership(IsoPolygons iso)
+{
+    IsoOwnership o;
+    for (int f = 0; f < 4; ++f) o.faceTri[f] = -1;
+    for (int k = 0; k < 2; ++k)
+        for (int c = 0; c < 4; ++c) o.edgeMask[k][c] = 0u;
+    for (int k = 0; k < iso.triCount; ++k) {
+        const int n = iso.corners[k];
+        for (int c = 0; c < n; ++c) o.edgeMask[k][c] = (1u << (iso.edges[k][c] & 3)) | (1u << (iso.edges[k][c] >> 2));
+        for (int c = 0; c < n; ++c) {
+            const uint m = o.edgeMask[k][c] | o.edgeMask[k][(c + 1) % n];
+            if (m == 15u) continue;
+            int f = 0;
+            while (((m >> f) & 1u) != 0u) ++f;
+            o.faceTri[f] = k;
+        }
+    }
+    return o;
+}
+
+int bitCount4(uint m) { return int(m & 1u) + int((m >> 1) & 1u) + int((m >> 2) & 1u) + int((m >> 3) & 1u); }
+
+bool triOwns(IsoPolygons iso, IsoOwnership o, int k, uint support)
+{
+    if (iso.triCount < 2) return true;
+    if (bitCount4(support) == 3) {
+        int f = 0;
+        while (((support >> f) & 1u) != 0u) ++f;
+        return o.faceTri[f] == k;
+    }
+    for (int c = 0; c < iso.corners[k]; ++c)
+        if (o.edgeMask[k][c] == support) return true;
+    return false;
+}
+
+/// RemeshKernel::faceIsoDistance: signed in-plane distance to the face's
+/// iso line (+ inside), or +-1e300 when the face is not crossed.
+double faceIsoDistance(Tet T, uint mask, dvec3 x)
+{
+    int v[3];
+    faceCorners(T, mask, v);
+    const int ni = (T.inside[v[0]] ? 1 : 0) + (T.inside[v[1]] ? 1 : 0) + (T.inside[v[2]] ? 1 : 0);
+    if (ni == 0 || ni == 3) {
+        int any = 0;
+        while (((mask >> any) & 1u) == 0u) ++any;
+        return T.inside[any] ? 1e300lf : -1e300lf;
+    }
+    dvec3 p1, p2;
+    faceIsoLine(T, mask, p1, p2);
+    const dvec3 nrm = cross3(T.p[v[1]] - T.p[v[0]], T.p[v[2]] - T.p[v[0]]);
+    const int inner = T.inside[v[0]] ? v[0] : T.inside[v[1]] ? v[1] : v[2];
+    const double s = dot3(cross3(p2 - p1, T.p[inner] - p1), nrm) > 0.0lf ? 1.0lf : -1.0lf;
+    precise double l = length3(p2 - p1) * length3(nrm);
+    precise double r = s * dot3(cross3(p2 - p1, x - p1), nrm) / l;
+    return r;
+}
+
+/// RemeshKernel::edgeIsoDistance.
+double edgeIsoDistance(Tet T, uint mask, dvec3 x)
+{
+    int a = -1, b = -1;
+    for (int i = 0; i < 4; ++i)
+        if (((mask >> i) & 1u) != 0u) {
+            if (a < 0) a = i;
+            else b = i;
+        }
+    if (T.id[b] < T.id[a]) {
+        const int s = a;
+        a = b;
+        b = s;
+    }
+    if (T.inside[a] == T.inside[b]) return T.inside[a] ? 1e300lf : -1e300lf;
+    const dvec3 e = T.p[b] - T.p[a];
+    const double len = length3(e);
+    precise double t = dot3(x - T.p[a], e) / (len * len);
+    const double ti = edgeCrossing(T.value[a], T.value[b], uIsovalue);
+    precise double r = (T.inside[a] ? (ti - t) : (t - ti)) * len;
+    return r;
+}
+
+/// RemeshKernel::independentPlanes: the first of `l` (with a plane in the
+/// tet) whose normals are independent, at most three.
+int independentPlanes(Tet T, IsoPolygons iso, uint cell, int l, out uint64_t chosen[3])
+{
+    int n = 0;
+    dvec3 n0 = dvec3(0.0lf), n1 = dvec3(0.0lf);
+    for (int i = 0; i < gIdCount[l]; ++i) {
+        dvec4 pl;
+        if (!planeById(T, iso, cell, idAt(l, i), pl)) continue;
+        const dvec3 nn = pl.xyz;
+        const bool independent = n == 0 ? length3(nn) > 0.5lf
+                                 : n == 1 ? length3(cross3(n0, nn)) > 1e-6lf
+                                          : abs(dot3(cross3(n0, n1), nn)) > 1e-6lf;
+        if (!independent) continue;
+        if (n == 0) n0 = nn;
+        else n1 = nn;
+        chosen[n++] = idAt(l, i);
+        if (n == 3) break;
+    }
+    return n;
+}
+
+/// The quad of the cell reaching the tet with this id, or -1 (quadById).
+int reachingQuadById(Tet T, uint cell, uint64_t id)
+{
+    const KernelCell c = kCells[cell];
+    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q)
+        if (kQuads[q].id == id && quadReaches(T, q)) return int(q);
+    return -1;
+}
+
+bool inClosedPrism(int q, dvec3 x, double eps)
+{
+    if (q < 0) return false;
+    for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
+        if (kSides[s].orient * planeH(kSides[s].plane, x) < -eps) return false;
+    return true;
+}
+
+/// The planes of the name makeVertex gives the point pos0 of simplex
+/// `support` made by `defining`: false (refused) when more than eight
+/// remain, or when a list overflows (then `overflow`).
+bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, uint64_t defining[8], int definingCount,
+            dvec3 pos0, out uint64_t name[8], out int nameCount, out bool overflow)
+{
+    nameCount = 0;
+    gIdOverflow = false;
+    const int dim = bitCount4(support) - 1;
+    const double eps = epsAt(pos0);
+    idClear(kPlanesList);
+    idClear(kDefiningList);
+    for (int i = 0; i < definingCount; ++i) {
+        uint64_t p = defining[i];
+        if (dim < 3 && (p == kIsoA || p == kIsoB) && triOwns(iso, own, int(p - kIsoA), support)) p = kIso;
+        idPush(kDefiningList, p);
+        if (p <= kIsoB) idPush(kPlanesList, p);
+    }
+    if (dim == 2 && abs(faceIsoDistance(T, support, pos0)) <= eps) idPush(kPlanesList, kIso);
+    if (dim == 1 && abs(edgeIsoDistance(T, support, pos0)) <= eps) idPush(kPlanesList, kIso);
+    const KernelCell c = kCells[cell];
+    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
+        if (!quadReaches(T, q)) continue;
+        const uint s0 = kQuads[q].firstSide, s1 = s0 + kQuads[q].sideCount;
+        if (uPrism) {
+            bool inside = true, onAny = false;
+            for (uint s = s0; s < s1; ++s) {
+                const double h = kSides[s].orient * planeH(kSides[s].plane, pos0);
+                inside = inside && h >= -eps;
+                onAny = onAny || abs(h) <= eps;
+            }
+            if (!inside || !onAny) continue;
+            for (uint s = s0; s < s1; ++s)
+                if (abs(planeH(kSides[s].plane, pos0)) <= eps) idPush(kPlanesList, kSides[s].id);
+        } else {
+            if (!(abs(planeH(kQuads[q].plane, pos0)) <= eps)) continue;
+            bool inside = true;
+            for (uint s = s0; s < s1; ++s) inside = inside && kSides[s].orient * planeH(kSides[s].plane, pos0) >= -eps;
+            if (!inside) continue;
+            idPush(kPlanesList, kQuads[q].id);
+            for (uint s = s0; s < s1; ++s)
+                if (abs(planeH(kSides[s].plane, pos0)) <= eps) idPush(kPlanesList, kSides[s].id);
+        }
+    }
+    idSortUnique(kPlanesList);
+    // `on`: the planes the point lies on (made by them, or within eps).
+    idCopy(kOnList, kDefiningList);
+    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
+        if (!quadReaches(T, q)) continue;
+        if (!uPrism && abs(planeH(kQuads[q].plane, pos0)) <= eps) idPush(kOnList, kQuads[q].id);
+        for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
+            if (abs(planeH(kSides[s].plane, pos0)) <= eps) idPush(kOnList, kSides[s].id);
+    }
+    for (int i = 0; i < gIdCount[kPlanesList]; ++i) idPush(kOnList, idAt(kPlanesList, i));
+    idSortUnique(kOnList);
+    if (uPrism) {
+        // Offset planes of two quads meet on their mitre (makeVertex).
+        for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
+            if (!quadReaches(T, q)) continue;
+            for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
+                const uint64_t sideId = kSides[s].id, partnerId = kSides[s].partnerId;
+                if (partnerId == 0ul || !idHas(kOnList, sideId)) continue;
+                if (!inClosedPrism(int(q), pos0, eps) && !inClosedPrism(reachingQuadById(T, cell, partnerId), pos0, eps))
+                    continue;
+                for (int kind = kPlusKind; kind <= kMinusKind; ++kind) {
+                    const uint64_t mine = (kQuads[q].id & ~uint64_t(15)) | uint64_t(kind);
+                    const uint64_t theirs = (partnerId & ~uint64_t(15)) | uint64_t(kind);
+                    if (idHas(kOnList, mine) || idHas(kOnList, theirs)) {
+                        idPush(kPlanesList, sideId);
+                        idPush(kPlanesList, mine);
+                        idPush(kPlanesList, theirs);
+                    }
+                }
+            }
+        }
+        idSortUnique(kPlanesList);
+    }
+    for (int round = 0; round < 4 && !uPrism; ++round) {
+        idClear(kAddList);
+        for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
+            if (!quadReaches(T, q)) continue;
+            for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
+                const uint64_t sideId = kSides[s].id, partnerId = kSides[s].partnerId;
+                if (kSides[s].partner < 0 || !idHas(kOnList, sideId) ||
+                    !(idHas(kOnList, kQuads[q].id) || idHas(kOnList, partnerId)) ||
+                    reachingQuadById(T, cell, partnerId) < 0)
+                    continue;
+                idPush(kAddList, sideId);
+                idPush(kAddList, kQuads[q].id);
+                idPush(kAddList, partnerId);
+                for (int e = 0; e < 2; ++e) {
+                    const uint64_t first = kSides[s].cornerSides[2 * e], second = kSides[s].cornerSides[2 * e + 1];
+                    if (first != 0ul && second != 0ul && (idHas(kOnList, first) || idHas(kOnList, second))) {
+                        idPush(kAddList, first);
+                        idPush(kAddList, second);
+                    }
+                }
+            }
+        }
+        if (gIdCount[kAddList] == 0) break;
+        const int before = gIdCount[kOnList];
+        for (int i = 0; i < gIdCount[kAddList]; ++i) idPush(kOnList, idAt(kAddList, i));
+        idSortUnique(kOnList);
+        for (int i = 0; i < gIdCount[kAddList]; ++i) idPush(kPlanesList, idAt(kAddList, i));
+        idSortUnique(kPlanesList);
+        if (gIdCount[kOnList] == before) break;
+    }
+    uint64_t chosen3[3];
+    if (gIdCount[kPlanesList] < dim || (dim == 3 && independentPlanes(T, iso, cell, kPlanesList, chosen3) < 3)) {
+        for (int i = 0; i < gIdCount[kDefiningList]; ++i) idPush(kPlanesList, idAt(kDefiningList, i));
+        idSortUnique(kPlanesList);
+    }
+    if (gIdCount[kPlanesList] > 8 && dim == 3) {
+        // A point inside the tet on more planes than a name holds: three
+        // independent ones, then the lowest others.
+        if (independentPlanes(T, iso, cell, kPlanesList, chosen3) == 3) {
+            idClear(kChosenList);
+            for (int i = 0; i < 3; ++i) idPush(kChosenList, chosen3[i]);
+            for (int i = 0; i < gIdCount[kPlanesList]; ++i)
+                if (gIdCount[kChosenList] < 8 && !idHas(kChosenList, idAt(kPlanesList, i)))
+                    idPush(kChosenList, idAt(kPlanesList, i));
+            idSortUnique(kChosenList);
+            idCopy(kPlanesList, kChosenList);
+        }
+    }
+    overflow = gIdOverflow;
+    for (int i = 0; i < 8; ++i) name[i] = i < gIdCount[kPlanesList] ? idAt(kPlanesList, i) : 0ul;
+    if (gIdCount[kPlanesList] > 8) return false;
+    nameCount = gIdCount[kPlanesList];
+    return true;
 }

@@ -227,6 +227,84 @@ TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
     }
 }
 
+// Names: every point the CPU kernel names in the tets of the cut cells
+// (makeVertex: the isosurface where a polygon owns the simplex, the quads'
+// planes and sides the point lies on within the tie, the junction and
+// mitre rules, the planes that made it when those do not fix it, the cut
+// to eight), named again on the GPU from the call alone: the same planes.
+TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
+{
+    MTCUT_REQUIRE_GL();
+    const render::GpuCutKernel gpu;
+    vdb::PhantomOptions options;
+    options.dims = openvdb::Coord(160, 160, 128);
+    const vdb::Volume vol = vdb::makePhantom(options);
+    for (double kerf : {0.0, 0.5}) {
+        size_t calls = 0, differ = 0, overflow = 0, skipped = 0, refusedCpu = 0, onBlade = 0;
+        std::string first;
+        CellKernel cpu(vol, 400.0f);
+        for (uint32_t seed = 1; seed <= 6; ++seed) {
+            CutMask mask(cutter::frameOf(vol), kerf);
+            for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
+                                                               20.0 + 10.0 * (seed % 4))) {
+                mask.beginStroke();
+                for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
+            }
+            std::vector<openvdb::Coord> cells;
+            mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
+            std::sort(cells.begin(), cells.end());
+            const cutter::PackedKernelInput input = cutter::packKernelInput(vol, 400.0f, mask, cells);
+            std::vector<render::GpuNameQuery> queries;
+            std::vector<cutter::remesh_detail::NameProbe> want;
+            for (size_t i = 0; i < cells.size(); ++i)
+                for (auto& probe :
+                     cpu.namesForTesting(cells[i], cutter::remesh_detail::kernelQuadsOf(mask, cells[i]), kerf > 0)) {
+                    if (probe.defining.size() > 8) {
+                        ++skipped;
+                        continue;
+                    }
+                    render::GpuNameQuery q;
+                    q.cell = uint32_t(i);
+                    q.tet = uint32_t(probe.tet);
+                    q.support = probe.support;
+                    q.definingCount = uint32_t(probe.defining.size());
+                    std::copy(probe.defining.begin(), probe.defining.end(), q.defining);
+                    q.pos0[0] = probe.pos0.x;
+                    q.pos0[1] = probe.pos0.y;
+                    q.pos0[2] = probe.pos0.z;
+                    queries.push_back(q);
+                    want.push_back(std::move(probe));
+                }
+            const std::vector<render::GpuName> got = gpu.names(input, queries);
+            for (size_t k = 0; k < queries.size(); ++k) {
+                const render::GpuName& g = got[k];
+                const cutter::remesh_detail::NameProbe& w = want[k];
+                refusedCpu += w.refused;
+                if (g.overflow) {
+                    ++overflow;
+                    continue;
+                }
+                onBlade += std::any_of(w.planes.begin(), w.planes.end(), [](uint64_t p) { return p > 5; });
+                const bool same = g.named == !w.refused &&
+                                  (w.refused || (g.count == w.planes.size() &&
+                                                 std::equal(w.planes.begin(), w.planes.end(), g.planes)));
+                if (same) continue;
+                if (differ++ == 0)
+                    first = "seed " + std::to_string(seed) + " cell " + std::to_string(queries[k].cell) + " tet " +
+                            std::to_string(queries[k].tet) + " support " + std::to_string(queries[k].support) +
+                            ": cpu " + std::to_string(w.planes.size()) + " planes, gpu " + std::to_string(g.count);
+            }
+            calls += queries.size();
+        }
+        std::printf("phantom, kerf %.1f: %zu names (%zu on a blade plane), %zu differ, %zu over the shader's lists, "
+                    "%zu with more than 8 making planes not asked, %zu refused by the CPU\n",
+                    kerf, calls, onBlade, differ, overflow, skipped, refusedCpu);
+        EXPECT_EQ(differ, 0u) << first;
+        EXPECT_GT(onBlade, calls / 4);
+        EXPECT_EQ(overflow, 0u);
+    }
+}
+
 // The comparison can fail: the GPU given an isovalue one float step higher
 // moves the marching-tetrahedra points of some tets, and those are found.
 TEST(CutKernelGpu, AnInputOneFloatStepOffIsSeen)

@@ -1,0 +1,33 @@
+#version 450 core
+// The GPU re-meshing kernel's names (nameOf in cut_kernel.glsl: the planes
+// makeVertex names a point by) for a list of calls the CPU kernel made, one
+// invocation each, for the tests that hold them equal
+// (tests/test_render_cut_kernel.cpp; layout: render/CutKernelGpu.h).
+layout(local_size_x = 64) in;
+struct NameQuery
+{
+    uint cell, tet, support, definingCount, pad0, pad1, pad2, pad3;
+    uint64_t defining[8];
+    dvec4 pos0;
+};
+layout(std430, binding = 4) readonly buffer Queries { NameQuery uQueries[]; };
+layout(std430, binding = 5) writeonly buffer Names { uint64_t outNames[]; }; // 10 per query
+uniform uint uQueryCount;
+
+void main()
+{
+    const uint i = gl_GlobalInvocationID.x;
+    if (i >= uQueryCount) return;
+    const NameQuery q = uQueries[i];
+    const Tet T = loadTet(q.cell, int(q.tet));
+    const IsoPolygons iso = isoTriangles(T);
+    const IsoOwnership own = isoOwnership(iso);
+    uint64_t name[8];
+    int count;
+    bool overflow;
+    const bool named = nameOf(T, iso, own, q.cell, q.support, q.defining, int(q.definingCount), q.pos0.xyz, name, count,
+                              overflow);
+    outNames[10u * i] = uint64_t((named ? 1u : 0u) | (overflow ? 2u : 0u));
+    outNames[10u * i + 1u] = uint64_t(count);
+    for (int k = 0; k < 8; ++k) outNames[10u * i + 2u + uint(k)] = name[k];
+}
