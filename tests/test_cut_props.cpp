@@ -1695,6 +1695,43 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
     expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
 }
 
+/// A level stroke across the 1 mm head at 400, cut with `kerf`: `poses`
+/// poses 1 ms apart, pose i's base at (xOf(i), 135, z) mm, the blade along
+/// +y, `length` mm. Asserts it is accepted and the fused mesh clean; gives
+/// the fused mesh and its self-contacts near the cut.
+struct LevelStrokeCut
+{
+    size_t cutCells = 0, uncutVertices = 0;
+    Mesh fused;
+    TouchStats touches;
+};
+
+template <class F>
+void cutLevelStroke(const std::string& dir, double kerf, size_t poses, double z, double length, F xOf,
+                    LevelStrokeCut& out)
+{
+    const vdb::Volume vol = vdb::readVolume(dir);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), kerf);
+    std::vector<Pose> stroke(poses);
+    for (size_t i = 0; i < stroke.size(); ++i) {
+        stroke[i].time = double(i) / 1000.0;
+        stroke[i].base = glm::dvec3(xOf(i), 135.0, z);
+        stroke[i].direction = glm::dvec3(0.0, 1.0, 0.0);
+        stroke[i].length = length;
+    }
+    addStroke(mask, stroke);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const UpdateResult r = tryUpdate(remesher, mask);
+    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
+    out.fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(out.fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    out.touches = touchesNearCut(out.fused, remesher, mask, 1e-3);
+    out.cutCells = remesher.cells().size();
+    out.uncutVertices = uncut.positions.size();
+}
+
 // The 1 mm head at kerf 0.5, a straight stroke at the whole-mm height z =
 // 1106 mm with the blade level: the prism's top plane z = 1106.25 holds a
 // marching-tetrahedra vertex exactly (integer CT values put it at a quarter
@@ -1707,26 +1744,12 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
 TEST(CutPropsDefects, AnIsoVertexTouchingAKerfPlaneIsAPinchInEveryCellRoundIt)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    const vdb::Volume vol = vdb::readVolume(dir);
-    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 0.5);
-    std::vector<Pose> poses(2001);
-    for (size_t i = 0; i < poses.size(); ++i) {
-        poses[i].time = double(i) / 1000.0;
-        poses[i].base = glm::dvec3(212.0 + 0.01 * double(i), 135.0, 1106.0);
-        poses[i].direction = glm::dvec3(0.0, 1.0, 0.0);
-        poses[i].length = 110.0;
-    }
-    addStroke(mask, poses);
-    CutRemesher remesher(vol, 400.0f, uncut);
-    const UpdateResult r = tryUpdate(remesher, mask);
-    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
-    const Mesh fused = remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    LevelStrokeCut cut;
+    ASSERT_NO_FATAL_FAILURE(cutLevelStroke(dir, 0.5, 2001, 1106.0, 110.0,
+                                           [](size_t i) { return 212.0 + 0.01 * double(i); }, cut));
+    const TouchStats& t = cut.touches;
     std::printf("1 mm head, level stroke at z = 1106 mm, kerf 0.5: %zu cut cells, %zu intersecting pairs, %zu pinch "
-                "contacts\n", remesher.cells().size(), t.pairs, t.pinchContacts);
+                "contacts\n", cut.cutCells, t.pairs, t.pinchContacts);
     EXPECT_EQ(t.pairs, 0u);
     EXPECT_GT(t.pinchContacts, 0u); // the touching cone and disc
 }
@@ -1743,27 +1766,12 @@ TEST(CutPropsDefects, AnIsoVertexTouchingAKerfPlaneIsAPinchInEveryCellRoundIt)
 TEST(CutPropsDefects, APointBeyondTheTipOnAMitreNamesNoPlaneOfIt)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    const vdb::Volume vol = vdb::readVolume(dir);
-    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 1.0);
-    std::vector<Pose> poses(1201);
-    for (size_t i = 0; i < poses.size(); ++i) {
-        poses[i].time = double(i) / 1000.0;
-        poses[i].base = glm::dvec3(260.0 + 0.01 * double(i), 135.0, 1106.0);
-        poses[i].direction = glm::dvec3(0.0, 1.0, 0.0);
-        poses[i].length = 110.0;
-    }
-    addStroke(mask, poses);
-    CutRemesher remesher(vol, 400.0f, uncut);
-    const UpdateResult r = tryUpdate(remesher, mask);
-    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
-    const Mesh fused = remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    LevelStrokeCut cut;
+    ASSERT_NO_FATAL_FAILURE(cutLevelStroke(dir, 1.0, 1201, 1106.0, 110.0,
+                                           [](size_t i) { return 260.0 + 0.01 * double(i); }, cut));
     std::printf("1 mm head, level stroke at z = 1106 mm to y = 245 mm, kerf 1: %zu cut cells, %zu intersecting pairs\n",
-                remesher.cells().size(), t.pairs);
-    EXPECT_EQ(t.pairs, 0u);
+                cut.cutCells, cut.touches.pairs);
+    EXPECT_EQ(cut.touches.pairs, 0u);
 }
 
 // A level stroke at z = 1103 mm, kerf 1: its bottom plane z = 1102.5 passes
@@ -1778,33 +1786,19 @@ TEST(CutPropsDefects, APointBeyondTheTipOnAMitreNamesNoPlaneOfIt)
 TEST(CutPropsDefects, ASaddleOnAKerfPlaneAcrossACellFaceIsAPinch)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    const vdb::Volume vol = vdb::readVolume(dir);
-    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 1.0);
-    std::vector<Pose> poses(1201);
-    for (size_t i = 0; i < poses.size(); ++i) {
-        poses[i].time = double(i) / 1000.0;
-        poses[i].base = glm::dvec3(double(25000 + i) / 100.0, 135.0, 1103.0);
-        poses[i].direction = glm::dvec3(0.0, 1.0, 0.0);
-        poses[i].length = 114.0;
-    }
-    addStroke(mask, poses);
-    CutRemesher remesher(vol, 400.0f, uncut);
-    const UpdateResult r = tryUpdate(remesher, mask);
-    ASSERT_EQ(r.outcome, Outcome::Ok) << r.message;
-    const Mesh fused = remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, remesher, mask, 1e-3);
+    LevelStrokeCut cut;
+    ASSERT_NO_FATAL_FAILURE(cutLevelStroke(dir, 1.0, 1201, 1103.0, 114.0,
+                                           [](size_t i) { return double(25000 + i) / 100.0; }, cut));
+    const TouchStats& t = cut.touches;
     std::printf("1 mm head, level stroke at z = 1103 mm, kerf 1: %zu cut cells, %zu intersecting pairs, %zu pinch "
-                "contacts\n", remesher.cells().size(), t.pairs, t.pinchContacts);
+                "contacts\n", cut.cutCells, t.pairs, t.pinchContacts);
     EXPECT_EQ(t.pairs, 0u);
     EXPECT_GT(t.pinchContacts, 0u); // the two wedges
     // The copy sits where the vertex is: two new vertices of the fused mesh
     // at (255, 184.5, 1102.5) mm (the uncut mesh's, unused now, stays too).
     size_t at = 0;
-    for (size_t v = uncut.positions.size(); v < fused.positions.size(); ++v)
-        at += fused.positions[v] == glm::vec3(255.0f, 184.5f, 1102.5f);
+    for (size_t v = cut.uncutVertices; v < cut.fused.positions.size(); ++v)
+        at += cut.fused.positions[v] == glm::vec3(255.0f, 184.5f, 1102.5f);
     EXPECT_EQ(at, 2u);
 }
 
