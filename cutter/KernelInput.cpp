@@ -31,6 +31,7 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
             for (int i = 0; i < 4; ++i) in.tets[size_t(20 * parity + 4 * t + i)] = cellTets(parity)[size_t(t)][size_t(i)];
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(volume.grid->tree());
     const float background = volume.grid->background();
+    const openvdb::CoordBBox box = volume.indexBox();
     in.cells.reserve(cells.size());
     for (const openvdb::Coord& c : cells) {
         PackedKernelCell pc;
@@ -40,8 +41,7 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
         // As the kernel (RemeshKernel::loadTet): outside the scan box, the background and outside.
         for (int k = 0; k < 8; ++k) {
             const openvdb::Coord g = c + openvdb::Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
-            const bool inBox = g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < volume.dims.x() &&
-                               g.y() < volume.dims.y() && g.z() < volume.dims.z();
+            const bool inBox = box.isInside(g);
             pc.values[k] = inBox ? acc.getValue(g) : background;
             if (inBox && pc.values[k] >= isovalue) pc.insideMask |= 1u << k;
         }

@@ -20,17 +20,6 @@ Buffer storage(size_t bytes, const void* data, size_t minimum)
     return Buffer(bytes, data);
 }
 
-} // namespace
-
-GpuCutKernel::GpuCutKernel()
-    : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
-      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
-      mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl")))
-{
-}
-
-namespace {
-
 /// The kernel's input buffers bound at 0-3 (KernelCells, KernelQuads,
 /// KernelSides, KernelTets) and the uniforms of `program` set.
 struct BoundInput
@@ -53,6 +42,13 @@ struct BoundInput
 };
 
 } // namespace
+
+GpuCutKernel::GpuCutKernel()
+    : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
+      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
+      mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl")))
+{
+}
 
 std::vector<double> GpuCutKernel::vertexPositions(const cutter::PackedKernelInput& input,
                                                   const std::vector<GpuVertexQuery>& queries) const
@@ -79,21 +75,13 @@ std::vector<GpuTetPhaseOne> GpuCutKernel::phaseOne(const cutter::PackedKernelInp
     const size_t tets = 5 * input.cells.size();
     std::vector<GpuTetPhaseOne> out(tets);
     if (tets == 0) return out;
-    const Buffer cells = storage(input.cells.size() * sizeof(cutter::PackedKernelCell), input.cells.data(),
-                                 sizeof(cutter::PackedKernelCell));
-    const Buffer quads = storage(input.quads.size() * sizeof(cutter::PackedKernelQuad), input.quads.data(),
-                                 sizeof(cutter::PackedKernelQuad));
-    const Buffer sides = storage(input.sides.size() * sizeof(cutter::PackedKernelSide), input.sides.data(),
-                                 sizeof(cutter::PackedKernelSide));
-    const Buffer tetTable(sizeof(input.tets), input.tets.data());
+    mPhaseOne.use();
+    const BoundInput bound(input, mPhaseOne);
     const Buffer outU(tets * kStrideU * sizeof(uint32_t), nullptr, GL_MAP_READ_BIT);
     const Buffer outD(tets * kStrideD * sizeof(double), nullptr, GL_MAP_READ_BIT);
-    mPhaseOne.use();
-    glProgramUniform1f(mPhaseOne.id(), mPhaseOne.uniform("uIsovalue"), input.isovalue);
-    glProgramUniform1i(mPhaseOne.id(), mPhaseOne.uniform("uPrism"), input.prism ? 1 : 0);
     glProgramUniform1ui(mPhaseOne.id(), mPhaseOne.uniform("uTetCount"), GLuint(tets));
-    const Buffer* bound[] = {&cells, &quads, &sides, &tetTable, &outU, &outD};
-    for (GLuint b = 0; b < 6; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]->id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, outU.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, outD.id());
     glDispatchCompute(GLuint((tets + 63) / 64), 1, 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     std::vector<uint32_t> u(tets * kStrideU);

@@ -296,6 +296,23 @@ void faceCorners(Tet T, uint mask, out int v[3])
         }
 }
 
+/// The ends of tet edge `mask` (2 bits), the lower-keyed first.
+void edgeEnds(Tet T, uint mask, out int a, out int b)
+{
+    a = -1;
+    b = -1;
+    for (int i = 0; i < 4; ++i)
+        if (((mask >> i) & 1u) != 0u) {
+            if (a < 0) a = i;
+            else b = i;
+        }
+    if (T.id[b] < T.id[a]) {
+        const int s = a;
+        a = b;
+        b = s;
+    }
+}
+
 /// RemeshKernel::faceIsoLine: the face's iso line p1, p2 (false when the
 /// isosurface does not cross the face).
 bool faceIsoLine(Tet T, uint mask, out dvec3 p1, out dvec3 p2)
@@ -330,17 +347,8 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
         if (planes[i] == kMid || planes[i] == kCentroid) return pos0;
     dvec4 p, q;
     if (dim == 1u) {
-        int a = -1, b = -1;
-        for (int i = 0; i < 4; ++i)
-            if (((support >> i) & 1u) != 0u) {
-                if (a < 0) a = i;
-                else b = i;
-            }
-        if (T.id[b] < T.id[a]) {
-            const int s = a;
-            a = b;
-            b = s;
-        }
+        int a, b;
+        edgeEnds(T, support, a, b);
         if (planes[0] == kIso) return mtPoint(T, a, b);
         for (uint i = 0u; i < planeCount; ++i) {
             if (!planeById(T, iso, cell, planes[i], p)) continue;
@@ -525,17 +533,8 @@ double faceIsoDistance(Tet T, uint mask, dvec3 x)
 /// RemeshKernel::edgeIsoDistance.
 double edgeIsoDistance(Tet T, uint mask, dvec3 x)
 {
-    int a = -1, b = -1;
-    for (int i = 0; i < 4; ++i)
-        if (((mask >> i) & 1u) != 0u) {
-            if (a < 0) a = i;
-            else b = i;
-        }
-    if (T.id[b] < T.id[a]) {
-        const int s = a;
-        a = b;
-        b = s;
-    }
+    int a, b;
+    edgeEnds(T, mask, a, b);
     if (T.inside[a] == T.inside[b]) return T.inside[a] ? 1e300lf : -1e300lf;
     const dvec3 e = T.p[b] - T.p[a];
     const double len = length3(e);
