@@ -61,6 +61,29 @@ std::string difference(const GpuTetPhaseOne& g, const TetPhaseOne& c)
     return {};
 }
 
+/// Two random strokes of `seed` (makeRandomStrokes, parameters varied by
+/// seed) cut into a mask of `vol` with `kerf`; its cut cells, ascending;
+/// and the kernel's input for them at `iso`.
+struct RandomCut
+{
+    CutMask mask;
+    std::vector<openvdb::Coord> cells;
+    cutter::PackedKernelInput input;
+    size_t strokes = 0;
+    RandomCut(const vdb::Volume& vol, float iso, double kerf, uint32_t seed) : mask(cutter::frameOf(vol), kerf)
+    {
+        for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
+                                                           20.0 + 10.0 * (seed % 4))) {
+            mask.beginStroke();
+            for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
+            ++strokes;
+        }
+        mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
+        std::sort(cells.begin(), cells.end());
+        input = cutter::packKernelInput(vol, iso, mask, cells);
+    }
+};
+
 struct Tally
 {
     size_t strokes = 0, cells = 0, tets = 0, solid = 0, reaching = 0, folds = 0, differ = 0;
@@ -75,18 +98,11 @@ Tally compare(const render::GpuCutKernel& gpu, const vdb::Volume& vol, float iso
     Tally t;
     CellKernel cpu(vol, iso);
     for (uint32_t seed = first; seed < first + seeds; ++seed) {
-        CutMask mask(cutter::frameOf(vol), kerf);
-        for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
-                                                           20.0 + 10.0 * (seed % 4))) {
-            mask.beginStroke();
-            for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
-            ++t.strokes;
-        }
-        std::vector<openvdb::Coord> cells;
-        mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
-        std::sort(cells.begin(), cells.end());
-        const cutter::PackedKernelInput input = cutter::packKernelInput(vol, iso + isoShift, mask, cells);
-        const std::vector<GpuTetPhaseOne> got = gpu.phaseOne(input);
+        const RandomCut cut(vol, iso + isoShift, kerf, seed);
+        const CutMask& mask = cut.mask;
+        const std::vector<openvdb::Coord>& cells = cut.cells;
+        t.strokes += cut.strokes;
+        const std::vector<GpuTetPhaseOne> got = gpu.phaseOne(cut.input);
         for (size_t i = 0; i < cells.size(); ++i) {
             const auto quads = cutter::remesh_detail::kernelQuadsOf(mask, cells[i]);
             const auto want = cpu.phaseOneForTesting(cells[i], quads, kerf > 0);
@@ -165,16 +181,10 @@ TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
         std::string first;
         CellKernel cpu(vol, 400.0f);
         for (uint32_t seed = 1; seed <= 12; ++seed) {
-            CutMask mask(cutter::frameOf(vol), kerf);
-            for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
-                                                               20.0 + 10.0 * (seed % 4))) {
-                mask.beginStroke();
-                for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
-            }
-            std::vector<openvdb::Coord> cells;
-            mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
-            std::sort(cells.begin(), cells.end());
-            const cutter::PackedKernelInput input = cutter::packKernelInput(vol, 400.0f, mask, cells);
+            const RandomCut cut(vol, 400.0f, kerf, seed);
+            const CutMask& mask = cut.mask;
+            const std::vector<openvdb::Coord>& cells = cut.cells;
+            const cutter::PackedKernelInput& input = cut.input;
             std::vector<render::GpuVertexQuery> queries;
             std::vector<glm::dvec3> want;
             for (size_t i = 0; i < cells.size(); ++i) {
@@ -244,16 +254,10 @@ TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
         std::string first;
         CellKernel cpu(vol, 400.0f);
         for (uint32_t seed = 1; seed <= 6; ++seed) {
-            CutMask mask(cutter::frameOf(vol), kerf);
-            for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
-                                                               20.0 + 10.0 * (seed % 4))) {
-                mask.beginStroke();
-                for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
-            }
-            std::vector<openvdb::Coord> cells;
-            mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
-            std::sort(cells.begin(), cells.end());
-            const cutter::PackedKernelInput input = cutter::packKernelInput(vol, 400.0f, mask, cells);
+            const RandomCut cut(vol, 400.0f, kerf, seed);
+            const CutMask& mask = cut.mask;
+            const std::vector<openvdb::Coord>& cells = cut.cells;
+            const cutter::PackedKernelInput& input = cut.input;
             std::vector<render::GpuNameQuery> queries;
             std::vector<cutter::remesh_detail::NameProbe> want;
             for (size_t i = 0; i < cells.size(); ++i)
