@@ -12,9 +12,10 @@
 // hash maps, exceptions). Ported so far: the input (cutter/KernelInput.h,
 // the std430 twins of PackedKernelCell/Quad/Side) and phase one of a tet:
 // the quads that can reach it (gatherQuads) and its marching-tetrahedra
-// polygons with their planes (isoTriangles); a point's name (the planes
-// makeVertex names it by) and a vertex's position from its name
-// (canonicalPosition). Checked bit for bit against the CPU by
+// polygons with their planes (isoTriangles); the tet's reaching quads and
+// planes gathered once (tetBegin, which callers of the functions after it
+// run first); a point's name (the planes makeVertex names it by) and a
+// vertex's position from its name (canonicalPosition). Checked bit for bit against the CPU by
 // tests/test_render_cut_kernel.cpp. The 2-D polygon helpers are poly2.glsl.
 #extension GL_ARB_gpu_shader_int64 : require
 
@@ -253,32 +254,69 @@ IsoPolygons isoTriangles(Tet T)
 // ---- vertex positions from names (RemeshKernel::canonicalPosition)
 const uint64_t kIso = 1ul, kIsoA = 2ul, kIsoB = 3ul, kMid = 4ul, kCentroid = 5ul;
 
-/// RemeshKernel::planeById: a plane of the tet (its marching-tetrahedra
-/// polygons' planes, and those of the quads that can reach it) by id.
-bool planeById(Tet T, IsoPolygons iso, uint cell, uint64_t id, out dvec4 plane)
+// ---- the tet's quads and planes, found once per tet (tetBegin): the
+// functions below ask these lists rather than every quad of the cell
+// (which, inlined at each call, made the shaders too large to compile
+// in reasonable time on llvmpipe).
+#define TET_MAX_QUADS 35
+#define TET_MAX_PLANES 96
+int gReachQuad[TET_MAX_QUADS]; // the quads that can reach the tet (kQuads indices), the cell's order
+int gReachCount;
+uvec2 gTetPlaneIds[TET_MAX_PLANES]; // RemeshKernel::mPlanes's ids (as uvec2, as gIds), gathered order
+dvec4 gTetPlane[TET_MAX_PLANES];
+int gTetPlaneCount;
+bool gTetOverflow; // more quads or planes than the lists hold
+uint64_t gTetPlaneId(int i) { return packUint2x32(gTetPlaneIds[i]); }
+
+void tetAddPlane(uint64_t id, dvec4 plane)
 {
-    plane = dvec4(0.0lf);
-    if (id == kIsoA && iso.triCount > 0) {
-        plane = iso.plane[0];
-        return true;
+    if (gTetPlaneCount == TET_MAX_PLANES) {
+        gTetOverflow = true;
+        return;
     }
-    if (id == kIsoB && iso.triCount > 1) {
-        plane = iso.plane[1];
-        return true;
-    }
+    gTetPlaneIds[gTetPlaneCount] = unpackUint2x32(id);
+    gTetPlane[gTetPlaneCount] = plane;
+    ++gTetPlaneCount;
+}
+
+/// gatherQuads: the reaching quads, and the tet's planes (its iso
+/// polygons', its quads' planes and sides; an id shared by quads more than
+/// once, the same plane).
+void tetBegin(Tet T, IsoPolygons iso, uint cell)
+{
+    gReachCount = 0;
+    gTetPlaneCount = 0;
+    gTetOverflow = false;
     const KernelCell c = kCells[cell];
     for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
         if (!quadReaches(T, q)) continue;
-        if (!uPrism && kQuads[q].id == id) {
-            plane = kQuads[q].plane;
+        if (gReachCount == TET_MAX_QUADS) {
+            gTetOverflow = true;
+            return;
+        }
+        gReachQuad[gReachCount++] = int(q);
+    }
+    // Iso polygons first, then each quad's plane (zero kerf) and sides, in
+    // the cell's order: planeById's first match is RemeshKernel's plane.
+    for (int k = 0; k < iso.triCount; ++k) tetAddPlane(2ul + uint64_t(k), iso.plane[k]); // kIsoA, kIsoB
+    for (int i = 0; i < gReachCount; ++i) {
+        const int q = gReachQuad[i];
+        if (!uPrism) tetAddPlane(kQuads[q].id, kQuads[q].plane);
+        for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
+            tetAddPlane(kSides[s].id, kSides[s].plane);
+    }
+}
+
+/// RemeshKernel::planeById: a plane of the tet by id (tetBegin's list).
+bool planeById(uint64_t id, out dvec4 plane)
+{
+    const uvec2 x = unpackUint2x32(id);
+    for (int i = 0; i < gTetPlaneCount; ++i)
+        if (gTetPlaneIds[i] == x) {
+            plane = gTetPlane[i];
             return true;
         }
-        for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
-            if (kSides[s].id == id) {
-                plane = kSides[s].plane;
-                return true;
-            }
-    }
+    plane = dvec4(0.0lf);
     return false;
 }
 
@@ -351,7 +389,7 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
         edgeEnds(T, support, a, b);
         if (planes[0] == kIso) return mtPoint(T, a, b);
         for (uint i = 0u; i < planeCount; ++i) {
-            if (!planeById(T, iso, cell, planes[i], p)) continue;
+            if (!planeById(planes[i], p)) continue;
             const double ha = planeH(p, T.p[a]), hb = planeH(p, T.p[b]);
             if (!(abs(ha - hb) > 1e-12lf)) continue;
             double t = ha / (ha - hb);
@@ -367,7 +405,7 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
         if (faceIsoLine(T, support, p1, p2)) {
             const double len = length3(p2 - p1);
             for (uint i = 1u; i < planeCount; ++i) {
-                if (!planeById(T, iso, cell, planes[i], p)) continue;
+                if (!planeById(planes[i], p)) continue;
                 const double h1 = planeH(p, p1), h2 = planeH(p, p2);
                 if (!(abs(h1 - h2) > 1e-9lf * len)) continue;
                 const double u = h1 / (h1 - h2);
@@ -382,7 +420,7 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
     const dvec3 A = T.p[v[0]], e1 = T.p[v[1]] - A, e2 = T.p[v[2]] - A;
     for (uint i = 0u; i < planeCount; ++i)
         for (uint j = i + 1u; j < planeCount; ++j) {
-            if (!planeById(T, iso, cell, planes[i], p) || !planeById(T, iso, cell, planes[j], q)) continue;
+            if (!planeById(planes[i], p) || !planeById(planes[j], q)) continue;
             const double a11 = dot3(p.xyz, e1), a12 = dot3(p.xyz, e2), b1 = -planeH(p, A);
             const double a21 = dot3(q.xyz, e1), a22 = dot3(q.xyz, e2), b2 = -planeH(q, A);
             precise double det = a11 * a22 - a12 * a21;
@@ -552,7 +590,7 @@ int independentPlanes(Tet T, IsoPolygons iso, uint cell, int l, out uint64_t cho
     dvec3 n0 = dvec3(0.0lf), n1 = dvec3(0.0lf);
     for (int i = 0; i < gIdCount[l]; ++i) {
         dvec4 pl;
-        if (!planeById(T, iso, cell, idAt(l, i), pl)) continue;
+        if (!planeById(idAt(l, i), pl)) continue;
         const dvec3 nn = pl.xyz;
         const bool independent = n == 0 ? length3(nn) > 0.5lf
                                  : n == 1 ? length3(cross3(n0, nn)) > 1e-6lf
@@ -567,11 +605,10 @@ int independentPlanes(Tet T, IsoPolygons iso, uint cell, int l, out uint64_t cho
 }
 
 /// The quad of the cell reaching the tet with this id, or -1 (quadById).
-int reachingQuadById(Tet T, uint cell, uint64_t id)
+int reachingQuadById(uint64_t id)
 {
-    const KernelCell c = kCells[cell];
-    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q)
-        if (kQuads[q].id == id && quadReaches(T, q)) return int(q);
+    for (int i = 0; i < gReachCount; ++i)
+        if (kQuads[gReachQuad[i]].id == id) return gReachQuad[i];
     return -1;
 }
 
@@ -603,9 +640,8 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
     }
     if (dim == 2 && abs(faceIsoDistance(T, support, pos0)) <= eps) idPush(kPlanesList, kIso);
     if (dim == 1 && abs(edgeIsoDistance(T, support, pos0)) <= eps) idPush(kPlanesList, kIso);
-    const KernelCell c = kCells[cell];
-    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
-        if (!quadReaches(T, q)) continue;
+    for (int r = 0; r < gReachCount; ++r) {
+        const uint q = uint(gReachQuad[r]);
         const uint s0 = kQuads[q].firstSide, s1 = s0 + kQuads[q].sideCount;
         if (uPrism) {
             bool inside = true, onAny = false;
@@ -630,8 +666,8 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
     idSortUnique(kPlanesList);
     // `on`: the planes the point lies on (made by them, or within eps).
     idCopy(kOnList, kDefiningList);
-    for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
-        if (!quadReaches(T, q)) continue;
+    for (int r = 0; r < gReachCount; ++r) {
+        const uint q = uint(gReachQuad[r]);
         if (!uPrism && abs(planeH(kQuads[q].plane, pos0)) <= eps) idPush(kOnList, kQuads[q].id);
         for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
             if (abs(planeH(kSides[s].plane, pos0)) <= eps) idPush(kOnList, kSides[s].id);
@@ -640,12 +676,12 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
     idSortUnique(kOnList);
     if (uPrism) {
         // Offset planes of two quads meet on their mitre (makeVertex).
-        for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
-            if (!quadReaches(T, q)) continue;
+        for (int r = 0; r < gReachCount; ++r) {
+            const uint q = uint(gReachQuad[r]);
             for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
                 const uint64_t sideId = kSides[s].id, partnerId = kSides[s].partnerId;
                 if (partnerId == 0ul || !idHas(kOnList, sideId)) continue;
-                if (!inClosedPrism(int(q), pos0, eps) && !inClosedPrism(reachingQuadById(T, cell, partnerId), pos0, eps))
+                if (!inClosedPrism(int(q), pos0, eps) && !inClosedPrism(reachingQuadById(partnerId), pos0, eps))
                     continue;
                 for (int kind = kPlusKind; kind <= kMinusKind; ++kind) {
                     const uint64_t mine = (kQuads[q].id & ~uint64_t(15)) | uint64_t(kind);
@@ -662,13 +698,13 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
     }
     for (int round = 0; round < 4 && !uPrism; ++round) {
         idClear(kAddList);
-        for (uint q = c.firstQuad; q < c.firstQuad + c.quadCount; ++q) {
-            if (!quadReaches(T, q)) continue;
+        for (int r = 0; r < gReachCount; ++r) {
+            const uint q = uint(gReachQuad[r]);
             for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
                 const uint64_t sideId = kSides[s].id, partnerId = kSides[s].partnerId;
                 if (kSides[s].partner < 0 || !idHas(kOnList, sideId) ||
                     !(idHas(kOnList, kQuads[q].id) || idHas(kOnList, partnerId)) ||
-                    reachingQuadById(T, cell, partnerId) < 0)
+                    reachingQuadById(partnerId) < 0)
                     continue;
                 idPush(kAddList, sideId);
                 idPush(kAddList, kQuads[q].id);
@@ -708,7 +744,7 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
             idCopy(kPlanesList, kChosenList);
         }
     }
-    overflow = gIdOverflow;
+    overflow = gIdOverflow || gTetOverflow;
     for (int i = 0; i < 8; ++i) name[i] = i < gIdCount[kPlanesList] ? idAt(kPlanesList, i) : 0ul;
     if (gIdCount[kPlanesList] > 8) return false;
     nameCount = gIdCount[kPlanesList];

@@ -21,6 +21,7 @@ void main()
     const NameQuery q = uQueries[i];
     const Tet T = loadTet(q.cell, int(q.tet));
     const IsoPolygons iso = isoTriangles(T);
+    tetBegin(T, iso, q.cell);
     const IsoOwnership own = isoOwnership(iso);
     uint64_t name[8];
     int count;

@@ -21,6 +21,7 @@ void main()
     const VertexQuery q = uQueries[i];
     const Tet T = loadTet(q.cell, int(q.tet));
     const IsoPolygons iso = isoTriangles(T);
+    tetBegin(T, iso, q.cell);
     const dvec3 p = canonicalPosition(T, iso, q.cell, q.dim, q.planeCount, q.planes, q.support, q.pos0.xyz);
     outPos[3u * i] = p.x;
     outPos[3u * i + 1u] = p.y;
