@@ -86,6 +86,8 @@ public:
     std::array<std::vector<VertexProbe>, kTetsPerCell>* mCapture = nullptr;
     /// makeVertex() records each name here when set (CellKernel::namesForTesting).
     std::vector<NameProbe>* mNameCapture = nullptr;
+    /// remeshTet() records each tet's arrangement here when set (CellKernel::arrangementForTesting).
+    std::array<ArrangementProbe, kTetsPerCell>* mArrangeCapture = nullptr;
 
 private:
     // ---- per tet state
@@ -981,7 +983,7 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
         loadTet(t);
         remeshTet(out, cellIndex);
         if (mCapture && (mT.inside[0] || mT.inside[1] || mT.inside[2] || mT.inside[3]))
-            for (const Vert& v : mVerts) (*mCapture)[size_t(t)].push_back({v.key, v.support, v.pos});
+            for (const Vert& v : mVerts) (*mCapture)[size_t(t)].push_back({v.key, v.support, v.pos, v.steiner});
     }
     if (mPrism) {
         splitPinches(cell, out);
@@ -1248,10 +1250,22 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
         conformPieces();
         classifyPieces(s, kept);
         insertSlitMidpoints(kept);
+        if (mArrangeCapture) {
+            ArrangementProbe::Surface& probe = (*mArrangeCapture)[size_t(mTet)].surfaces.emplace_back();
+            probe.plane = s.plane;
+            for (size_t i = 0; i < mPieces.size(); ++i)
+                probe.pieces.push_back({std::vector<int>(mPieces[i].v.begin(), mPieces[i].v.end()),
+                                        std::vector<uint64_t>(mPieces[i].lab.begin(), mPieces[i].lab.end()), kept[i] != 0});
+        }
         for (int side : {1, -1}) {
             if (s.quad && !mPrism ? !(s.sides & (side > 0 ? 1 : 2)) : side < 0) continue;
             traceRegions(s, side, kept);
         }
+    }
+    if (mArrangeCapture) {
+        ArrangementProbe& probe = (*mArrangeCapture)[size_t(mTet)];
+        probe.solid = true;
+        for (const Vert& v : mVerts) probe.verts.push_back({v.key, v.support, v.pos, v.steiner});
     }
     SmallVector<char, 64> corner;
     markCorners(corner);
@@ -2102,21 +2116,32 @@ std::array<TetPhaseOne, kTetsPerCell> CellKernel::phaseOneForTesting(const Coord
     return r;
 }
 
+namespace {
+/// Runs kernel.remesh(cell) with kernel.*capture pointing at a fresh T for
+/// the duration (also when it throws), and returns that T.
+template <class T>
+T remeshCapturing(RemeshKernel& kernel, T* RemeshKernel::*capture, const Coord& cell,
+                  const std::vector<QuadGeom>& quads, bool prism)
+{
+    T r;
+    CutCellGeometry out;
+    kernel.*capture = &r;
+    try {
+        kernel.remesh(cell, quads, prism, out);
+    } catch (...) {
+        kernel.*capture = nullptr;
+        throw;
+    }
+    kernel.*capture = nullptr;
+    return r;
+}
+} // namespace
+
 std::array<std::vector<VertexProbe>, kTetsPerCell> CellKernel::verticesForTesting(const Coord& cell,
                                                                                    const std::vector<QuadGeom>& quads,
                                                                                    bool prism)
 {
-    std::array<std::vector<VertexProbe>, kTetsPerCell> r;
-    CutCellGeometry out;
-    mKernel->mCapture = &r;
-    try {
-        mKernel->remesh(cell, quads, prism, out);
-    } catch (...) {
-        mKernel->mCapture = nullptr;
-        throw;
-    }
-    mKernel->mCapture = nullptr;
-    return r;
+    return remeshCapturing(*mKernel, &RemeshKernel::mCapture, cell, quads, prism);
 }
 
 std::vector<NameProbe> CellKernel::namesForTesting(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism)
@@ -2131,6 +2156,13 @@ std::vector<NameProbe> CellKernel::namesForTesting(const Coord& cell, const std:
     }
     mKernel->mNameCapture = nullptr;
     return r;
+}
+
+std::array<ArrangementProbe, kTetsPerCell> CellKernel::arrangementForTesting(const Coord& cell,
+                                                                             const std::vector<QuadGeom>& quads,
+                                                                             bool prism)
+{
+    return remeshCapturing(*mKernel, &RemeshKernel::mArrangeCapture, cell, quads, prism);
 }
 
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)

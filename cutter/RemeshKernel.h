@@ -89,6 +89,31 @@ struct VertexProbe
     CutVertexId key;
     uint8_t support = 0;
     dvec3 pos{0.0};
+    bool steiner = false; ///< a Steiner point (slit midpoint, cap centre)
+};
+
+/// The arrangement of one tet as far as the GPU port computes it
+/// (shaders/cut_arrange.glsl): per surface (iso polygons, then caps) its
+/// pieces once split by the tet's planes, made conforming, classified
+/// (kept) and given their slit midpoints, and the tet's vertex table then
+/// (before the regions' Steiner centres). For the tests that hold the two
+/// equal.
+struct ArrangementProbe
+{
+    struct Piece
+    {
+        std::vector<int> v;           ///< vertex indices into `verts`
+        std::vector<uint64_t> lab;    ///< lab[i]: the label of edge v[i] -> v[i + 1]
+        bool kept = true;
+    };
+    struct Surface
+    {
+        uint64_t plane = 0;
+        std::vector<Piece> pieces;
+    };
+    bool solid = false;
+    std::vector<VertexProbe> verts;
+    std::vector<Surface> surfaces;
 };
 
 /// A name the kernel gave a point in a tet (makeVertex, before it looks
@@ -151,6 +176,10 @@ public:
     /// For tests of the GPU port: every name the kernel computes in the cell
     /// (all tets, in order; stops at a refusal, which it records).
     std::vector<NameProbe> namesForTesting(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism);
+    /// For tests of the GPU port: each tet's arrangement (ArrangementProbe).
+    /// Throws as remesh() does for a cell it refuses.
+    std::array<ArrangementProbe, kTetsPerCell> arrangementForTesting(const Coord& cell,
+                                                                     const std::vector<QuadGeom>& quads, bool prism);
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;

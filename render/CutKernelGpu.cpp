@@ -46,7 +46,8 @@ struct BoundInput
 GpuCutKernel::GpuCutKernel()
     : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
       mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
-      mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl")))
+      mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl"))),
+      mArrange(buildProgram({"cut_arrange.vert"}, shaderSource("cut_kernel.glsl") + shaderSource("cut_arrange.glsl")))
 {
 }
 
@@ -131,6 +132,127 @@ std::vector<GpuName> GpuCutKernel::names(const cutter::PackedKernelInput& input,
         out[i].count = uint32_t(w[1]);
         std::copy(w + 2, w + 10, out[i].planes);
     }
+    return out;
+}
+
+std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernelInput& input, size_t firstTet,
+                                                      size_t tetCount, size_t lanesPerTet) const
+{
+    if (lanesPerTet == 0) throw std::invalid_argument("GpuCutKernel::arrangement: lanesPerTet 0");
+    std::vector<GpuArrangedTet> out;
+    if (tetCount == 0) return out;
+    mArrange.use();
+    const BoundInput bound(input, mArrange);
+    // Scratch per invocation (cut_arrange.glsl's kScratchI/L/D: its
+    // capacities ARR_MAX_VERTS 128, _POOL 640, _PIECES 64, _PLANES 96),
+    // for a batch of invocations at a time.
+    constexpr size_t kVerts = 128, kPool = 640, kPieces = 64, kPlanes = 96, kBatch = 1024;
+    constexpr size_t kScratchI = kVerts + 3 * kPool + 6 * kPieces + 2 * kPlanes;
+    constexpr size_t kScratchL = 11 * kVerts + 3 * kPool + kPlanes;
+    constexpr size_t kScratchD = 3 * kVerts;
+    const size_t batch = std::min(tetCount, kBatch);
+    const Buffer scratchI(batch * kScratchI * sizeof(int32_t), nullptr);
+    const Buffer scratchL(batch * kScratchL * sizeof(uint64_t), nullptr);
+    const Buffer scratchD(batch * kScratchD * sizeof(double), nullptr);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, scratchI.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, scratchL.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, scratchD.id());
+    constexpr size_t kSlot = 8192; // words per tet's record (cut_arrange.vert)
+    const Buffer records(batch * kSlot * sizeof(uint64_t), nullptr, GL_MAP_READ_BIT);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, records.id());
+    glProgramUniform1ui(mArrange.id(), mArrange.uniform("uSlotWords"), GLuint(kSlot));
+    glProgramUniform1ui(mArrange.id(), mArrange.uniform("uLaneStride"), GLuint(lanesPerTet));
+    glProgramUniform1i(mArrange.id(), mArrange.uniform("uProbeTrips"), 2);
+    // Points with the rasterizer off, into a framebuffer without attachments.
+    const VertexArray vao;
+    const Framebuffer fbo;
+    glNamedFramebufferParameteri(fbo.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, 1);
+    glNamedFramebufferParameteri(fbo.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, 1);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo.id());
+    glBindVertexArray(vao.id());
+    glEnable(GL_RASTERIZER_DISCARD);
+    std::vector<uint64_t> words, slots(batch * kSlot);
+    for (size_t from = 0; from < tetCount; from += batch) {
+        const size_t count = std::min(batch, tetCount - from);
+        glProgramUniform1ui(mArrange.id(), mArrange.uniform("uFirstTet"), GLuint(firstTet + from));
+        glProgramUniform1ui(mArrange.id(), mArrange.uniform("uTetCount"), GLuint(count));
+        glDrawArrays(GL_POINTS, 0, GLsizei(count * lanesPerTet));
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        glGetNamedBufferSubData(records.id(), 0, GLsizeiptr(count * kSlot * sizeof(uint64_t)), slots.data());
+        // The records, one after another (a slot's unused end left out).
+        for (size_t i = 0; i < count; ++i) {
+            const uint64_t* w = &slots[i * kSlot];
+            if (w[0] == ~uint64_t(0)) continue; // no solid
+            size_t n = 2;
+            if ((w[0] >> 32) == 0) {
+                const size_t verts = uint32_t(w[1]), surfaces = uint32_t(w[1] >> 32);
+                for (size_t s = 0; s < surfaces; ++s) {
+                    const size_t pieces = w[n + 1];
+                    n += 2;
+                    for (size_t p = 0; p < pieces; ++p) n += 1 + 2 * size_t(uint32_t(w[n]));
+                }
+                n += 15 * verts;
+            }
+            words.insert(words.end(), w, w + n);
+        }
+    }
+    glDisable(GL_RASTERIZER_DISCARD);
+    glBindVertexArray(0);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glUseProgram(0);
+    checkGlError("GpuCutKernel::arrangement");
+    // Records (cut_arrange.vert): tet | fail << 32; vertices | surfaces << 32;
+    // per surface its plane, its piece count, per piece (corners | kept << 32)
+    // and (vertex, label) per corner; then 15 words per vertex.
+    size_t recordAt = 0;
+    auto fail = [&](const char* what) {
+        throw std::runtime_error(std::string("GpuCutKernel::arrangement: ") + what + " (record at word " +
+                                 std::to_string(recordAt) + " of " + std::to_string(words.size()) + ", header " +
+                                 std::to_string(words[recordAt]) + " " + std::to_string(words[recordAt + 1]) + ")");
+    };
+    for (size_t at = 0; at < words.size();) {
+        recordAt = at;
+        if (at + 2 > words.size()) fail("truncated record");
+        GpuArrangedTet& t = out.emplace_back();
+        t.tet = uint32_t(words[at]);
+        t.fail = uint32_t(words[at] >> 32);
+        const size_t verts = uint32_t(words[at + 1]), surfaces = uint32_t(words[at + 1] >> 32);
+        at += 2;
+        for (size_t s = 0; s < surfaces; ++s) {
+            if (at + 2 > words.size()) fail("truncated surface");
+            GpuArrangedTet::Surface& surface = t.surfaces.emplace_back();
+            surface.plane = words[at];
+            const size_t pieces = words[at + 1];
+            at += 2;
+            for (size_t i = 0; i < pieces; ++i) {
+                if (at + 1 > words.size()) fail("truncated piece");
+                GpuArrangedTet::Piece& piece = surface.pieces.emplace_back();
+                const size_t n = uint32_t(words[at]);
+                piece.kept = (words[at] >> 32) != 0;
+                ++at;
+                if (at + 2 * n > words.size()) fail("truncated piece");
+                for (size_t k = 0; k < n; ++k) {
+                    piece.v.push_back(int(words[at + 2 * k]));
+                    piece.lab.push_back(words[at + 2 * k + 1]);
+                }
+                at += 2 * n;
+            }
+        }
+        if (at + 15 * verts > words.size()) fail("truncated vertex table");
+        for (size_t v = 0; v < verts; ++v, at += 15) {
+            GpuArrangedTet::Vertex& x = t.verts.emplace_back();
+            const uint32_t meta = uint32_t(words[at]);
+            x.dim = meta & 15u;
+            x.planeCount = (meta >> 4) & 15u;
+            x.support = (meta >> 8) & 15u;
+            x.steiner = ((meta >> 12) & 1u) != 0;
+            std::copy(&words[at + 1], &words[at + 4], x.feature);
+            std::copy(&words[at + 4], &words[at + 12], x.planes);
+            std::memcpy(x.pos, &words[at + 12], sizeof x.pos);
+        }
+    }
+    std::sort(out.begin(), out.end(),
+              [](const GpuArrangedTet& a, const GpuArrangedTet& b) { return a.tet < b.tet; });
     return out;
 }
 

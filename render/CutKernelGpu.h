@@ -66,6 +66,38 @@ struct GpuName
     uint64_t planes[8] = {};
 };
 
+/// One tet's arrangement as the GPU computes it (cut_arrange.vert): what
+/// remesh_detail::ArrangementProbe holds for the CPU.
+struct GpuArrangedTet
+{
+    uint32_t tet = 0;  ///< 5 c + t for tet t of cell c
+    /// 0, or why the GPU stopped (the CPU takes such a tet): a capacity of
+    /// the shader (bits 0-7), the CPU's refusal (bit 8), the record past its
+    /// slot (bit 9), llvmpipe's loop limit (bit 10)
+    uint32_t fail = 0;
+    struct Vertex
+    {
+        uint32_t dim = 0, planeCount = 0, support = 0;
+        bool steiner = false;
+        uint64_t feature[3] = {};
+        uint64_t planes[8] = {};
+        double pos[3] = {};
+    };
+    struct Piece
+    {
+        std::vector<int> v;
+        std::vector<uint64_t> lab;
+        bool kept = true;
+    };
+    struct Surface
+    {
+        uint64_t plane = 0;
+        std::vector<Piece> pieces;
+    };
+    std::vector<Vertex> verts;       ///< empty when `fail`
+    std::vector<Surface> surfaces;   ///< empty when `fail`
+};
+
 /// The ported kernel's programs. Needs a current OpenGL 4.5 context with
 /// GL_ARB_gpu_shader_fp64 (core in 4.0) and GL_ARB_gpu_shader_int64; the
 /// constructor throws std::runtime_error when the shaders do not build.
@@ -84,11 +116,19 @@ public:
     /// The name (its planes, ascending) of each queried point, as the CPU
     /// kernel's makeVertex gives it before looking the name up.
     std::vector<GpuName> names(const cutter::PackedKernelInput& input, const std::vector<GpuNameQuery>& queries) const;
+    /// The arrangement of tets [firstTet, firstTet + tetCount) of `input`
+    /// (5 per cell), those with solid only, ascending by tet; one tet per
+    /// `lanesPerTet` vertex-shader invocations (1 on a GPU; on llvmpipe its
+    /// SIMD width, 8, so that no tet shares the loop limit with another:
+    /// cut_arrange.vert).
+    std::vector<GpuArrangedTet> arrangement(const cutter::PackedKernelInput& input, size_t firstTet, size_t tetCount,
+                                            size_t lanesPerTet = 1) const;
 
 private:
     Program mPhaseOne;
     Program mVertexPositions;
     Program mNames;
+    Program mArrange;
 };
 
 } // namespace mtcut::render

@@ -320,18 +320,32 @@ bool planeById(uint64_t id, out dvec4 plane)
     return false;
 }
 
-/// The corners of tet face `mask` (3 bits) ascending by grid vertex id.
+/// The corners of tet face `mask` (3 bits) ascending by grid vertex id,
+/// sorted in scalars without a loop (cut_arrange.vert: loops are counted
+/// against llvmpipe's loop limit).
 void faceCorners(Tet T, uint mask, out int v[3])
 {
+    int c[3] = int[3](-1, -1, -1);
     int n = 0;
     for (int i = 0; i < 4; ++i)
-        if (((mask >> i) & 1u) != 0u) v[n++] = i;
-    for (int i = 1; i < 3; ++i)
-        for (int j = i; j > 0 && T.id[v[j]] < T.id[v[j - 1]]; --j) {
-            const int s = v[j];
-            v[j] = v[j - 1];
-            v[j - 1] = s;
-        }
+        if (((mask >> i) & 1u) != 0u) c[n++] = i;
+    int a = c[0], b = c[1], d = c[2];
+    if (T.id[b] < T.id[a]) {
+        const int s = a;
+        a = b;
+        b = s;
+    }
+    if (T.id[d] < T.id[b]) {
+        const int s = b;
+        b = d;
+        d = s;
+    }
+    if (T.id[b] < T.id[a]) {
+        const int s = a;
+        a = b;
+        b = s;
+    }
+    v = int[3](a, b, d);
 }
 
 /// The ends of tet edge `mask` (2 bits), the lower-keyed first.

@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -131,7 +132,149 @@ void report(const char* what, const Tally& t)
                 what, t.strokes, t.cells, t.tets, t.solid, t.folds, t.reaching, t.differ);
 }
 
+/// Where the GPU's arrangement of a tet differs from the CPU's: empty when equal.
+std::string arrangementDifference(const render::GpuArrangedTet& g, const cutter::remesh_detail::ArrangementProbe& c)
+{
+    if (g.verts.size() != c.verts.size()) return "vertex count " + std::to_string(g.verts.size()) + " vs " + std::to_string(c.verts.size());
+    for (size_t v = 0; v < c.verts.size(); ++v) {
+        const auto& gv = g.verts[v];
+        const auto& cv = c.verts[v];
+        const std::string at = "vertex " + std::to_string(v) + ": ";
+        if (gv.dim != cv.key.dim || gv.support != cv.support || gv.steiner != cv.steiner) return at + "simplex";
+        if (!std::equal(cv.key.feature.begin(), cv.key.feature.end(), gv.feature)) return at + "feature";
+        if (gv.planeCount != cv.key.planeCount || !std::equal(cv.key.planes.begin(), cv.key.planes.end(), gv.planes))
+            return at + "name";
+        for (int j = 0; j < 3; ++j)
+            if (!sameBits(gv.pos[j], cv.pos[j])) return at + "position";
+    }
+    if (g.surfaces.size() != c.surfaces.size()) return "surface count";
+    for (size_t s = 0; s < c.surfaces.size(); ++s) {
+        const auto& gs = g.surfaces[s];
+        const auto& cs = c.surfaces[s];
+        const std::string at = "surface " + std::to_string(s) + ": ";
+        if (gs.plane != cs.plane) return at + "plane";
+        if (gs.pieces.size() != cs.pieces.size())
+            return at + "piece count " + std::to_string(gs.pieces.size()) + " vs " + std::to_string(cs.pieces.size());
+        for (size_t i = 0; i < cs.pieces.size(); ++i) {
+            if (gs.pieces[i].v != cs.pieces[i].v) return at + "piece " + std::to_string(i) + " corners";
+            if (gs.pieces[i].lab != cs.pieces[i].lab) return at + "piece " + std::to_string(i) + " labels";
+            if (gs.pieces[i].kept != cs.pieces[i].kept) return at + "piece " + std::to_string(i) + " kept";
+        }
+    }
+    return {};
+}
+
+struct ArrangeTally
+{
+    size_t strokes = 0, cells = 0, tets = 0, refusedCells = 0, overCapacity = 0, loopLimit = 0, refusedBoth = 0, differ = 0;
+    size_t vertices = 0, pieces = 0, kept = 0, steiner = 0, caps = 0;
+    std::string first;
+};
+
+/// One tet per 8 vertex-shader invocations: llvmpipe runs 8 lanes (256
+/// bits) in step, and a lane's loops count against the loop limit of all
+/// 8 (cut_arrange.vert), so a tet alone in its vector gets it all.
+constexpr size_t kLanesPerTet = 8;
+
+/// Every tet with solid of the cut cells of seeds [first, first + seeds)
+/// on `vol` at `iso` with `kerf`, arranged by both kernels.
+ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Volume& vol, float iso, double kerf,
+                                 uint32_t first, uint32_t seeds)
+{
+    ArrangeTally t;
+    CellKernel cpu(vol, iso);
+    for (uint32_t seed = first; seed < first + seeds; ++seed) {
+        const RandomCut cut(vol, iso, kerf, seed);
+        t.strokes += cut.strokes;
+        t.cells += cut.cells.size();
+        const size_t tets = 5 * cut.cells.size();
+        const std::vector<render::GpuArrangedTet> got = gpu.arrangement(cut.input, 0, tets, kLanesPerTet);
+        size_t g = 0;
+        for (size_t i = 0; i < cut.cells.size(); ++i) {
+            std::array<cutter::remesh_detail::ArrangementProbe, cutter::kTetsPerCell> want;
+            bool refused = false;
+            try {
+                want = cpu.arrangementForTesting(cut.cells[i], cutter::remesh_detail::kernelQuadsOf(cut.mask, cut.cells[i]),
+                                                 kerf > 0);
+            } catch (const std::runtime_error&) {
+                refused = true;
+                ++t.refusedCells;
+            }
+            for (int k = 0; k < cutter::kTetsPerCell; ++k) {
+                const uint32_t tet = uint32_t(5 * i + size_t(k));
+                const render::GpuArrangedTet* mine = g < got.size() && got[g].tet == tet ? &got[g++] : nullptr;
+                std::string why;
+                if (refused) {
+                    if (mine && (mine->fail & 256u)) ++t.refusedBoth;
+                    continue; // the CPU stops at the cell's refusal: nothing to compare
+                }
+                const auto& c = want[size_t(k)];
+                if (!c.solid && !mine) continue;
+                ++t.tets;
+                if (!mine) why = "the GPU wrote no record";
+                else if (!c.solid) why = "the GPU arranged a tet without solid";
+                else if (mine->fail & 1024u) {
+                    ++t.loopLimit;
+                    continue;
+                } else if (mine->fail & 255u) {
+                    ++t.overCapacity;
+                    continue;
+                } else if (mine->fail) why = "the GPU refused";
+                else why = arrangementDifference(*mine, c);
+                if (why.empty()) {
+                    t.vertices += c.verts.size();
+                    for (const auto& v : c.verts) t.steiner += v.steiner;
+                    for (const auto& s : c.surfaces) {
+                        t.caps += s.plane > 5;
+                        t.pieces += s.pieces.size();
+                        for (const auto& p : s.pieces) t.kept += p.kept;
+                    }
+                    continue;
+                }
+                if (t.differ++ == 0)
+                    t.first = "seed " + std::to_string(seed) + " cell (" + std::to_string(cut.cells[i].x()) + ", " +
+                              std::to_string(cut.cells[i].y()) + ", " + std::to_string(cut.cells[i].z()) + ") tet " +
+                              std::to_string(k) + ": " + why;
+            }
+        }
+    }
+    return t;
+}
+
+void report(const char* what, const ArrangeTally& t)
+{
+    std::printf("%s: %zu strokes, %zu cut cells, %zu tets with solid, %zu vertices (%zu Steiner), %zu caps, %zu pieces "
+                "(%zu kept), %zu differ, %zu over the shader's capacity, %zu past llvmpipe's loop limit, %zu cells refused by the CPU (%zu tets seen "
+                "refused by the GPU)\n",
+                what, t.strokes, t.cells, t.tets, t.vertices, t.steiner, t.caps, t.pieces, t.kept, t.differ,
+                t.overCapacity, t.loopLimit, t.refusedCells, t.refusedBoth);
+}
+
 } // namespace
+
+// The arrangement of each tet (its vertex table, and per surface the
+// pieces split by the tet's planes, made conforming, classified and given
+// their slit midpoints): the GPU's equals the CPU's vertex for vertex
+// (name, simplex, position bit for bit) and piece for piece (corners,
+// edge labels, kept).
+TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
+{
+    MTCUT_REQUIRE_GL();
+    const render::GpuCutKernel gpu;
+    vdb::PhantomOptions options;
+    options.dims = openvdb::Coord(160, 160, 128);
+    const vdb::Volume vol = vdb::makePhantom(options);
+    for (double kerf : {0.0, 0.5}) {
+        const ArrangeTally t = compareArrangements(gpu, vol, 400.0f, kerf, 1, 6);
+        report(kerf > 0 ? "phantom, kerf 0.5" : "phantom, kerf 0", t);
+        EXPECT_EQ(t.differ, 0u) << t.first;
+        EXPECT_GT(t.tets, 5000u);
+        EXPECT_LE(t.overCapacity, t.tets / 1000);
+        // The tets the GPU arranged (the rest flagged for the CPU): most of
+        // them, so that the equality above is about the many.
+        EXPECT_LE(t.loopLimit, t.tets * (kerf > 0 ? 4 : 1) / 10);
+    }
+}
 
 TEST(CutKernelGpu, PhaseOneEqualsTheCpuKernelBitForBit)
 {

@@ -35,12 +35,14 @@ TEST(RenderGl, EveryEmbeddedShaderCompiles)
         if (name.size() > 5 && name.substr(name.size() - 5) == ".glsl") continue; // libraries, prepended to others
         const std::string source = shaderSource(name);
         ASSERT_EQ(source.compare(0, 8, "#version"), 0) << name;
-        // Every stage compiles with its library in front: the GPU cut pass's
-        // (cut_*: cut_kernel.glsl, poly2_*: poly2.glsl), else the mask lookup.
-        const std::string library = name.compare(0, 4, "cut_") == 0     ? "cut_kernel.glsl"
-                                    : name.compare(0, 6, "poly2_") == 0 ? "poly2.glsl"
-                                                                        : "mask.glsl";
-        EXPECT_NO_THROW(Shader(shaderStageOf(name), withDefines(source, shaderSource(library)), name)) << name;
+        // Every stage compiles with its libraries in front: the GPU cut
+        // pass's (cut_*: cut_kernel.glsl and cut_arrange.glsl), poly2_*'s
+        // (poly2.glsl), else the mask lookup.
+        const std::string library =
+            name.compare(0, 4, "cut_") == 0     ? shaderSource("cut_kernel.glsl") + shaderSource("cut_arrange.glsl")
+            : name.compare(0, 6, "poly2_") == 0 ? shaderSource("poly2.glsl")
+                                                : shaderSource("mask.glsl");
+        EXPECT_NO_THROW(Shader(shaderStageOf(name), withDefines(source, library), name)) << name;
     }
 }
 

@@ -1,0 +1,1015 @@
+// The re-meshing kernel's arrangement of one tet (cutter/RemeshKernel.cpp,
+// remeshTet up to the regions), ported to GLSL after cut_kernel.glsl (whose
+// rules hold here too: the CPU's doubles in the CPU's order, `precise`
+// wherever a product feeds a sum). One invocation arranges one tet:
+// - the vertex table (makeVertex: a point's name, the lowest vertex of that
+//   name, the merge of one inside point made by different planes, a new
+//   vertex placed by its name; makeSteiner);
+// - sides of planes and membership in the solid (sign, member), computed
+//   each time: the CPU memoises them, but they are functions of the vertex
+//   table, so the values are the same;
+// - the surfaces (isoSurfaces, capSurfaces), the order of the split planes
+//   (chooseSplitOrder), and per surface its pieces: split by the planes
+//   (splitSurface, splitPoly), made conforming (conformPieces, pushSimple
+//   without recursion), classified (classifyPieces) and given their slit
+//   midpoints (insertSlitMidpoints).
+// The tet's state lives in per-invocation globals (the g* below) with fixed
+// capacities; a tet past one of them is flagged (gFail) for the CPU to
+// take, never truncated. Lists that a loop reads and writes are kept in
+// separate regions (cut_kernel.glsl's sort: there Mesa 22.3.6 seemed to
+// read a stale element; more likely, as found here later, llvmpipe's loop
+// limiter had cut the loops short: cut_arrange.vert).
+// Checked against the CPU, piece for piece and bit for bit, by
+// tests/test_render_cut_kernel.cpp.
+
+#define ARR_MAX_VERTS 128
+#define ARR_MAX_PLANES 96
+#define ARR_MAX_SURFACES 24
+#define ARR_MAX_PIECES 64  // per region of the piece pool
+#define ARR_MAX_POOL 640   // corners per region of the piece pool
+#define ARR_MAX_CORNERS 48 // corners of one piece
+
+const uint64_t kBoundaryLabel = 1ul << 63;
+// gFail bits: what stopped the tet.
+const uint kFailVerts = 1u, kFailPlanes = 2u, kFailSurfaces = 4u, kFailPieces = 8u, kFailPool = 16u,
+           kFailCorners = 32u, kFailNameLists = 64u;
+const uint kRefused = 256u; // the CPU refuses the cell here (a point on more than 8 planes)
+uint gFail;
+
+// The big per-tet lists live in scratch storage, one slice per invocation
+// (the host binds room for its batch): as private arrays they made
+// llvmpipe's compile of the compute shader this was first (LLVM's
+// coroutine frame) take many minutes.
+layout(std430, binding = 6) volatile buffer ArrangeScratchI { int sI[]; };
+layout(std430, binding = 7) volatile buffer ArrangeScratchL { uint64_t sL[]; };
+layout(std430, binding = 8) volatile buffer ArrangeScratchD { double sD[]; };
+const uint kOffVMeta = 0u, kOffPV = kOffVMeta + ARR_MAX_VERTS, kOffPieceStart = kOffPV + 3 * ARR_MAX_POOL,
+           kOffPieceLen = kOffPieceStart + 3 * ARR_MAX_PIECES, kOffSplitOwner = kOffPieceLen + 3 * ARR_MAX_PIECES,
+           kOffPlaneOrder = kOffSplitOwner + ARR_MAX_PLANES, kScratchI = kOffPlaneOrder + ARR_MAX_PLANES;
+const uint kOffVFeature = 0u, kOffVPlanes = kOffVFeature + 3 * ARR_MAX_VERTS, kOffPL = kOffVPlanes + 8 * ARR_MAX_VERTS,
+           kOffSplitId = kOffPL + 3 * ARR_MAX_POOL, kScratchL = kOffSplitId + ARR_MAX_PLANES;
+const uint kOffVPos = 0u, kScratchD = kOffVPos + 3 * ARR_MAX_VERTS;
+uint gBaseI, gBaseL, gBaseD; // this invocation's slices
+#define gVMeta(v) uint(sI[gBaseI + kOffVMeta + uint(v)])
+#define gVMetaRef(v) sI[gBaseI + kOffVMeta + uint(v)]
+#define gPV(i) sI[gBaseI + kOffPV + uint(i)]
+#define gPieceStart(i) sI[gBaseI + kOffPieceStart + uint(i)]
+#define gPieceLen(i) sI[gBaseI + kOffPieceLen + uint(i)]
+#define gSplitOwner(i) sI[gBaseI + kOffSplitOwner + uint(i)]
+#define gPlaneOrder(i) sI[gBaseI + kOffPlaneOrder + uint(i)]
+#define gVFeature(i) sL[gBaseL + kOffVFeature + uint(i)]
+#define gVPlanes(i) sL[gBaseL + kOffVPlanes + uint(i)]
+#define gPL(i) sL[gBaseL + kOffPL + uint(i)]
+#define gSplitId(i) sL[gBaseL + kOffSplitId + uint(i)]
+dvec3 gVPos(int v)
+{
+    const uint b = gBaseD + kOffVPos + 3u * uint(v);
+    return dvec3(sD[b], sD[b + 1u], sD[b + 2u]);
+}
+void setVPos(int v, dvec3 p)
+{
+    const uint b = gBaseD + kOffVPos + 3u * uint(v);
+    sD[b] = p.x;
+    sD[b + 1u] = p.y;
+    sD[b + 2u] = p.z;
+}
+
+// ---- the tet (loadTet, phase one)
+Tet gT;
+IsoPolygons gIso;
+IsoOwnership gOwn;
+uint gCell;
+int gTetIndex;
+bool gFoldConvex;
+
+// ---- the vertex table (mVerts)
+int gVertCount;
+int gTriVert[8]; // mTriVerts: the vertices of iso polygon k's corners, 4 k + c
+
+uint vDim(int v) { return gVMeta(v) & 15u; }
+int vPlaneCount(int v) { return int((gVMeta(v) >> 4) & 15u); }
+uint vSupport(int v) { return (gVMeta(v) >> 8) & 15u; }
+bool vSteiner(int v) { return ((gVMeta(v) >> 12) & 1u) != 0u; }
+
+/// CutVertexIdHash of vertex v's name (no tags).
+uint64_t vHash(int v)
+{
+    const int pc = vPlaneCount(v);
+    uint64_t h = 1469598103934665603ul ^ (uint64_t(vDim(v)) << 16 | uint64_t(pc) << 8);
+    for (int i = 0; i < 3; ++i) h ^= gVFeature(3 * v + i) + 0x9e3779b97f4a7c15ul + (h << 6) + (h >> 2);
+    for (int i = 0; i < pc; ++i) h ^= gVPlanes(8 * v + i) + 0x9e3779b97f4a7c15ul + (h << 6) + (h >> 2);
+    return h;
+}
+
+/// featureKey: the simplex's sorted grid vertex ids (dim < 3), or the cell and tet.
+void featureOf(uint support, out uint64_t feature[3])
+{
+    feature[0] = 0ul;
+    feature[1] = 0ul;
+    feature[2] = 0ul;
+    if (support == 15u) {
+        const KernelCell c = kCells[gCell];
+        feature[0] = gridVertexId(ivec3(c.x, c.y, c.z));
+        feature[1] = uint64_t(gTetIndex);
+        return;
+    }
+    int n = 0;
+    for (int i = 0; i < 4; ++i)
+        if (((support >> i) & 1u) != 0u) feature[n++] = gT.id[i];
+    // Sort the n (<= 3) ids ascending without writing an element a loop reads.
+    uint64_t a = feature[0], b = feature[1], c = feature[2];
+    if (n >= 2 && b < a) {
+        const uint64_t s = a;
+        a = b;
+        b = s;
+    }
+    if (n == 3) {
+        if (c < b) {
+            const uint64_t s = b;
+            b = c;
+            c = s;
+        }
+        if (b < a) {
+            const uint64_t s = a;
+            a = b;
+            b = s;
+        }
+    }
+    feature[0] = a;
+    feature[1] = b;
+    feature[2] = c;
+}
+
+/// findVertex: the lowest vertex with this name, or -1.
+int findVertex(uint dim, uint64_t feature[3], int planeCount, uint64_t planes[8])
+{
+    for (int v = 0; v < gVertCount; ++v) {
+        if (vDim(v) != dim || vPlaneCount(v) != planeCount) continue;
+        bool same = gVFeature(3 * v) == feature[0] && gVFeature(3 * v + 1) == feature[1] &&
+                    gVFeature(3 * v + 2) == feature[2];
+        for (int i = 0; i < planeCount && same; ++i) same = gVPlanes(8 * v + i) == planes[i];
+        if (same) return v;
+    }
+    return -1;
+}
+
+double mergeTolerance(dvec3 p) { return 1e-11lf * (1.0lf + max(max(abs(p.x), abs(p.y)), abs(p.z))); }
+
+/// mergeCandidate: the lowest tet-inside, non-Steiner vertex with this
+/// feature within mergeTolerance of p, or -1.
+int mergeCandidate(uint64_t feature[3], dvec3 p)
+{
+    for (int v = 0; v < gVertCount; ++v) {
+        if (vDim(v) != 3u || vSteiner(v)) continue;
+        if (gVFeature(3 * v) != feature[0] || gVFeature(3 * v + 1) != feature[1] || gVFeature(3 * v + 2) != feature[2])
+            continue;
+        if (length3(gVPos(v) - p) <= mergeTolerance(p)) return v;
+    }
+    return -1;
+}
+
+int pushVertex(uint dim, uint support, bool steiner, uint64_t feature[3], int planeCount, uint64_t planes[8], dvec3 pos)
+{
+    if (gVertCount == ARR_MAX_VERTS) {
+        gFail |= kFailVerts;
+        return -1;
+    }
+    const int v = gVertCount++;
+    gVMetaRef(v) = int(dim | uint(planeCount) << 4 | support << 8 | (steiner ? 1u : 0u) << 12);
+    for (int i = 0; i < 3; ++i) gVFeature(3 * v + i) = feature[i];
+    for (int i = 0; i < 8; ++i) gVPlanes(8 * v + i) = i < planeCount ? planes[i] : 0ul;
+    setVPos(v, pos);
+    return v;
+}
+
+/// RemeshKernel::makeVertex: the vertex of the point pos0 of simplex
+/// `support` made by `defining` (-1 with gFail set when the tet stops).
+int makeVertex(uint support, uint64_t defining[8], int definingCount, dvec3 pos0)
+{
+    if (gFail != 0u) return -1;
+    uint64_t name[8];
+    int count;
+    bool overflow;
+    const bool named = nameOf(gT, gIso, gOwn, gCell, support, defining, definingCount, pos0, name, count, overflow);
+    if (overflow) {
+        gFail |= kFailNameLists;
+        return -1;
+    }
+    if (!named) {
+        gFail |= kRefused;
+        return -1;
+    }
+    const uint dim = uint(bitCount4(support) - 1);
+    uint64_t feature[3];
+    featureOf(support, feature);
+    const int found = findVertex(dim, feature, count, name);
+    if (found >= 0) return found;
+    const int m = dim == 3u ? mergeCandidate(feature, pos0) : -1;
+    if (m >= 0) {
+        // The union of the two names, ascending, when it fits.
+        uint64_t all[16];
+        int n = 0;
+        const int pc = vPlaneCount(m);
+        int i = 0, j = 0;
+        while (i < pc || j < count) {
+            uint64_t next;
+            if (j == count || (i < pc && gVPlanes(8 * m + i) < name[j])) next = gVPlanes(8 * m + i++);
+            else if (i == pc || name[j] < gVPlanes(8 * m + i)) next = name[j++];
+            else {
+                next = name[j++];
+                ++i;
+            }
+            all[n++] = next;
+        }
+        if (n <= 8) {
+            for (int k = 0; k < 8; ++k) gVPlanes(8 * m + k) = k < n ? all[k] : 0ul;
+            gVMetaRef(m) = int((gVMeta(m) & ~(15u << 4)) | uint(n) << 4);
+            return m;
+        }
+    }
+    const dvec3 pos = canonicalPosition(gT, gIso, gCell, dim, uint(count), name, support, pos0);
+    return pushVertex(dim, support, false, feature, count, name, pos);
+}
+
+/// RemeshKernel::makeSteiner: planes (count <= 8) are sorted here.
+int makeSteiner(uint support, uint64_t planes[8], int count, dvec3 pos)
+{
+    if (gFail != 0u) return -1;
+    // std::sort as ranks (duplicates keep their order), written once each.
+    uint64_t sorted[8];
+    for (int i = 0; i < count; ++i) {
+        int rank = 0;
+        for (int j = 0; j < count; ++j) rank += planes[j] < planes[i] || (planes[j] == planes[i] && j < i) ? 1 : 0;
+        sorted[rank] = planes[i];
+    }
+    for (int k = count; k < 8; ++k) sorted[k] = 0ul;
+    const uint dim = uint(bitCount4(support) - 1);
+    uint64_t feature[3];
+    featureOf(support, feature);
+    const int found = findVertex(dim, feature, count, sorted);
+    if (found >= 0) return found;
+    return pushVertex(dim, support, true, feature, count, sorted, pos);
+}
+
+// ---- planes, sides, membership
+/// RemeshKernel::sign: the side of vertex v on plane id, 0 on it (by
+/// name, or within the tie).
+int signOf(int v, uint64_t id)
+{
+    const int pc = vPlaneCount(v);
+    for (int i = 0; i < pc; ++i)
+        if (gVPlanes(8 * v + i) == id) return 0;
+    const uint dim = vDim(v);
+    if ((id == kIsoA || id == kIsoB) && pc > 0 && gVPlanes(8 * v) == kIso && (dim == 1u || dim == 2u)) {
+        const int tri = int(id - kIsoA);
+        bool on = false;
+        if (dim == 1u) {
+            for (int c = 0; c < gIso.corners[tri]; ++c) on = on || gTriVert[4 * tri + c] == v;
+            for (int c = 0; c < gIso.corners[tri] && !on; ++c) {
+                const int w = gTriVert[4 * tri + c];
+                on = gVFeature(3 * w) == gVFeature(3 * v) && gVFeature(3 * w + 1) == gVFeature(3 * v + 1) &&
+                     gVFeature(3 * w + 2) == gVFeature(3 * v + 2);
+            }
+        } else {
+            int f = 0;
+            while (((vSupport(v) >> f) & 1u) != 0u) ++f;
+            on = gOwn.faceTri[f] == tri;
+        }
+        if (on) return 0;
+    }
+    dvec4 p;
+    planeById(id, p);
+    const double h = planeH(p, gVPos(v));
+    return abs(h) <= epsAt(gVPos(v)) ? 0 : (h > 0.0lf ? 1 : -1);
+}
+
+/// RemeshKernel::member: 1 in the solid, -1 outside, 0 on the isosurface.
+int memberOf(int v)
+{
+    const uint dim = vDim(v);
+    if (dim == 0u) {
+        int i = 0;
+        while (((vSupport(v) >> i) & 1u) == 0u) ++i;
+        return gT.inside[i] ? 1 : -1;
+    }
+    if (dim < 3u) {
+        if (vPlaneCount(v) > 0 && gVPlanes(8 * v) == kIso) return 0;
+        const double d = dim == 1u ? edgeIsoDistance(gT, vSupport(v), gVPos(v)) : faceIsoDistance(gT, vSupport(v), gVPos(v));
+        return d > 0.0lf ? 1 : -1;
+    }
+    if (gIso.triCount == 0) return gT.inside[0] ? 1 : -1;
+    const int a = signOf(v, kIsoA);
+    if (gIso.triCount == 1) return a;
+    const int b = signOf(v, kIsoB);
+    return gFoldConvex ? min(a, b) : max(a, b);
+}
+
+bool inExtentClosed(int v, int q)
+{
+    for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
+        if (kSides[s].orient * double(signOf(v, kSides[s].id)) < 0.0lf) return false;
+    return true;
+}
+
+bool inSlitOpen(int v, int q)
+{
+    for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
+        const double o = kSides[s].orient * double(signOf(v, kSides[s].id));
+        if (kSides[s].partner >= 0 ? o < 0.0lf : o <= 0.0lf) return false;
+    }
+    return true;
+}
+
+/// A reaching quad by id (quadById), or -1.
+int quadById(uint64_t id)
+{
+    for (int i = 0; i < gReachCount; ++i)
+        if (kQuads[gReachQuad[i]].id == id) return gReachQuad[i];
+    return -1;
+}
+
+/// RemeshKernel::onStripRim.
+bool onStripRim(int v, int r)
+{
+    const uint64_t rid = kQuads[r].id;
+    for (int i = 0; i < gReachCount; ++i) {
+        const int o = gReachQuad[i];
+        const uint64_t oid = kQuads[o].id;
+        if (o == r || (oid >> 36) != (rid >> 36)) continue;
+        const int64_t dq = int64_t((oid >> 4) & 0xfffffffful) - int64_t((rid >> 4) & 0xfffffffful);
+        if (dq < -2l || dq > 2l || signOf(v, oid) != 0 || !inExtentClosed(v, o)) continue;
+        for (uint s = kQuads[o].firstSide; s < kQuads[o].firstSide + kQuads[o].sideCount; ++s)
+            if (kSides[s].partner < 0 && signOf(v, kSides[s].id) == 0) return true;
+    }
+    return false;
+}
+
+/// RemeshKernel::needsMidpoint.
+bool needsMidpoint(int u, int v, int r)
+{
+    if (uPrism) return false;
+    const uint64_t rid = kQuads[r].id;
+    if (signOf(u, rid) != 0 || signOf(v, rid) != 0) return false;
+    if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) ||
+        (inSlitOpen(v, r) && !onStripRim(v, r)))
+        return false;
+    for (uint s = kQuads[r].firstSide; s < kQuads[r].firstSide + kQuads[r].sideCount; ++s)
+        if (kSides[s].partner < 0 && signOf(u, kSides[s].id) == 0 && signOf(v, kSides[s].id) == 0) return false;
+    return true;
+}
+
+// ---- the piece pool: region 0 the current pieces, 1 the next, 2 a stack
+int gPieceCount[3];
+int gPoolUsed[3];
+bool gKept[ARR_MAX_PIECES]; // of region 0
+
+void poolClear(int r)
+{
+    gPieceCount[r] = 0;
+    gPoolUsed[r] = 0;
+}
+
+/// Opens a new piece in region r (its corners follow with poolAdd); false when full.
+bool poolOpen(int r)
+{
+    if (gPieceCount[r] == ARR_MAX_PIECES) {
+        gFail |= kFailPieces;
+        return false;
+    }
+    const int p = r * ARR_MAX_PIECES + gPieceCount[r]++;
+    gPieceStart(p) = gPoolUsed[r];
+    gPieceLen(p) = 0;
+    return true;
+}
+
+void poolAdd(int r, int v, uint64_t lab)
+{
+    if (gPoolUsed[r] == ARR_MAX_POOL) {
+        gFail |= kFailPool;
+        return;
+    }
+    const int p = r * ARR_MAX_PIECES + gPieceCount[r] - 1;
+    gPV(r * ARR_MAX_POOL + gPoolUsed[r]) = v;
+    gPL(r * ARR_MAX_POOL + gPoolUsed[r]) = lab;
+    ++gPoolUsed[r];
+    ++gPieceLen(p);
+}
+
+/// Drops the last piece of region r (one of fewer than 3 corners).
+void poolDropLast(int r)
+{
+    const int p = r * ARR_MAX_PIECES + gPieceCount[r] - 1;
+    gPoolUsed[r] -= gPieceLen(p);
+    --gPieceCount[r];
+}
+
+int pieceLen(int r, int i) { return gPieceLen(r * ARR_MAX_PIECES + i); }
+int pieceV(int r, int i, int k) { return gPV(r * ARR_MAX_POOL + gPieceStart(r * ARR_MAX_PIECES + i) + k); }
+uint64_t pieceL(int r, int i, int k) { return gPL(r * ARR_MAX_POOL + gPieceStart(r * ARR_MAX_PIECES + i) + k); }
+
+/// Copies piece i of region `from` to the end of region `to`.
+void poolCopyPiece(int from, int i, int to)
+{
+    if (!poolOpen(to)) return;
+    for (int k = 0; k < pieceLen(from, i); ++k) poolAdd(to, pieceV(from, i, k), pieceL(from, i, k));
+}
+
+/// Region 1 becomes region 0.
+void poolTakeNext()
+{
+    poolClear(0);
+    for (int i = 0; i < gPieceCount[1]; ++i) poolCopyPiece(1, i, 0);
+    poolClear(1);
+}
+
+/// RemeshKernel::pieceSign: the side of id that piece i of region r lies on.
+int pieceSign(int r, int i, uint64_t id)
+{
+    for (int k = 0; k < pieceLen(r, i); ++k) {
+        const int s = signOf(pieceV(r, i, k), id);
+        if (s != 0) return s;
+    }
+    return 0;
+}
+
+// ---- surfaces (mSurfaces)
+uint64_t gSPlane[ARR_MAX_SURFACES];
+int gSQuad[ARR_MAX_SURFACES]; // cap: its quad (kQuads index); -1: an iso polygon
+int gSSides[ARR_MAX_SURFACES];
+dvec3 gSNormal[ARR_MAX_SURFACES];
+int gSAlso[4 * ARR_MAX_SURFACES]; // kerf > 0: further prisms with this face plane
+int gSAlsoCount[ARR_MAX_SURFACES];
+int gSPolyV[4 * ARR_MAX_SURFACES];
+uint64_t gSPolyLab[4 * ARR_MAX_SURFACES];
+int gSPolyLen[ARR_MAX_SURFACES];
+int gSurfaceCount;
+
+// ---- the split order (mSplitOrder)
+int gSplitCount;
+
+/// gatherQuads and finishPlanes (tetBegin), and the fold's convexity.
+void gatherPlanes()
+{
+    tetBegin(gT, gIso, gCell);
+    if (gTetOverflow) gFail |= kFailPlanes;
+    gFoldConvex = true;
+    if (gIso.triCount == 2) gFoldConvex = planeH(gIso.plane[0], gIso.pts[1][2]) >= 0.0lf;
+}
+
+bool openSurface(uint64_t plane, int quad, int sides, dvec3 normal)
+{
+    if (gSurfaceCount == ARR_MAX_SURFACES) {
+        gFail |= kFailSurfaces;
+        return false;
+    }
+    const int s = gSurfaceCount++;
+    gSPlane[s] = plane;
+    gSQuad[s] = quad;
+    gSSides[s] = sides;
+    gSNormal[s] = normal;
+    gSAlsoCount[s] = 0;
+    gSPolyLen[s] = 0;
+    return true;
+}
+
+/// RemeshKernel::isoSurfaces.
+void isoSurfaces()
+{
+    for (int k = 0; k < gIso.triCount; ++k) {
+        if (!openSurface(kIsoA + uint64_t(k), -1, 1, -gIso.plane[k].xyz)) return;
+        const int s = gSurfaceCount - 1;
+        const int n = gIso.corners[k];
+        for (int c = 0; c < n; ++c) {
+            const int e = gIso.edges[k][c];
+            uint64_t def[8];
+            def[0] = kIsoA + uint64_t(k);
+            const int v = makeVertex((1u << (e & 3)) | (1u << (e >> 2)), def, 1, gIso.pts[k][c]);
+            if (v < 0) return;
+            gSPolyV[4 * s + c] = v;
+            gTriVert[4 * k + c] = v;
+        }
+        for (int c = 0; c < n; ++c) {
+            const uint m = gOwn.edgeMask[k][c] | gOwn.edgeMask[k][(c + 1) % n];
+            gSPolyLab[4 * s + c] = m == 15u ? kIsoA + uint64_t(1 - k) : kBoundaryLabel | uint64_t(m);
+        }
+        gSPolyLen[s] = n;
+    }
+}
+
+/// poly2::angleLess (atan2's order of directions, without atan2).
+int angleHalf(dvec2 d)
+{
+    if (d.y == 0.0lf && d.x < 0.0lf) return (doubleBitsToUint64(d.y) >> 63) != 0ul ? -1 : 3; // signbit
+    return d.y < 0.0lf ? 0 : d.y == 0.0lf ? 1 : 2;
+}
+bool angleLess(dvec2 u, dvec2 v)
+{
+    const int hu = angleHalf(u), hv = angleHalf(v);
+    if (hu != hv) return hu < hv;
+    precise double c = u.x * v.y - u.y * v.x;
+    return c > 0.0lf;
+}
+
+/// One step of the insertion sort by angle: b before a when less (swapped).
+bool angleSwap(inout dvec2 a, inout dvec2 b, inout int va, inout int vb)
+{
+    if (!angleLess(b, a)) return false;
+    const dvec2 d = a;
+    a = b;
+    b = d;
+    const int v = va;
+    va = vb;
+    vb = v;
+    return true;
+}
+
+/// RemeshKernel::capSurfaces: a quad's plane (zero kerf) or each face of its
+/// prism (kerf > 0) through the tet, its corners by angle.
+void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal)
+{
+    if (uPrism) {
+        for (int o = 0; o < gSurfaceCount; ++o)
+            if (gSQuad[o] >= 0 && gSPlane[o] == id && dot3(gSNormal[o], normal) > 0.0lf) {
+                if (gSAlsoCount[o] == 4) {
+                    gFail |= kFailSurfaces;
+                    return;
+                }
+                gSAlso[4 * o + gSAlsoCount[o]++] = q;
+                return;
+            }
+    }
+    double h[4];
+    int on = 0;
+    for (int i = 0; i < 4; ++i) {
+        h[i] = planeH(plane, gT.p[i]);
+        if (abs(h[i]) <= epsAt(gT.p[i])) {
+            h[i] = 0.0lf;
+            ++on;
+        }
+    }
+    int pv[4];
+    dvec3 pp[4];
+    int n = 0;
+    uint64_t def[8];
+    def[0] = id;
+    for (int i = 0; i < 4; ++i)
+        if (h[i] == 0.0lf && n < 4) {
+            pv[n] = makeVertex(1u << i, def, 1, gT.p[i]);
+            pp[n++] = gT.p[i];
+        }
+    for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+            precise double hh = h[i] * h[j];
+            if (!(hh < 0.0lf) || n == 4) continue;
+            int a = i, b = j;
+            if (gT.id[b] < gT.id[a]) {
+                a = j;
+                b = i;
+            }
+            const double t = h[a] / (h[a] - h[b]);
+            precise dvec3 x = gT.p[a] + t * (gT.p[b] - gT.p[a]);
+            pv[n] = makeVertex((1u << i) | (1u << j), def, 1, x);
+            pp[n++] = x;
+        }
+    if (gFail != 0u || n < 3) return;
+    int sides = 3;
+    if (on == 3) { // the plane is a tet face: only the cap facing away from this tet
+        int f = 0;
+        while (h[f] == 0.0lf) ++f;
+        sides = h[f] > 0.0lf ? 1 : 2;
+        precise double facing = dot3(normal, plane.xyz) * h[f];
+        if (uPrism && facing > 0.0lf) return; // faces into this tet
+    }
+    if (uPrism) sides = 1;
+    dvec3 c = dvec3(0.0lf);
+    for (int i = 0; i < n; ++i) c = c + pp[i];
+    c = c / double(n);
+    const dvec3 d0 = pp[0] - c;
+    const double inv = 1.0lf / sqrt(dot3(d0, d0));
+    const dvec3 e1 = d0 * inv; // glm::normalize
+    const dvec3 e2 = cross3(normal, e1);
+    dvec2 a0 = dvec2(dot3(pp[0] - c, e1), dot3(pp[0] - c, e2));
+    dvec2 a1 = dvec2(dot3(pp[1] - c, e1), dot3(pp[1] - c, e2));
+    dvec2 a2 = dvec2(dot3(pp[2] - c, e1), dot3(pp[2] - c, e2));
+    dvec2 a3 = n == 4 ? dvec2(dot3(pp[3] - c, e1), dot3(pp[3] - c, e2)) : dvec2(0.0lf);
+    int v0 = pv[0], v1 = pv[1], v2 = pv[2], v3 = n == 4 ? pv[3] : -1;
+    // The CPU's stable insertion sort, unrolled (at most four corners).
+    angleSwap(a0, a1, v0, v1);
+    if (angleSwap(a1, a2, v1, v2)) angleSwap(a0, a1, v0, v1);
+    if (n == 4 && angleSwap(a2, a3, v2, v3))
+        if (angleSwap(a1, a2, v1, v2)) angleSwap(a0, a1, v0, v1);
+    if (!openSurface(id, q, sides, normal)) return;
+    const int s = gSurfaceCount - 1;
+    const int order[4] = int[4](v0, v1, v2, v3);
+    for (int i = 0; i < n; ++i) gSPolyV[4 * s + i] = order[i];
+    for (int i = 0; i < n; ++i)
+        gSPolyLab[4 * s + i] = kBoundaryLabel | uint64_t(vSupport(order[i]) | vSupport(order[(i + 1) % n]));
+    gSPolyLen[s] = n;
+}
+
+void capSurfaces()
+{
+    for (int i = 0; i < gReachCount && gFail == 0u; ++i) {
+        const int q = gReachQuad[i];
+        if (!uPrism) {
+            capFace(q, kQuads[q].id, kQuads[q].plane, kQuads[q].plane.xyz);
+            continue;
+        }
+        for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount && gFail == 0u; ++s) {
+            precise dvec3 normal = kSides[s].orient * kSides[s].plane.xyz;
+            capFace(q, kSides[s].id, kSides[s].plane, normal);
+        }
+    }
+}
+
+/// chooseSplitOrder's test: the whole tet strictly on one side of the plane.
+bool apart(dvec4 p)
+{
+    bool pos = true, neg = true;
+    for (int i = 0; i < 4; ++i) {
+        const double h = planeH(p, gT.p[i]);
+        const dvec3 x = gT.p[i];
+        const double e = 1e-9lf * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z)));
+        pos = pos && h > e;
+        neg = neg && h < -e;
+    }
+    return pos || neg;
+}
+
+/// The tet's planes as RemeshKernel::mPlanes holds them: ascending by id,
+/// one per id (a plane gathered from several quads is the same plane):
+/// gPlaneOrder(k), k < the count returned, indexes gTetPlane.
+int sortTetPlanes()
+{
+    int count = 0;
+    uint64_t last = 0ul; // ids are >= kIsoA
+    for (;;) {
+        int best = -1;
+        uint64_t bestId = 0ul;
+        for (int i = 0; i < gTetPlaneCount; ++i) {
+            const uint64_t id = gTetPlaneId(i);
+            if (id > last && (best < 0 || id < bestId)) {
+                best = i;
+                bestId = id;
+            }
+        }
+        if (best < 0) return count;
+        gPlaneOrder(count++) = best;
+        last = bestId;
+    }
+}
+
+/// RemeshKernel::chooseSplitOrder: iso planes, junction planes, the rest,
+/// each group ascending by id.
+void chooseSplitOrder()
+{
+    gSplitCount = 0;
+    const int planes = sortTetPlanes();
+    for (int k = 0; k < planes; ++k) {
+        const int i = gPlaneOrder(k);
+        if (gTetPlaneId(i) <= kIsoB) {
+            gSplitId(gSplitCount) = gTetPlaneId(i);
+            gSplitOwner(gSplitCount++) = -1;
+        }
+    }
+    for (int k = 0; k < planes; ++k) {
+        const int i = gPlaneOrder(k);
+        if (gTetPlaneId(i) > kIsoB && int(gTetPlaneId(i) & 15ul) == kJunctionKind && !apart(gTetPlane[i])) {
+            gSplitId(gSplitCount) = gTetPlaneId(i);
+            gSplitOwner(gSplitCount++) = -1;
+        }
+    }
+    for (int k = 0; k < planes; ++k) {
+        const int i = gPlaneOrder(k);
+        const uint64_t id = gTetPlaneId(i);
+        if (id <= kIsoB || int(id & 15ul) == kJunctionKind || apart(gTetPlane[i])) continue;
+        int owner = -1;
+        for (int r = 0; r < gReachCount; ++r)
+            if ((kQuads[gReachQuad[r]].id >> 4) == (id >> 4)) owner = gReachQuad[r];
+        if (uPrism && owner >= 0) {
+            int users = 0;
+            for (int r = 0; r < gReachCount; ++r) {
+                const int q = gReachQuad[r];
+                for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
+                    users += kSides[s].id == id ? 1 : 0;
+            }
+            if (users > 1) owner = -1;
+        }
+        gSplitId(gSplitCount) = id;
+        gSplitOwner(gSplitCount++) = owner;
+    }
+}
+
+/// RemeshKernel::splitPoly: piece i of region 0 split by plane p into region 1.
+void splitPoly(int i, uint64_t polyPlane, uint64_t p)
+{
+    const int n = pieceLen(0, i);
+    if (n > ARR_MAX_CORNERS) {
+        gFail |= kFailCorners;
+        return;
+    }
+    int sv[ARR_MAX_CORNERS];
+    bool pos = false, neg = false;
+    for (int k = 0; k < n; ++k) {
+        sv[k] = signOf(pieceV(0, i, k), p);
+        pos = pos || sv[k] > 0;
+        neg = neg || sv[k] < 0;
+    }
+    if (!(pos && neg)) {
+        poolCopyPiece(0, i, 1);
+        return;
+    }
+    dvec4 pl;
+    planeById(p, pl);
+    int cut[ARR_MAX_CORNERS];
+    for (int k = 0; k < n; ++k) {
+        cut[k] = -1;
+        const int j = (k + 1) % n;
+        if (sv[k] * sv[j] >= 0) continue;
+        const int a = pieceV(0, i, k), b = pieceV(0, i, j);
+        const double ha = planeH(pl, gVPos(a)), hb = planeH(pl, gVPos(b));
+        double t = (ha - hb) != 0.0lf ? ha / (ha - hb) : 0.5lf;
+        if (!(t > 0.0lf && t < 1.0lf)) t = 0.5lf;
+        precise dvec3 x = gVPos(a) + t * (gVPos(b) - gVPos(a));
+        uint64_t def[8];
+        int dc = 0;
+        def[dc++] = p;
+        if (polyPlane != 0ul) def[dc++] = polyPlane;
+        const uint64_t lab = pieceL(0, i, k);
+        if ((lab & kBoundaryLabel) == 0ul) def[dc++] = lab;
+        cut[k] = makeVertex(vSupport(a) | vSupport(b), def, dc, x);
+        if (cut[k] < 0) return;
+    }
+    for (int keep = 1; keep >= -1; keep -= 2) {
+        bool strict = false;
+        for (int k = 0; k < n; ++k) strict = strict || keep * sv[k] > 0;
+        if (!poolOpen(1)) return;
+        for (int k = 0; k < n; ++k) {
+            const int j = (k + 1) % n;
+            const int sa = keep * sv[k], sb = keep * sv[j];
+            const uint64_t lab = pieceL(0, i, k);
+            if (sa >= 0) poolAdd(1, pieceV(0, i, k), sa == 0 && sb < 0 ? p : lab);
+            if (cut[k] >= 0) poolAdd(1, cut[k], sa > 0 ? p : lab);
+        }
+        if (!(strict && pieceLen(1, gPieceCount[1] - 1) >= 3)) poolDropLast(1);
+    }
+}
+
+/// RemeshKernel::splitSurface: region 0 holds surface s's pieces.
+void splitSurface(int s)
+{
+    poolClear(0);
+    poolClear(1);
+    if (!poolOpen(0)) return;
+    for (int c = 0; c < gSPolyLen[s]; ++c) poolAdd(0, gSPolyV[4 * s + c], gSPolyLab[4 * s + c]);
+    const bool iso = gSQuad[s] < 0;
+    for (int k = 0; k < gSplitCount && gFail == 0u; ++k) {
+        const uint64_t id = gSplitId(k);
+        if (id == gSPlane[s]) continue;
+        if (iso && (id == kIsoA || id == kIsoB)) continue;
+        const int owner = gSplitOwner(k);
+        for (int i = 0; i < gPieceCount[0] && gFail == 0u; ++i) {
+            // A quad's plane and rim sides split only inside its junction zone.
+            bool outside = false;
+            if (owner >= 0)
+                for (uint sd = kQuads[owner].firstSide; sd < kQuads[owner].firstSide + kQuads[owner].sideCount; ++sd)
+                    if (kSides[sd].partner >= 0 && kSides[sd].orient * double(pieceSign(0, i, kSides[sd].id)) < 0.0lf)
+                        outside = true;
+            if (outside) poolCopyPiece(0, i, 1);
+            else splitPoly(i, gSPlane[s], id);
+        }
+        poolTakeNext();
+    }
+}
+
+uint gVertMark[ARR_MAX_VERTS / 32];
+
+/// RemeshKernel::conformPieces: the vertices of all pieces that lie on an
+/// edge's line inside it go into the edge (ascending along it), then a
+/// piece that visits a vertex twice is split into simple loops.
+void conformPieces()
+{
+    for (int w = 0; w < ARR_MAX_VERTS / 32; ++w) gVertMark[w] = 0u;
+    for (int i = 0; i < gPieceCount[0]; ++i)
+        for (int k = 0; k < pieceLen(0, i); ++k) {
+            const int v = pieceV(0, i, k);
+            gVertMark[v >> 5] |= 1u << (v & 31);
+        }
+    poolClear(1);
+    for (int i = 0; i < gPieceCount[0] && gFail == 0u; ++i) {
+        if (!poolOpen(1)) return;
+        const int n = pieceLen(0, i);
+        for (int k = 0; k < n; ++k) {
+            const int u = pieceV(0, i, k), w = pieceV(0, i, (k + 1) % n);
+            const uint64_t L = pieceL(0, i, k);
+            poolAdd(1, u, L);
+            const dvec3 a = gVPos(u), d = gVPos(w) - a;
+            const double dd = dot3(d, d);
+            // The vertices on the edge, by (t, vertex) ascending: each next
+            // one the least above the last taken.
+            double lastT = 0.0lf;
+            int lastX = -1;
+            for (;;) {
+                bool found = false;
+                double bestT = 0.0lf;
+                int bestX = -1;
+                for (int x = 0; x < gVertCount; ++x) {
+                    if (((gVertMark[x >> 5] >> (x & 31)) & 1u) == 0u || x == u || x == w) continue;
+                    const bool onLine = (L & kBoundaryLabel) != 0ul ? (vSupport(x) & ~uint(L & 15ul)) == 0u
+                                                                    : signOf(x, L) == 0;
+                    if (!onLine) continue;
+                    const double t = dot3(gVPos(x) - a, d) / dd;
+                    if (!(t > 1e-12lf && t < 1.0lf - 1e-12lf)) continue;
+                    precise dvec3 foot = a + t * d;
+                    if (length3(gVPos(x) - foot) > 1e-9lf * (1.0lf + sqrt(dd))) continue;
+                    const bool above = lastX < 0 || t > lastT || (t == lastT && x > lastX);
+                    if (!above) continue;
+                    if (!found || t < bestT || (t == bestT && x < bestX)) {
+                        bestT = t;
+                        bestX = x;
+                        found = true;
+                    }
+                }
+                if (!found) break;
+                poolAdd(1, bestX, L);
+                lastT = bestT;
+                lastX = bestX;
+            }
+        }
+    }
+    poolTakeNext();
+    // pushSimple without recursion: a stack (region 2) of loops to look at,
+    // the first part of a split on top, so the order is the recursion's.
+    for (int i = 0; i < gPieceCount[0] && gFail == 0u; ++i) {
+        poolClear(2);
+        poolCopyPiece(0, i, 2);
+        while (gPieceCount[2] > 0 && gFail == 0u) {
+            const int top = gPieceCount[2] - 1;
+            const int n = pieceLen(2, top);
+            int ri = -1, rj = -1;
+            for (int a = 0; a < n && ri < 0; ++a)
+                for (int b = a + 1; b < n; ++b)
+                    if (pieceV(2, top, a) == pieceV(2, top, b)) {
+                        ri = a;
+                        rj = b;
+                        break;
+                    }
+            if (ri < 0) {
+                poolCopyPiece(2, top, 1);
+                poolDropLast(2);
+                continue;
+            }
+            // Split the top into A = [ri, rj) and B = [rj, n + ri): stage
+            // them in region 1's free end, then push B, then A.
+            const int firstFree = gPieceCount[1];
+            if (!poolOpen(1)) return;
+            for (int k = rj; k < n + ri; ++k) poolAdd(1, pieceV(2, top, k % n), pieceL(2, top, k % n));
+            if (!poolOpen(1)) return;
+            for (int k = ri; k < rj; ++k) poolAdd(1, pieceV(2, top, k), pieceL(2, top, k));
+            poolDropLast(2);
+            for (int part = firstFree; part < firstFree + 2; ++part)
+                if (pieceLen(1, part) >= 3) poolCopyPiece(1, part, 2);
+            poolDropLast(1);
+            poolDropLast(1);
+        }
+    }
+    poolTakeNext();
+}
+
+/// A piece inside the solid P (classifyPieces' inSolid).
+bool inSolid(int i)
+{
+    for (int k = 0; k < pieceLen(0, i); ++k)
+        if (memberOf(pieceV(0, i, k)) < 0) return false;
+    if (gIso.triCount == 2 && !gFoldConvex) return max(pieceSign(0, i, kIsoA), pieceSign(0, i, kIsoB)) >= 0;
+    return true;
+}
+
+bool insidePrism(int i, int q)
+{
+    for (uint sd = kQuads[q].firstSide; sd < kQuads[q].firstSide + kQuads[q].sideCount; ++sd)
+        if (kSides[sd].orient * double(pieceSign(0, i, kSides[sd].id)) < 0.0lf) return false;
+    return true;
+}
+
+/// classifyPieces' keptBy: the prism `own` keeps piece i of surface s.
+bool keptBy(int i, int s, int own)
+{
+    bool k = insidePrism(i, own);
+    for (int j = 0; j < gReachCount && k; ++j) {
+        const int q = gReachQuad[j];
+        if (q == own || !insidePrism(i, q)) continue;
+        bool sameFace = false;
+        for (uint sd = kQuads[q].firstSide; sd < kQuads[q].firstSide + kQuads[q].sideCount; ++sd) {
+            precise dvec3 n = kSides[sd].orient * kSides[sd].plane.xyz;
+            sameFace = sameFace || (pieceSign(0, i, kSides[sd].id) == 0 && dot3(n, gSNormal[s]) > 0.0lf);
+        }
+        k = sameFace && kQuads[q].id > kQuads[own].id;
+    }
+    return k;
+}
+
+/// RemeshKernel::classifyPieces: gKept for region 0's pieces of surface s.
+void classifyPieces(int s)
+{
+    const int quad = gSQuad[s];
+    for (int i = 0; i < gPieceCount[0]; ++i) {
+        bool ok = true;
+        if (uPrism) {
+            if (quad < 0) {
+                for (int j = 0; j < gReachCount; ++j) ok = ok && !insidePrism(i, gReachQuad[j]);
+            } else {
+                ok = inSolid(i);
+                bool any = ok && keptBy(i, s, quad);
+                for (int a = 0; a < gSAlsoCount[s]; ++a) any = any || (ok && keptBy(i, s, gSAlso[4 * s + a]));
+                ok = any;
+            }
+        } else if (quad >= 0) {
+            ok = inSolid(i);
+            for (uint sd = kQuads[quad].firstSide; sd < kQuads[quad].firstSide + kQuads[quad].sideCount; ++sd)
+                ok = ok && kSides[sd].orient * double(pieceSign(0, i, kSides[sd].id)) >= 0.0lf;
+        }
+        gKept[i] = ok;
+    }
+}
+
+/// RemeshKernel::insertSlitMidpoints: a Steiner midpoint on every slit
+/// chord of a kept piece between two rim points.
+void insertSlitMidpoints()
+{
+    poolClear(1);
+    for (int i = 0; i < gPieceCount[0] && gFail == 0u; ++i) {
+        if (!gKept[i]) {
+            poolCopyPiece(0, i, 1);
+            continue;
+        }
+        if (!poolOpen(1)) return;
+        const int n = pieceLen(0, i);
+        for (int k = 0; k < n && gFail == 0u; ++k) {
+            const int u = pieceV(0, i, k), w = pieceV(0, i, (k + 1) % n);
+            const uint64_t lab = pieceL(0, i, k);
+            poolAdd(1, u, lab);
+            for (int j = 0; j < gReachCount; ++j) {
+                const int r = gReachQuad[j];
+                if (!needsMidpoint(u, w, r)) continue;
+                const uint64_t hu = (vHash(u) >> 2) | (1ul << 62), hw = (vHash(w) >> 2) | (1ul << 62);
+                uint64_t planes[8];
+                int count = 0;
+                planes[count++] = kMid;
+                planes[count++] = kQuads[r].id;
+                planes[count++] = min(hu, hw);
+                planes[count++] = max(hu, hw);
+                const uint sup = vSupport(u) | vSupport(w);
+                if (bitCount4(sup) < 4) {
+                    const bool isoU = vPlaneCount(u) > 0 && gVPlanes(8 * u) == kIso;
+                    const bool isoW = vPlaneCount(w) > 0 && gVPlanes(8 * w) == kIso;
+                    if (isoU && isoW) planes[count++] = kIso;
+                }
+                precise dvec3 mid = 0.5lf * (gVPos(u) + gVPos(w));
+                const int m = makeSteiner(sup, planes, count, mid);
+                if (m < 0) return;
+                poolAdd(1, m, lab);
+                break;
+            }
+        }
+    }
+    poolTakeNext();
+}
+
+/// The arrangement of tet t of cell `cell` up to the regions, in scratch
+/// slot `slot` (one per invocation); per surface
+/// (in order) `emitSurface(s)` is called with region 0 and gKept final.
+/// Returns false when the tet holds no solid.
+bool arrangeTetBegin(uint slot, uint cell, int t)
+{
+    gFail = 0u;
+    gBaseI = slot * kScratchI;
+    gBaseL = slot * kScratchL;
+    gBaseD = slot * kScratchD;
+    gCell = cell;
+    gTetIndex = t;
+    gT = loadTet(cell, t);
+    if (!gT.inside[0] && !gT.inside[1] && !gT.inside[2] && !gT.inside[3]) return false;
+    gIso = isoTriangles(gT);
+    gOwn = isoOwnership(gIso);
+    gVertCount = 0;
+    gSurfaceCount = 0;
+    gatherPlanes();
+    if (gFail != 0u) return true;
+    isoSurfaces();
+    capSurfaces();
+    chooseSplitOrder();
+    return true;
+}
+
+/// Surface s's pieces in region 0, split, conforming, classified and with their midpoints.
+void arrangeSurface(int s)
+{
+    if (gFail != 0u) return;
+    splitSurface(s);
+    if (gFail != 0u) return;
+    conformPieces();
+    if (gFail != 0u) return;
+    classifyPieces(s);
+    insertSlitMidpoints();
+}
