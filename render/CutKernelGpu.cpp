@@ -144,12 +144,15 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     mArrange.use();
     const BoundInput bound(input, mArrange);
     // Scratch per invocation (cut_arrange.glsl's kScratchI/L/D: its
-    // capacities ARR_MAX_VERTS 128, _POOL 640, _PIECES 64, _PLANES 96),
+    // capacities ARR_MAX_VERTS 128, _POOL 640, _PIECES 64, _PLANES 96,
     // for a batch of invocations at a time.
     constexpr size_t kVerts = 128, kPool = 640, kPieces = 64, kPlanes = 96, kBatch = 1024;
-    constexpr size_t kScratchI = kVerts + 3 * kPool + 6 * kPieces + 2 * kPlanes;
-    constexpr size_t kScratchL = 11 * kVerts + 3 * kPool + kPlanes;
-    constexpr size_t kScratchD = 3 * kVerts;
+    // ARR_MAX_SURFACES 24; the tet's state between stages at the end.
+    constexpr size_t kSurfaces = 24;
+    constexpr int kStageEnd = 1 + int(kSurfaces);
+    constexpr size_t kScratchI = kVerts + 3 * kPool + 6 * kPieces + 2 * kPlanes + 16 + 12 * kSurfaces;
+    constexpr size_t kScratchL = 11 * kVerts + 3 * kPool + kPlanes + 5 * kSurfaces;
+    constexpr size_t kScratchD = 3 * kVerts + 3 * kSurfaces;
     const size_t batch = std::min(tetCount, kBatch);
     const Buffer scratchI(batch * kScratchI * sizeof(int32_t), nullptr);
     const Buffer scratchL(batch * kScratchL * sizeof(uint64_t), nullptr);
@@ -160,6 +163,11 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     constexpr size_t kSlot = 8192; // words per tet's record (cut_arrange.vert)
     const Buffer records(batch * kSlot * sizeof(uint64_t), nullptr, GL_MAP_READ_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, records.id());
+    const Buffer tetList(batch * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    const Buffer tetStatus(batch * sizeof(GLint), nullptr, GL_MAP_READ_BIT);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, tetList.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, tetStatus.id());
+    std::vector<GLint> status(batch);
     glProgramUniform1ui(mArrange.id(), mArrange.uniform("uSlotWords"), GLuint(kSlot));
     glProgramUniform1ui(mArrange.id(), mArrange.uniform("uLaneStride"), GLuint(lanesPerTet));
     glProgramUniform1i(mArrange.id(), mArrange.uniform("uProbeTrips"), 2);
@@ -175,8 +183,30 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     for (size_t from = 0; from < tetCount; from += batch) {
         const size_t count = std::min(batch, tetCount - from);
         glProgramUniform1ui(mArrange.id(), mArrange.uniform("uFirstTet"), GLuint(firstTet + from));
-        glProgramUniform1ui(mArrange.id(), mArrange.uniform("uTetCount"), GLuint(count));
-        glDrawArrays(GL_POINTS, 0, GLsizei(count * lanesPerTet));
+        // The stages (cut_arrange.vert): the tet, each surface, the end,
+        // each over the slots that have it.
+        std::vector<GLuint> list(count);
+        for (size_t i = 0; i < count; ++i) list[i] = GLuint(i);
+        auto draw = [&](int stage) {
+            glNamedBufferSubData(tetList.id(), 0, GLsizeiptr(list.size() * sizeof(GLuint)), list.data());
+            glProgramUniform1ui(mArrange.id(), mArrange.uniform("uListCount"), GLuint(list.size()));
+            glProgramUniform1i(mArrange.id(), mArrange.uniform("uStage"), stage);
+            glDrawArrays(GL_POINTS, 0, GLsizei(list.size() * lanesPerTet));
+            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+        };
+        draw(0);
+        glGetNamedBufferSubData(tetStatus.id(), 0, GLsizeiptr(count * sizeof(GLint)), status.data());
+        for (int stage = 1; stage < kStageEnd; ++stage) {
+            list.clear();
+            for (size_t i = 0; i < count; ++i)
+                if (status[i] >= stage) list.push_back(GLuint(i));
+            if (list.empty()) break;
+            draw(stage);
+        }
+        list.clear();
+        for (size_t i = 0; i < count; ++i)
+            if (status[i] >= -1) list.push_back(GLuint(i));
+        if (!list.empty()) draw(kStageEnd);
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
         glGetNamedBufferSubData(records.id(), 0, GLsizeiptr(count * kSlot * sizeof(uint64_t)), slots.data());
         // The records, one after another (a slot's unused end left out).

@@ -40,15 +40,17 @@ uint gFail;
 // (the host binds room for its batch): as private arrays they made
 // llvmpipe's compile of the compute shader this was first (LLVM's
 // coroutine frame) take many minutes.
-layout(std430, binding = 6) volatile buffer ArrangeScratchI { int sI[]; };
-layout(std430, binding = 7) volatile buffer ArrangeScratchL { uint64_t sL[]; };
-layout(std430, binding = 8) volatile buffer ArrangeScratchD { double sD[]; };
+layout(std430, binding = 6) buffer ArrangeScratchI { int sI[]; };
+layout(std430, binding = 7) buffer ArrangeScratchL { uint64_t sL[]; };
+layout(std430, binding = 8) buffer ArrangeScratchD { double sD[]; };
 const uint kOffVMeta = 0u, kOffPV = kOffVMeta + ARR_MAX_VERTS, kOffPieceStart = kOffPV + 3 * ARR_MAX_POOL,
            kOffPieceLen = kOffPieceStart + 3 * ARR_MAX_PIECES, kOffSplitOwner = kOffPieceLen + 3 * ARR_MAX_PIECES,
-           kOffPlaneOrder = kOffSplitOwner + ARR_MAX_PLANES, kScratchI = kOffPlaneOrder + ARR_MAX_PLANES;
+           kOffPlaneOrder = kOffSplitOwner + ARR_MAX_PLANES, kOffStateI = kOffPlaneOrder + ARR_MAX_PLANES,
+           kScratchI = kOffStateI + 16 + 12 * ARR_MAX_SURFACES;
 const uint kOffVFeature = 0u, kOffVPlanes = kOffVFeature + 3 * ARR_MAX_VERTS, kOffPL = kOffVPlanes + 8 * ARR_MAX_VERTS,
-           kOffSplitId = kOffPL + 3 * ARR_MAX_POOL, kScratchL = kOffSplitId + ARR_MAX_PLANES;
-const uint kOffVPos = 0u, kScratchD = kOffVPos + 3 * ARR_MAX_VERTS;
+           kOffSplitId = kOffPL + 3 * ARR_MAX_POOL, kOffStateL = kOffSplitId + ARR_MAX_PLANES,
+           kScratchL = kOffStateL + 5 * ARR_MAX_SURFACES;
+const uint kOffVPos = 0u, kOffStateD = kOffVPos + 3 * ARR_MAX_VERTS, kScratchD = kOffStateD + 3 * ARR_MAX_SURFACES;
 uint gBaseI, gBaseL, gBaseD; // this invocation's slices
 #define gVMeta(v) uint(sI[gBaseI + kOffVMeta + uint(v)])
 #define gVMetaRef(v) sI[gBaseI + kOffVMeta + uint(v)]
@@ -999,6 +1001,84 @@ bool arrangeTetBegin(uint slot, uint cell, int t)
     isoSurfaces();
     capSurfaces();
     chooseSplitOrder();
+    return true;
+}
+
+// ---- the tet's state between draws (cut_arrange.vert arranges a tet in
+// several draws, each invocation within llvmpipe's loop limit): what
+// arrangeTetBegin leaves in the globals, kept in the scratch slice.
+#define gStateI(i) sI[gBaseI + kOffStateI + uint(i)]
+#define gStateL(i) sL[gBaseL + kOffStateL + uint(i)]
+#define gStateD(i) sD[gBaseD + kOffStateD + uint(i)]
+
+/// Saves the tet's state; `at` is the record's next word, `solid` whether
+/// the tet holds solid (else nothing else is kept).
+void saveTetState(uint at, bool solid)
+{
+    gStateI(0) = solid ? 1 : 0;
+    gStateI(1) = int(gFail);
+    gStateI(2) = int(at);
+    if (!solid) return;
+    gStateI(3) = gVertCount;
+    gStateI(4) = gSurfaceCount;
+    gStateI(5) = gSplitCount;
+    for (int i = 0; i < 8; ++i) gStateI(6 + i) = gTriVert[i];
+    for (int s = 0; s < gSurfaceCount; ++s) {
+        const int b = 16 + 12 * s;
+        gStateI(b) = gSQuad[s];
+        gStateI(b + 1) = gSSides[s];
+        gStateI(b + 2) = gSAlsoCount[s];
+        gStateI(b + 3) = gSPolyLen[s];
+        for (int i = 0; i < 4; ++i) {
+            gStateI(b + 4 + i) = gSAlso[4 * s + i];
+            gStateI(b + 8 + i) = gSPolyV[4 * s + i];
+            gStateL(5 * s + 1 + i) = gSPolyLab[4 * s + i];
+        }
+        gStateL(5 * s) = gSPlane[s];
+        gStateD(3 * s) = gSNormal[s].x;
+        gStateD(3 * s + 1) = gSNormal[s].y;
+        gStateD(3 * s + 2) = gSNormal[s].z;
+    }
+}
+
+/// The tet's state as saveTetState left it, and what arrangeTetBegin
+/// derives from the input again (the tet, its iso polygons, quads and
+/// planes). Returns false when the tet holds no solid; `at`: the
+/// record's next word.
+bool restoreTetState(uint slot, uint cell, int t, out uint at)
+{
+    gBaseI = slot * kScratchI;
+    gBaseL = slot * kScratchL;
+    gBaseD = slot * kScratchD;
+    gFail = uint(gStateI(1));
+    at = uint(gStateI(2));
+    if (gStateI(0) == 0) return false;
+    gCell = cell;
+    gTetIndex = t;
+    gVertCount = gStateI(3);
+    gSurfaceCount = gStateI(4);
+    gSplitCount = gStateI(5);
+    for (int i = 0; i < 8; ++i) gTriVert[i] = gStateI(6 + i);
+    for (int s = 0; s < gSurfaceCount; ++s) {
+        const int b = 16 + 12 * s;
+        gSQuad[s] = gStateI(b);
+        gSSides[s] = gStateI(b + 1);
+        gSAlsoCount[s] = gStateI(b + 2);
+        gSPolyLen[s] = gStateI(b + 3);
+        for (int i = 0; i < 4; ++i) {
+            gSAlso[4 * s + i] = gStateI(b + 4 + i);
+            gSPolyV[4 * s + i] = gStateI(b + 8 + i);
+            gSPolyLab[4 * s + i] = gStateL(5 * s + 1 + i);
+        }
+        gSPlane[s] = gStateL(5 * s);
+        gSNormal[s] = dvec3(gStateD(3 * s), gStateD(3 * s + 1), gStateD(3 * s + 2));
+    }
+    gT = loadTet(cell, t);
+    gIso = isoTriangles(gT);
+    gOwn = isoOwnership(gIso);
+    const uint fail = gFail;
+    gatherPlanes(); // the same lists as in the first draw (it may flag nothing new)
+    gFail = fail;
     return true;
 }
 

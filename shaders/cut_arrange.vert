@@ -11,15 +11,24 @@
 // and splitting this one took LLVM about 8 minutes against 1.5 for the
 // vertex shader. llvmpipe also stops every loop of an invocation after
 // 65535 loop iterations in all (gallivm's loop limiter, one per shader
-// function, all of it inlined here): a tet that could have met it is
-// flagged (bit 10) by a probe loop at the end, never returned truncated.
+// function, all of it inlined here), so a tet is arranged in stages, one
+// draw each, its state kept in its scratch slice between them (uStage 0:
+// arrangeTetBegin; 1 + s: surface s; kStageEnd: the vertex table and the
+// header); a stage that could have met the limit flags the tet (bit 10:
+// a probe loop at its end), never returns it truncated. Each draw runs
+// the slots in tetList: stage 0 all, then those with surface s (tetStatus:
+// the surface count, -1 failed, -2 no solid), the end those with solid.
 layout(std430, binding = 5) writeonly buffer Records { uint64_t outRecord[]; };
-uniform uint uFirstTet;
-uniform uint uTetCount;
+layout(std430, binding = 4) readonly buffer TetList { uint tetList[]; };   // the slots this draw arranges
+layout(std430, binding = 9) writeonly buffer TetStatus { int tetStatus[]; }; // per slot, after stage 0
+uniform uint uFirstTet;  // the tet of slot 0
+uniform uint uListCount; // entries of tetList
 uniform uint uSlotWords; // words of each invocation's slot of Records
 uniform uint uLaneStride; // vertices per tet (one arranging, the rest idle)
 uniform int uProbeTrips;  // 2: the probe loop's trip count, unknown to the compiler
+uniform int uStage;       // 0, 1 + surface, or kStageEnd
 
+const int kStageEnd = 1 + ARR_MAX_SURFACES;
 const uint kFailSlot = 512u, kFailLoopLimit = 1024u;
 
 /// Whether llvmpipe's loop limiter has run out in this invocation: then
@@ -42,22 +51,31 @@ void put(uint64_t w)
 
 void putDouble(double d) { put(doubleBitsToUint64(d)); }
 
-/// Arranges tet `tet` and puts its record at gAt (a tet without solid:
-/// ~0 alone).
-void emitTet(uint slot, uint tet)
+/// Stage 0: the tet's vertex table, surfaces and split order; the record's
+/// header (~0 alone for a tet without solid).
+void stageBegin(uint slot, uint tet)
 {
-    const uint headerAt = gAt;
     if (!arrangeTetBegin(slot, tet / 5u, int(tet % 5u))) {
         put(~0ul);
+        saveTetState(gAt, false);
+        tetStatus[slot] = -2;
         return;
     }
     put(uint64_t(tet));
-    put(0ul); // vertices | surfaces << 32, once known
-    int surfaces = 0;
-    for (int s = 0; s < gSurfaceCount && gFail == 0u; ++s) {
-        arrangeSurface(s);
-        if (gFail != 0u) break;
-        ++surfaces;
+    put(0ul); // vertices | surfaces << 32, at the end
+    if (loopLimitHit()) gFail |= kFailLoopLimit;
+    saveTetState(gAt, true);
+    tetStatus[slot] = gFail == 0u ? gSurfaceCount : -1;
+}
+
+/// Stage 1 + s: surface s arranged, its pieces into the record.
+void stageSurface(uint slot, uint tet, int s)
+{
+    uint at;
+    if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at) || gFail != 0u || s >= gSurfaceCount) return;
+    gAt = at;
+    arrangeSurface(s);
+    if (gFail == 0u) {
         put(gSPlane[s]);
         put(uint64_t(gPieceCount[0]));
         for (int i = 0; i < gPieceCount[0]; ++i) {
@@ -69,6 +87,17 @@ void emitTet(uint slot, uint tet)
             }
         }
     }
+    if (loopLimitHit()) gFail |= kFailLoopLimit;
+    saveTetState(gAt, true);
+}
+
+/// The last stage: the vertex table, then the header (a failed tet: the
+/// header alone, its fail bits in it).
+void stageEnd(uint slot, uint tet, uint headerAt)
+{
+    uint at;
+    if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at)) return;
+    gAt = at;
     if (gFail == 0u) {
         for (int v = 0; v < gVertCount; ++v) {
             put(uint64_t(gVMeta(v)));
@@ -86,15 +115,17 @@ void emitTet(uint slot, uint tet)
         outRecord[headerAt + 1u] = 0ul;
         return;
     }
-    outRecord[headerAt + 1u] = uint64_t(gVertCount) | uint64_t(surfaces) << 32;
+    outRecord[headerAt + 1u] = uint64_t(gVertCount) | uint64_t(gSurfaceCount) << 32;
 }
 
 void main()
 {
     const uint vertex = uint(gl_VertexID);
-    if (vertex % uLaneStride != 0u || vertex / uLaneStride >= uTetCount) return;
-    const uint slot = vertex / uLaneStride;
+    if (vertex % uLaneStride != 0u || vertex / uLaneStride >= uListCount) return;
+    const uint slot = tetList[vertex / uLaneStride], tet = uFirstTet + slot;
     gAt = slot * uSlotWords;
     gSlotEnd = gAt + uSlotWords;
-    emitTet(slot, uFirstTet + slot);
+    if (uStage == 0) stageBegin(slot, tet);
+    else if (uStage == kStageEnd) stageEnd(slot, tet, gAt);
+    else stageSurface(slot, tet, uStage - 1);
 }

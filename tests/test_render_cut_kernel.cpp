@@ -19,7 +19,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -173,7 +172,8 @@ struct ArrangeTally
 
 /// One tet per 8 vertex-shader invocations: llvmpipe runs 8 lanes (256
 /// bits) in step, and a lane's loops count against the loop limit of all
-/// 8 (cut_arrange.vert), so a tet alone in its vector gets it all.
+/// 8 (cut_arrange.vert), so a tet alone in its vector gets it all (with one
+/// tet per invocation, 40 of 2,857 tets of seed 3 at kerf 0.5 met it).
 constexpr size_t kLanesPerTet = 8;
 
 /// Every tet with solid of the cut cells of seeds [first, first + seeds)
@@ -270,9 +270,9 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
         EXPECT_EQ(t.differ, 0u) << t.first;
         EXPECT_GT(t.tets, 5000u);
         EXPECT_LE(t.overCapacity, t.tets / 1000);
-        // The tets the GPU arranged (the rest flagged for the CPU): most of
-        // them, so that the equality above is about the many.
-        EXPECT_LE(t.loopLimit, t.tets * (kerf > 0 ? 4 : 1) / 10);
+        // Tets flagged for the CPU (llvmpipe's loop limit met in a stage):
+        // none measured with a tet alone in its SIMD vector; a few allowed.
+        EXPECT_LE(t.loopLimit, t.tets / 100);
     }
 }
 
