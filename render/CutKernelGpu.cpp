@@ -43,6 +43,24 @@ struct BoundInput
 
 } // namespace
 
+PointPass::PointPass()
+{
+    glNamedFramebufferParameteri(mFbo.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, 1);
+    glNamedFramebufferParameteri(mFbo.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, 1);
+    glBindFramebuffer(GL_FRAMEBUFFER, mFbo.id());
+    glBindVertexArray(mVao.id());
+    glEnable(GL_RASTERIZER_DISCARD);
+}
+
+PointPass::~PointPass()
+{
+    glDisable(GL_RASTERIZER_DISCARD);
+    glBindVertexArray(0);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+void PointPass::draw(size_t count) const { glDrawArrays(GL_POINTS, 0, GLsizei(count)); }
+
 GpuCutKernel::GpuCutKernel()
     : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
       mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
@@ -171,14 +189,7 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     glProgramUniform1ui(mArrange.id(), mArrange.uniform("uSlotWords"), GLuint(kSlot));
     glProgramUniform1ui(mArrange.id(), mArrange.uniform("uLaneStride"), GLuint(lanesPerTet));
     glProgramUniform1i(mArrange.id(), mArrange.uniform("uProbeTrips"), 2);
-    // Points with the rasterizer off, into a framebuffer without attachments.
-    const VertexArray vao;
-    const Framebuffer fbo;
-    glNamedFramebufferParameteri(fbo.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, 1);
-    glNamedFramebufferParameteri(fbo.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, 1);
-    glBindFramebuffer(GL_FRAMEBUFFER, fbo.id());
-    glBindVertexArray(vao.id());
-    glEnable(GL_RASTERIZER_DISCARD);
+    const PointPass pass;
     std::vector<uint64_t> words, slots(batch * kSlot);
     for (size_t from = 0; from < tetCount; from += batch) {
         const size_t count = std::min(batch, tetCount - from);
@@ -191,7 +202,7 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
             glNamedBufferSubData(tetList.id(), 0, GLsizeiptr(list.size() * sizeof(GLuint)), list.data());
             glProgramUniform1ui(mArrange.id(), mArrange.uniform("uListCount"), GLuint(list.size()));
             glProgramUniform1i(mArrange.id(), mArrange.uniform("uStage"), stage);
-            glDrawArrays(GL_POINTS, 0, GLsizei(list.size() * lanesPerTet));
+            pass.draw(list.size() * lanesPerTet);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
         };
         draw(0);
@@ -226,9 +237,6 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
             words.insert(words.end(), w, w + n);
         }
     }
-    glDisable(GL_RASTERIZER_DISCARD);
-    glBindVertexArray(0);
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glUseProgram(0);
     checkGlError("GpuCutKernel::arrangement");
     // Records (cut_arrange.vert): tet | fail << 32; vertices | surfaces << 32;

@@ -98,6 +98,25 @@ struct GpuArrangedTet
     std::vector<Surface> surfaces;   ///< empty when `fail`
 };
 
+/// The GL state of a pass drawn as points by a vertex shader that writes
+/// storage buffers (cut_arrange.vert): an empty vertex array, a framebuffer
+/// without attachments, the rasterizer off; put back when it goes. Needs a
+/// current OpenGL 4.5 context.
+class PointPass
+{
+public:
+    PointPass();
+    ~PointPass();
+    PointPass(const PointPass&) = delete;
+    PointPass& operator=(const PointPass&) = delete;
+    /// Draws vertices [0, count) with the program in use.
+    void draw(size_t count) const;
+
+private:
+    VertexArray mVao;
+    Framebuffer mFbo;
+};
+
 /// The ported kernel's programs. Needs a current OpenGL 4.5 context with
 /// GL_ARB_gpu_shader_fp64 (core in 4.0) and GL_ARB_gpu_shader_int64; the
 /// constructor throws std::runtime_error when the shaders do not build.

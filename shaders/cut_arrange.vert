@@ -25,20 +25,10 @@ uniform uint uFirstTet;  // the tet of slot 0
 uniform uint uListCount; // entries of tetList
 uniform uint uSlotWords; // words of each invocation's slot of Records
 uniform uint uLaneStride; // vertices per tet (one arranging, the rest idle)
-uniform int uProbeTrips;  // 2: the probe loop's trip count, unknown to the compiler
 uniform int uStage;       // 0, 1 + surface, or kStageEnd
 
 const int kStageEnd = 1 + ARR_MAX_SURFACES;
-const uint kFailSlot = 512u, kFailLoopLimit = 1024u;
-
-/// Whether llvmpipe's loop limiter has run out in this invocation: then
-/// every loop stops after one iteration, this one too.
-bool loopLimitHit()
-{
-    int n = 0;
-    for (int i = 0; i < uProbeTrips; ++i) ++n;
-    return n != uProbeTrips;
-}
+const uint kFailSlot = 512u, kFailLoopLimit = 1024u; // and cut_arrange.glsl's capacities
 
 uint gAt;       // next word of this record
 uint gSlotEnd;  // the end of this invocation's slot

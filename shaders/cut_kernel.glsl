@@ -251,6 +251,22 @@ IsoPolygons isoTriangles(Tet T)
     return r;
 }
 
+// ---- llvmpipe's loop limit
+uniform int uProbeTrips; // 2, set by the host: a trip count the compiler cannot know
+
+/// Whether llvmpipe's loop limiter has run out in this invocation: gallivm
+/// (Mesa 22.3.6) counts the iterations of every loop of an invocation
+/// against one budget of 65,535 (all functions inlined into main) and,
+/// once it is spent, stops every loop after one iteration, this one too.
+/// Never true on a GPU without such a limit
+/// (tests/test_render_cut_kernel.cpp, LoopLimitProbe*).
+bool loopLimitHit()
+{
+    int n = 0;
+    for (int i = 0; i < uProbeTrips; ++i) ++n;
+    return n != uProbeTrips;
+}
+
 // ---- vertex positions from names (RemeshKernel::canonicalPosition)
 const uint64_t kIso = 1ul, kIsoA = 2ul, kIsoB = 3ul, kMid = 4ul, kCentroid = 5ul;
 

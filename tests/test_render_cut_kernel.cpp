@@ -11,6 +11,7 @@
 #include "cutter/KernelInput.h"
 #include "cutter/RemeshKernel.h"
 #include "render/CutKernelGpu.h"
+#include "render/Shaders.h"
 #include "tests/TestUtil.h"
 #include "tests/test_render_util.h"
 #include "vdb/Phantom.h"
@@ -23,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -454,6 +456,45 @@ TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
 
 // The comparison can fail: the GPU given an isovalue one float step higher
 // moves the marching-tetrahedra points of some tets, and those are found.
+// loopLimitHit() (cut_kernel.glsl), which guards the arrangement against
+// llvmpipe's loop limit: a loop cut short is always reported, a loop well
+// inside the budget never is; on llvmpipe a loop past 65,535 iterations
+// is cut short (the limit the staged arrangement is built around).
+TEST(CutKernelGpu, LoopLimitProbeSeesEveryLoopCutShort)
+{
+    MTCUT_REQUIRE_GL();
+    const render::Program program = render::buildProgram({"cut_loop_probe_test.vert"},
+                                                         render::shaderSource("cut_kernel.glsl"));
+    const render::Buffer out(2 * sizeof(int32_t), nullptr);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, out.id());
+    program.use();
+    glProgramUniform1i(program.id(), program.uniform("uProbeTrips"), 2);
+    const bool llvmpipe = std::strstr(reinterpret_cast<const char*>(glGetString(GL_RENDERER)), "llvmpipe") != nullptr;
+    const render::PointPass pass;
+    int cutShort = 0;
+    for (int trips : {0, 1, 1000, 60000, 65533, 65534, 65535, 65536, 70000, 1000000}) {
+        glProgramUniform1i(program.id(), program.uniform("uTrips"), trips);
+        pass.draw(1);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        int32_t r[2] = {-1, -1};
+        glGetNamedBufferSubData(out.id(), 0, sizeof r, r);
+        const bool hit = r[1] != 0;
+        std::printf("loop of %d iterations: ran %d, probe %s\n", trips, r[0], hit ? "hit" : "clear");
+        if (r[0] != trips) {
+            EXPECT_TRUE(hit) << trips;
+            ++cutShort;
+        }
+        if (trips <= 60000) {
+            EXPECT_EQ(r[0], trips);
+            EXPECT_FALSE(hit) << trips;
+        }
+        if (llvmpipe && trips > 65535) EXPECT_LT(r[0], trips);
+    }
+    glUseProgram(0);
+    render::checkGlError("LoopLimitProbeSeesEveryLoopCutShort");
+    if (llvmpipe) EXPECT_EQ(cutShort, 3);
+}
+
 TEST(CutKernelGpu, AnInputOneFloatStepOffIsSeen)
 {
     MTCUT_REQUIRE_GL();
