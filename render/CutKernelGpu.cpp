@@ -6,12 +6,27 @@
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
+#include <string>
 
 namespace mtcut::render {
 
 namespace {
 
 constexpr size_t kStrideU = 48, kStrideD = 32; // per tet, as cut_phase_one.comp
+
+// The arrangement's capacities (cut_arrange.glsl's ARR_MAX_*, defined from
+// these): vertices, planes, surfaces of a tet; pieces and corners per
+// region of its piece pool. 256 vertices: 128 held 9 of 7,520 tets of the
+// kerf 0.5 test back.
+constexpr size_t kArrVerts = 256, kArrPlanes = 96, kArrSurfaces = 24, kArrPieces = 64, kArrPool = 640;
+
+std::string arrangeDefines()
+{
+    return "#define ARR_MAX_VERTS " + std::to_string(kArrVerts) + "\n#define ARR_MAX_PLANES " +
+           std::to_string(kArrPlanes) + "\n#define ARR_MAX_SURFACES " + std::to_string(kArrSurfaces) +
+           "\n#define ARR_MAX_PIECES " + std::to_string(kArrPieces) + "\n#define ARR_MAX_POOL " +
+           std::to_string(kArrPool) + "\n";
+}
 
 /// A storage buffer of `bytes` (at least one element, GL wants a size) from `data`.
 Buffer storage(size_t bytes, const void* data, size_t minimum)
@@ -65,7 +80,8 @@ GpuCutKernel::GpuCutKernel()
     : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
       mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
       mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl"))),
-      mArrange(buildProgram({"cut_arrange.vert"}, shaderSource("cut_kernel.glsl") + shaderSource("cut_arrange.glsl")))
+      mArrange(buildProgram({"cut_arrange.vert"},
+                            shaderSource("cut_kernel.glsl") + arrangeDefines() + shaderSource("cut_arrange.glsl")))
 {
 }
 
@@ -161,13 +177,12 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     if (tetCount == 0) return out;
     mArrange.use();
     const BoundInput bound(input, mArrange);
-    // Scratch per invocation (cut_arrange.glsl's kScratchI/L/D: its
-    // capacities ARR_MAX_VERTS 128, _POOL 640, _PIECES 64, _PLANES 96,
-    // for a batch of invocations at a time.
-    constexpr size_t kVerts = 128, kPool = 640, kPieces = 64, kPlanes = 96, kBatch = 1024;
-    // ARR_MAX_SURFACES 24; the tet's state between stages at the end.
-    constexpr size_t kSurfaces = 24;
-    constexpr int kStageEnd = 1 + int(kSurfaces);
+    // Scratch per invocation (cut_arrange.glsl's kScratchI/L/D, by its
+    // capacities; the tet's state between stages at the end), for a batch
+    // of invocations at a time.
+    constexpr size_t kVerts = kArrVerts, kPool = kArrPool, kPieces = kArrPieces, kPlanes = kArrPlanes,
+                     kSurfaces = kArrSurfaces, kBatch = 1024;
+    constexpr int kStageEnd = 1 + 2 * int(kSurfaces);
     constexpr size_t kScratchI = kVerts + 3 * kPool + 6 * kPieces + 2 * kPlanes + 16 + 12 * kSurfaces;
     constexpr size_t kScratchL = 11 * kVerts + 3 * kPool + kPlanes + 5 * kSurfaces;
     constexpr size_t kScratchD = 3 * kVerts + 3 * kSurfaces;
@@ -207,12 +222,13 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
         };
         draw(0);
         glGetNamedBufferSubData(tetStatus.id(), 0, GLsizeiptr(count * sizeof(GLint)), status.data());
-        for (int stage = 1; stage < kStageEnd; ++stage) {
+        for (int surface = 0; 1 + 2 * surface < kStageEnd; ++surface) {
             list.clear();
             for (size_t i = 0; i < count; ++i)
-                if (status[i] >= stage) list.push_back(GLuint(i));
+                if (status[i] > surface) list.push_back(GLuint(i));
             if (list.empty()) break;
-            draw(stage);
+            draw(1 + 2 * surface); // split
+            draw(2 + 2 * surface); // conform, classify, write
         }
         list.clear();
         for (size_t i = 0; i < count; ++i)

@@ -22,11 +22,15 @@
 // Checked against the CPU, piece for piece and bit for bit, by
 // tests/test_render_cut_kernel.cpp.
 
-#define ARR_MAX_VERTS 128
+// Capacities: the host defines them (render/CutKernelGpu.cpp, which sizes
+// the scratch buffers by them); these defaults let the file compile alone.
+#ifndef ARR_MAX_VERTS
+#define ARR_MAX_VERTS 256
 #define ARR_MAX_PLANES 96
 #define ARR_MAX_SURFACES 24
 #define ARR_MAX_PIECES 64  // per region of the piece pool
 #define ARR_MAX_POOL 640   // corners per region of the piece pool
+#endif
 #define ARR_MAX_CORNERS 48 // corners of one piece
 
 const uint64_t kBoundaryLabel = 1ul << 63;
@@ -1023,6 +1027,7 @@ void saveTetState(uint at, bool solid)
     gStateI(4) = gSurfaceCount;
     gStateI(5) = gSplitCount;
     for (int i = 0; i < 8; ++i) gStateI(6 + i) = gTriVert[i];
+    // 14, 15: region 0's piece and corner counts (cut_arrange.vert, between its stages)
     for (int s = 0; s < gSurfaceCount; ++s) {
         const int b = 16 + 12 * s;
         gStateI(b) = gSQuad[s];
@@ -1082,11 +1087,10 @@ bool restoreTetState(uint slot, uint cell, int t, out uint at)
     return true;
 }
 
-/// Surface s's pieces in region 0, split, conforming, classified and with their midpoints.
-void arrangeSurface(int s)
+/// Surface s's pieces in region 0, once split (splitSurface): conforming,
+/// classified and with their midpoints.
+void finishSurface(int s)
 {
-    if (gFail != 0u) return;
-    splitSurface(s);
     if (gFail != 0u) return;
     conformPieces();
     if (gFail != 0u) return;

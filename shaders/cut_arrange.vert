@@ -13,7 +13,8 @@
 // 65535 loop iterations in all (gallivm's loop limiter, one per shader
 // function, all of it inlined here), so a tet is arranged in stages, one
 // draw each, its state kept in its scratch slice between them (uStage 0:
-// arrangeTetBegin; 1 + s: surface s; kStageEnd: the vertex table and the
+// arrangeTetBegin; 1 + 2 s and 2 + 2 s: surface s split, then made
+// conforming, classified and written; kStageEnd: the vertex table and the
 // header); a stage that could have met the limit flags the tet (bit 10:
 // a probe loop at its end), never returns it truncated. Each draw runs
 // the slots in tetList: stage 0 all, then those with surface s (tetStatus:
@@ -25,9 +26,9 @@ uniform uint uFirstTet;  // the tet of slot 0
 uniform uint uListCount; // entries of tetList
 uniform uint uSlotWords; // words of each invocation's slot of Records
 uniform uint uLaneStride; // vertices per tet (one arranging, the rest idle)
-uniform int uStage;       // 0, 1 + surface, or kStageEnd
+uniform int uStage;       // 0, 1 + 2 surface (split), 2 + 2 surface (finish), or kStageEnd
 
-const int kStageEnd = 1 + ARR_MAX_SURFACES;
+const int kStageEnd = 1 + 2 * ARR_MAX_SURFACES;
 const uint kFailSlot = 512u, kFailLoopLimit = 1024u; // and cut_arrange.glsl's capacities
 
 uint gAt;       // next word of this record
@@ -58,13 +59,30 @@ void stageBegin(uint slot, uint tet)
     tetStatus[slot] = gFail == 0u ? gSurfaceCount : -1;
 }
 
-/// Stage 1 + s: surface s arranged, its pieces into the record.
-void stageSurface(uint slot, uint tet, int s)
+/// Stage 1 + 2 s: surface s split by the tet's planes (splitSurface; its
+/// pieces stay in region 0 of the pool, their counts in the state).
+void stageSplit(uint slot, uint tet, int s)
+{
+    uint at;
+    if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at) || gFail != 0u || s >= gSurfaceCount) return;
+    splitSurface(s);
+    if (loopLimitHit()) gFail |= kFailLoopLimit;
+    saveTetState(at, true);
+    gStateI(14) = gPieceCount[0];
+    gStateI(15) = gPoolUsed[0];
+}
+
+/// Stage 2 + 2 s: surface s's pieces made conforming, classified and given
+/// their slit midpoints, and written into the record.
+void stageFinish(uint slot, uint tet, int s)
 {
     uint at;
     if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at) || gFail != 0u || s >= gSurfaceCount) return;
     gAt = at;
-    arrangeSurface(s);
+    gPieceCount[0] = gStateI(14);
+    gPoolUsed[0] = gStateI(15);
+    poolClear(1);
+    finishSurface(s);
     if (gFail == 0u) {
         put(gSPlane[s]);
         put(uint64_t(gPieceCount[0]));
@@ -117,5 +135,6 @@ void main()
     gSlotEnd = gAt + uSlotWords;
     if (uStage == 0) stageBegin(slot, tet);
     else if (uStage == kStageEnd) stageEnd(slot, tet, gAt);
-    else stageSurface(slot, tet, uStage - 1);
+    else if ((uStage & 1) == 1) stageSplit(slot, tet, (uStage - 1) / 2);
+    else stageFinish(slot, tet, (uStage - 2) / 2);
 }

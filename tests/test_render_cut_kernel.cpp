@@ -168,6 +168,7 @@ std::string arrangementDifference(const render::GpuArrangedTet& g, const cutter:
 struct ArrangeTally
 {
     size_t strokes = 0, cells = 0, tets = 0, refusedCells = 0, overCapacity = 0, loopLimit = 0, refusedBoth = 0, differ = 0;
+    uint32_t capacityBits = 0; ///< which capacities (cut_arrange.glsl kFail*) were met
     size_t vertices = 0, pieces = 0, kept = 0, steiner = 0, caps = 0;
     std::string first;
 };
@@ -220,6 +221,7 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
                     continue;
                 } else if (mine->fail & 255u) {
                     ++t.overCapacity;
+                    t.capacityBits |= mine->fail & 255u;
                     continue;
                 } else if (mine->fail) why = "the GPU refused";
                 else why = arrangementDifference(*mine, c);
@@ -246,10 +248,10 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
 void report(const char* what, const ArrangeTally& t)
 {
     std::printf("%s: %zu strokes, %zu cut cells, %zu tets with solid, %zu vertices (%zu Steiner), %zu caps, %zu pieces "
-                "(%zu kept), %zu differ, %zu over the shader's capacity, %zu past llvmpipe's loop limit, %zu cells refused by the CPU (%zu tets seen "
-                "refused by the GPU)\n",
+                "(%zu kept), %zu differ, %zu over the shader's capacity (fail bits %#x), %zu past llvmpipe's loop limit, %zu cells "
+                "refused by the CPU (%zu tets seen refused by the GPU)\n",
                 what, t.strokes, t.cells, t.tets, t.vertices, t.steiner, t.caps, t.pieces, t.kept, t.differ,
-                t.overCapacity, t.loopLimit, t.refusedCells, t.refusedBoth);
+                t.overCapacity, t.capacityBits, t.loopLimit, t.refusedCells, t.refusedBoth);
 }
 
 } // namespace
@@ -271,10 +273,10 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
         report(kerf > 0 ? "phantom, kerf 0.5" : "phantom, kerf 0", t);
         EXPECT_EQ(t.differ, 0u) << t.first;
         EXPECT_GT(t.tets, 5000u);
-        EXPECT_LE(t.overCapacity, t.tets / 1000);
-        // Tets flagged for the CPU (llvmpipe's loop limit met in a stage):
-        // none measured with a tet alone in its SIMD vector; a few allowed.
-        EXPECT_LE(t.loopLimit, t.tets / 100);
+        // Tets flagged for the CPU (over a capacity of the shader, or
+        // llvmpipe's loop limit met in a stage): measured 0 at kerf 0 and
+        // 16 of 7,520 at kerf 0.5 (all at the loop limit); at most 1 %.
+        EXPECT_LE(t.overCapacity + t.loopLimit, t.tets / 100);
     }
 }
 
@@ -488,11 +490,15 @@ TEST(CutKernelGpu, LoopLimitProbeSeesEveryLoopCutShort)
             EXPECT_EQ(r[0], trips);
             EXPECT_FALSE(hit) << trips;
         }
-        if (llvmpipe && trips > 65535) EXPECT_LT(r[0], trips);
+        if (llvmpipe && trips > 65535) {
+            EXPECT_LT(r[0], trips);
+        }
     }
     glUseProgram(0);
     render::checkGlError("LoopLimitProbeSeesEveryLoopCutShort");
-    if (llvmpipe) EXPECT_EQ(cutShort, 3);
+    if (llvmpipe) {
+        EXPECT_EQ(cutShort, 3);
+    }
 }
 
 TEST(CutKernelGpu, AnInputOneFloatStepOffIsSeen)
