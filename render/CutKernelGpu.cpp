@@ -56,6 +56,59 @@ struct BoundInput
     }
 };
 
+/// One tet's record of cut_arrange.vert, at most `size` words at `w`: tet |
+/// fail << 32; vertices | surfaces << 32; per surface its plane, its piece
+/// count, per piece (corners | kept << 32) and (vertex, label) per corner;
+/// then 15 words per vertex. Throws when the record runs past its slot.
+GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
+{
+    size_t at = 0;
+    auto need = [&](size_t words, const char* what) {
+        if (at + words > size)
+            throw std::runtime_error(std::string("GpuCutKernel::arrangement: ") + what + " in the record of tet " +
+                                     std::to_string(uint32_t(w[0])) + " (word " + std::to_string(at) + " of " +
+                                     std::to_string(size) + ")");
+    };
+    GpuArrangedTet t;
+    t.tet = uint32_t(w[0]);
+    t.fail = uint32_t(w[0] >> 32);
+    const size_t verts = uint32_t(w[1]), surfaces = uint32_t(w[1] >> 32);
+    at = 2;
+    for (size_t s = 0; s < surfaces; ++s) {
+        need(2, "a truncated surface");
+        GpuArrangedTet::Surface& surface = t.surfaces.emplace_back();
+        surface.plane = w[at];
+        const size_t pieces = w[at + 1];
+        at += 2;
+        for (size_t i = 0; i < pieces; ++i) {
+            need(1, "a truncated piece");
+            GpuArrangedTet::Piece& piece = surface.pieces.emplace_back();
+            const size_t n = uint32_t(w[at]);
+            piece.kept = (w[at] >> 32) != 0;
+            ++at;
+            need(2 * n, "a truncated piece");
+            for (size_t k = 0; k < n; ++k) {
+                piece.v.push_back(int(w[at + 2 * k]));
+                piece.lab.push_back(w[at + 2 * k + 1]);
+            }
+            at += 2 * n;
+        }
+    }
+    need(15 * verts, "a truncated vertex table");
+    for (size_t v = 0; v < verts; ++v, at += 15) {
+        GpuArrangedTet::Vertex& x = t.verts.emplace_back();
+        const uint32_t meta = uint32_t(w[at]);
+        x.dim = meta & 15u;
+        x.planeCount = (meta >> 4) & 15u;
+        x.support = (meta >> 8) & 15u;
+        x.steiner = ((meta >> 12) & 1u) != 0;
+        std::copy(w + at + 1, w + at + 4, x.feature);
+        std::copy(w + at + 4, w + at + 12, x.planes);
+        std::memcpy(x.pos, w + at + 12, sizeof x.pos);
+    }
+    return t;
+}
+
 } // namespace
 
 PointPass::PointPass()
@@ -173,6 +226,10 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
                                                       size_t tetCount, size_t lanesPerTet) const
 {
     if (lanesPerTet == 0) throw std::invalid_argument("GpuCutKernel::arrangement: lanesPerTet 0");
+    if (firstTet > 5 * input.cells.size() || tetCount > 5 * input.cells.size() - firstTet)
+        throw std::out_of_range("GpuCutKernel::arrangement: tets " + std::to_string(firstTet) + " + " +
+                                std::to_string(tetCount) + " past the input's " +
+                                std::to_string(5 * input.cells.size()));
     std::vector<GpuArrangedTet> out;
     if (tetCount == 0) return out;
     mArrange.use();
@@ -180,12 +237,11 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     // Scratch per invocation (cut_arrange.glsl's kScratchI/L/D, by its
     // capacities; the tet's state between stages at the end), for a batch
     // of invocations at a time.
-    constexpr size_t kVerts = kArrVerts, kPool = kArrPool, kPieces = kArrPieces, kPlanes = kArrPlanes,
-                     kSurfaces = kArrSurfaces, kBatch = 1024;
-    constexpr int kStageEnd = 1 + 2 * int(kSurfaces);
-    constexpr size_t kScratchI = kVerts + 3 * kPool + 6 * kPieces + 2 * kPlanes + 16 + 12 * kSurfaces;
-    constexpr size_t kScratchL = 11 * kVerts + 3 * kPool + kPlanes + 5 * kSurfaces;
-    constexpr size_t kScratchD = 3 * kVerts + 3 * kSurfaces;
+    constexpr size_t kBatch = 1024;
+    constexpr int kStageEnd = 1 + 2 * int(kArrSurfaces);
+    constexpr size_t kScratchI = kArrVerts + 3 * kArrPool + 6 * kArrPieces + 2 * kArrPlanes + 16 + 12 * kArrSurfaces;
+    constexpr size_t kScratchL = 11 * kArrVerts + 3 * kArrPool + kArrPlanes + 5 * kArrSurfaces;
+    constexpr size_t kScratchD = 3 * kArrVerts + 3 * kArrSurfaces;
     const size_t batch = std::min(tetCount, kBatch);
     const Buffer scratchI(batch * kScratchI * sizeof(int32_t), nullptr);
     const Buffer scratchL(batch * kScratchL * sizeof(uint64_t), nullptr);
@@ -205,7 +261,7 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     glProgramUniform1ui(mArrange.id(), mArrange.uniform("uLaneStride"), GLuint(lanesPerTet));
     glProgramUniform1i(mArrange.id(), mArrange.uniform("uProbeTrips"), 2);
     const PointPass pass;
-    std::vector<uint64_t> words, slots(batch * kSlot);
+    std::vector<uint64_t> slots(batch * kSlot);
     for (size_t from = 0; from < tetCount; from += batch) {
         const size_t count = std::min(batch, tetCount - from);
         glProgramUniform1ui(mArrange.id(), mArrange.uniform("uFirstTet"), GLuint(firstTet + from));
@@ -236,77 +292,14 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
         if (!list.empty()) draw(kStageEnd);
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
         glGetNamedBufferSubData(records.id(), 0, GLsizeiptr(count * kSlot * sizeof(uint64_t)), slots.data());
-        // The records, one after another (a slot's unused end left out).
+        // The records, slot by slot (ascending tets).
         for (size_t i = 0; i < count; ++i) {
             const uint64_t* w = &slots[i * kSlot];
-            if (w[0] == ~uint64_t(0)) continue; // no solid
-            size_t n = 2;
-            if ((w[0] >> 32) == 0) {
-                const size_t verts = uint32_t(w[1]), surfaces = uint32_t(w[1] >> 32);
-                for (size_t s = 0; s < surfaces; ++s) {
-                    const size_t pieces = w[n + 1];
-                    n += 2;
-                    for (size_t p = 0; p < pieces; ++p) n += 1 + 2 * size_t(uint32_t(w[n]));
-                }
-                n += 15 * verts;
-            }
-            words.insert(words.end(), w, w + n);
+            if (w[0] != ~uint64_t(0)) out.push_back(parseArrangedTet(w, kSlot)); // ~0: no solid
         }
     }
     glUseProgram(0);
     checkGlError("GpuCutKernel::arrangement");
-    // Records (cut_arrange.vert): tet | fail << 32; vertices | surfaces << 32;
-    // per surface its plane, its piece count, per piece (corners | kept << 32)
-    // and (vertex, label) per corner; then 15 words per vertex.
-    size_t recordAt = 0;
-    auto fail = [&](const char* what) {
-        throw std::runtime_error(std::string("GpuCutKernel::arrangement: ") + what + " (record at word " +
-                                 std::to_string(recordAt) + " of " + std::to_string(words.size()) + ", header " +
-                                 std::to_string(words[recordAt]) + " " + std::to_string(words[recordAt + 1]) + ")");
-    };
-    for (size_t at = 0; at < words.size();) {
-        recordAt = at;
-        if (at + 2 > words.size()) fail("truncated record");
-        GpuArrangedTet& t = out.emplace_back();
-        t.tet = uint32_t(words[at]);
-        t.fail = uint32_t(words[at] >> 32);
-        const size_t verts = uint32_t(words[at + 1]), surfaces = uint32_t(words[at + 1] >> 32);
-        at += 2;
-        for (size_t s = 0; s < surfaces; ++s) {
-            if (at + 2 > words.size()) fail("truncated surface");
-            GpuArrangedTet::Surface& surface = t.surfaces.emplace_back();
-            surface.plane = words[at];
-            const size_t pieces = words[at + 1];
-            at += 2;
-            for (size_t i = 0; i < pieces; ++i) {
-                if (at + 1 > words.size()) fail("truncated piece");
-                GpuArrangedTet::Piece& piece = surface.pieces.emplace_back();
-                const size_t n = uint32_t(words[at]);
-                piece.kept = (words[at] >> 32) != 0;
-                ++at;
-                if (at + 2 * n > words.size()) fail("truncated piece");
-                for (size_t k = 0; k < n; ++k) {
-                    piece.v.push_back(int(words[at + 2 * k]));
-                    piece.lab.push_back(words[at + 2 * k + 1]);
-                }
-                at += 2 * n;
-            }
-        }
-        if (at + 15 * verts > words.size()) fail("truncated vertex table");
-        for (size_t v = 0; v < verts; ++v, at += 15) {
-            GpuArrangedTet::Vertex& x = t.verts.emplace_back();
-            const uint32_t meta = uint32_t(words[at]);
-            x.dim = meta & 15u;
-            x.planeCount = (meta >> 4) & 15u;
-            x.support = (meta >> 8) & 15u;
-            x.steiner = ((meta >> 12) & 1u) != 0;
-            std::copy(&words[at + 1], &words[at + 4], x.feature);
-            std::copy(&words[at + 4], &words[at + 12], x.planes);
-            std::memcpy(x.pos, &words[at + 12], sizeof x.pos);
-        }
-    }
-    std::sort(out.begin(), out.end(),
-              [](const GpuArrangedTet& a, const GpuArrangedTet& b) { return a.tet < b.tet; });
     return out;
 }
 

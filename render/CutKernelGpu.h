@@ -139,7 +139,8 @@ public:
     /// (5 per cell), those with solid only, ascending by tet; one tet per
     /// `lanesPerTet` vertex-shader invocations (1 on a GPU; on llvmpipe its
     /// SIMD width, 8, so that no tet shares the loop limit with another:
-    /// cut_arrange.vert).
+    /// cut_arrange.vert). Throws std::invalid_argument for lanesPerTet 0,
+    /// std::out_of_range for tets past the input's.
     std::vector<GpuArrangedTet> arrangement(const cutter::PackedKernelInput& input, size_t firstTet, size_t tetCount,
                                             size_t lanesPerTet = 1) const;
 

@@ -326,14 +326,6 @@ bool inSlitOpen(int v, int q)
     return true;
 }
 
-/// A reaching quad by id (quadById), or -1.
-int quadById(uint64_t id)
-{
-    for (int i = 0; i < gReachCount; ++i)
-        if (kQuads[gReachQuad[i]].id == id) return gReachQuad[i];
-    return -1;
-}
-
 /// RemeshKernel::onStripRim.
 bool onStripRim(int v, int r)
 {

@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <cstring>
 #include <initializer_list>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -131,6 +132,17 @@ void report(const char* what, const Tally& t)
 {
     std::printf("%s: %zu strokes, %zu cut cells, %zu tets (%zu with solid, %zu folded), %zu quad reaches, %zu differ\n",
                 what, t.strokes, t.cells, t.tets, t.solid, t.folds, t.reaching, t.differ);
+}
+
+/// The 160 x 160 x 128 phantom these tests cut, made once.
+const vdb::Volume& smallPhantom()
+{
+    static const vdb::Volume vol = [] {
+        vdb::PhantomOptions options;
+        options.dims = openvdb::Coord(160, 160, 128);
+        return vdb::makePhantom(options);
+    }();
+    return vol;
 }
 
 /// Where the GPU's arrangement of a tet differs from the CPU's: empty when equal.
@@ -265,9 +277,7 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
 {
     MTCUT_REQUIRE_GL();
     const render::GpuCutKernel gpu;
-    vdb::PhantomOptions options;
-    options.dims = openvdb::Coord(160, 160, 128);
-    const vdb::Volume vol = vdb::makePhantom(options);
+    const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         const ArrangeTally t = compareArrangements(gpu, vol, 400.0f, kerf, 1, 6);
         report(kerf > 0 ? "phantom, kerf 0.5" : "phantom, kerf 0", t);
@@ -278,15 +288,20 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
         // 16 of 7,520 at kerf 0.5 (all at the loop limit); at most 1 %.
         EXPECT_LE(t.overCapacity + t.loopLimit, t.tets / 100);
     }
+    // Bad calls are errors, not reads past the input.
+    const RandomCut cut(vol, 400.0f, 0.0, 1);
+    const size_t tets = 5 * cut.cells.size();
+    EXPECT_THROW(gpu.arrangement(cut.input, 0, 1, 0), std::invalid_argument);
+    EXPECT_THROW(gpu.arrangement(cut.input, tets - 1, 2), std::out_of_range);
+    EXPECT_THROW(gpu.arrangement(cut.input, tets + 1, 0), std::out_of_range);
+    EXPECT_TRUE(gpu.arrangement(cut.input, tets, 0).empty());
 }
 
 TEST(CutKernelGpu, PhaseOneEqualsTheCpuKernelBitForBit)
 {
     MTCUT_REQUIRE_GL();
     const render::GpuCutKernel gpu;
-    vdb::PhantomOptions options;
-    options.dims = openvdb::Coord(160, 160, 128);
-    const vdb::Volume phantom = vdb::makePhantom(options);
+    const vdb::Volume& phantom = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         const Tally t = compare(gpu, phantom, 400.0f, kerf, 1, 30);
         report(kerf > 0 ? "phantom, kerf 0.5" : "phantom, kerf 0", t);
@@ -320,9 +335,7 @@ TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
 {
     MTCUT_REQUIRE_GL();
     const render::GpuCutKernel gpu;
-    vdb::PhantomOptions options;
-    options.dims = openvdb::Coord(160, 160, 128);
-    const vdb::Volume vol = vdb::makePhantom(options);
+    const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         size_t vertices = 0, fromName = 0, differ = 0, refused = 0, byDim[4] = {0, 0, 0, 0};
         std::string first;
@@ -393,9 +406,7 @@ TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
 {
     MTCUT_REQUIRE_GL();
     const render::GpuCutKernel gpu;
-    vdb::PhantomOptions options;
-    options.dims = openvdb::Coord(160, 160, 128);
-    const vdb::Volume vol = vdb::makePhantom(options);
+    const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         size_t calls = 0, differ = 0, overflow = 0, skipped = 0, refusedCpu = 0, onBlade = 0;
         std::string first;
