@@ -80,6 +80,8 @@ public:
 
     /// prism: the quads are kerf > 0 prisms (makePrismGeom), else zero-kerf quads.
     void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
+    /// remesh()'s work after the tets (the pinches split, kerf > 0) on `out`.
+    void finishCell(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
     /// The first phase of tet t of the cell alone (CellKernel::phaseOneForTesting).
     TetPhaseOne phaseOne(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, int t);
     /// remesh() records each tet's vertices here when set (CellKernel::verticesForTesting).
@@ -985,6 +987,14 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
         if (mCapture && (mT.inside[0] || mT.inside[1] || mT.inside[2] || mT.inside[3]))
             for (const Vert& v : mVerts) (*mCapture)[size_t(t)].push_back({v.key, v.support, v.pos, v.steiner});
     }
+    finishCell(cell, quads, prism, out);
+}
+
+void RemeshKernel::finishCell(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
+{
+    mPrism = prism;
+    mCell = cell;
+    mCellQuads = &quads;
     if (mPrism) {
         splitPinches(cell, out);
         splitIsoPinches(out);
@@ -1262,14 +1272,14 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
             traceRegions(s, side, kept);
         }
     }
+    SmallVector<char, 64> corner;
+    markCorners(corner);
+    triangulateRegions(corner, out, cellIndex);
     if (mArrangeCapture) {
         ArrangementProbe& probe = (*mArrangeCapture)[size_t(mTet)];
         probe.solid = true;
         for (const Vert& v : mVerts) probe.verts.push_back({v.key, v.support, v.pos, v.steiner});
     }
-    SmallVector<char, 64> corner;
-    markCorners(corner);
-    triangulateRegions(corner, out, cellIndex);
 }
 
 void RemeshKernel::resetTet()
@@ -2082,6 +2092,16 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
             } else if (!(mPrism && bestTriangulation(poly, pts, tris)) && !earClip(poly, pts, tris)) {
                 throw std::runtime_error("remesh: triangulation failed in cell " + cellText(mCell));
             }
+            if (mArrangeCapture) {
+                auto& probe = (*mArrangeCapture)[size_t(mTet)].triangles;
+                for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+                    auto& tri = probe.emplace_back();
+                    for (size_t c = 0; c < 3; ++c) {
+                        const Node& nd = nodes[size_t(ptNode[size_t(tris[t + c])])];
+                        tri[c] = {nd.vert, std::vector<uint64_t>(nd.tags.begin(), nd.tags.end())};
+                    }
+                }
+            }
             for (int i : tris) {
                 const Node& nd = nodes[size_t(ptNode[size_t(i)])];
                 CutVertexId id = mVerts[size_t(nd.vert)].key;
@@ -2168,6 +2188,13 @@ std::array<ArrangementProbe, kTetsPerCell> CellKernel::arrangementForTesting(con
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     mKernel->remesh(cell, quads, prism, out);
+    snapToGridVertices(mOrigin, mSpacing, out);
+    repairFloatFolds(cell, mOrigin, mSpacing, out);
+}
+
+void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
+{
+    mKernel->finishCell(cell, quads, prism, out);
     snapToGridVertices(mOrigin, mSpacing, out);
     repairFloatFolds(cell, mOrigin, mSpacing, out);
 }

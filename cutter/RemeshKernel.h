@@ -92,12 +92,12 @@ struct VertexProbe
     bool steiner = false; ///< a Steiner point (slit midpoint, cap centre)
 };
 
-/// The arrangement of one tet as far as the GPU port computes it
-/// (shaders/cut_arrange.glsl): per surface (iso polygons, then caps) its
-/// pieces once split by the tet's planes, made conforming, classified
-/// (kept) and given their slit midpoints, and the tet's vertex table then
-/// (before the regions' Steiner centres). For the tests that hold the two
-/// equal.
+/// The arrangement of one tet as the GPU port computes it
+/// (shaders/cut_arrange.glsl, cut_regions.glsl): per surface (iso
+/// polygons, then caps) its pieces once split by the tet's planes, made
+/// conforming, classified (kept) and given their slit midpoints; the
+/// triangles of its regions; and its vertex table at the end (the regions'
+/// Steiner centres included). For the tests that hold the two equal.
 struct ArrangementProbe
 {
     struct Piece
@@ -111,9 +111,17 @@ struct ArrangementProbe
         uint64_t plane = 0;
         std::vector<Piece> pieces;
     };
+    /// A corner of a triangle: the vertex and its side tags (Node).
+    struct Corner
+    {
+        int vert = 0;
+        std::vector<uint64_t> tags;
+        bool operator==(const Corner& o) const { return vert == o.vert && tags == o.tags; }
+    };
     bool solid = false;
-    std::vector<VertexProbe> verts;
+    std::vector<VertexProbe> verts; ///< the regions' Steiner centres last
     std::vector<Surface> surfaces;
+    std::vector<std::array<Corner, 3>> triangles; ///< as triangulateRegions emits them
 };
 
 /// A name the kernel gave a point in a tet (makeVertex, before it looks
@@ -166,6 +174,12 @@ public:
     CellKernel& operator=(const CellKernel&) = delete;
 
     void remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
+    /// What remesh() does to a cell's geometry after its tets: `out` holds
+    /// the triangles of the cell's five tets as remesh() makes them, from
+    /// elsewhere (the GPU cut pass: render/CutKernelGpu.h); the pinches split
+    /// (kerf > 0) and the float repairs made, so that `out` is then what
+    /// remesh() gives. Throws std::runtime_error as remesh() does.
+    void finish(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out);
     /// For tests of the GPU port: the first phase of each of the cell's tets.
     std::array<TetPhaseOne, kTetsPerCell> phaseOneForTesting(const Coord& cell, const std::vector<QuadGeom>& quads,
                                                              bool prism);

@@ -1,12 +1,15 @@
 // See CutKernelGpu.h.
 #include "render/CutKernelGpu.h"
 
+#include "cutter/RemeshKernel.h"
 #include "render/Shaders.h"
 
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+#include <utility>
 
 namespace mtcut::render {
 
@@ -19,13 +22,27 @@ constexpr size_t kStrideU = 48, kStrideD = 32; // per tet, as cut_phase_one.comp
 // region of its piece pool. 256 vertices: 128 held 9 of 7,520 tets of the
 // kerf 0.5 test back.
 constexpr size_t kArrVerts = 256, kArrPlanes = 96, kArrSurfaces = 24, kArrPieces = 64, kArrPool = 640;
+// The regions' (cut_regions.glsl): nodes (corners with their side tags),
+// regions, loops and loop corners of a tet.
+constexpr size_t kArrNodes = 256, kArrRegions = 48, kArrLoops = 64, kArrLoopCorners = 768;
+// Scratch words per tet (cut_arrange.glsl's kScratchI/L/D, which
+// cut_regions.glsl checks against its layout when it compiles).
+constexpr size_t kScratchI = kArrVerts + 3 * kArrPool + 6 * kArrPieces + 2 * kArrPlanes + 16 + 12 * kArrSurfaces +
+                             4 * kArrPieces + 8 + 5 * kArrNodes + 2 * kArrVerts + 5 * kArrRegions + 2 * kArrLoops +
+                             kArrLoopCorners + 11 * kArrPool;
+constexpr size_t kScratchL = 11 * kArrVerts + 3 * kArrPool + kArrPlanes + 5 * kArrSurfaces + 4 * kArrNodes +
+                             kArrLoopCorners + kArrPool;
+constexpr size_t kScratchD = 3 * kArrVerts + 3 * kArrSurfaces + 3 * kArrRegions;
 
 std::string arrangeDefines()
 {
-    return "#define ARR_MAX_VERTS " + std::to_string(kArrVerts) + "\n#define ARR_MAX_PLANES " +
-           std::to_string(kArrPlanes) + "\n#define ARR_MAX_SURFACES " + std::to_string(kArrSurfaces) +
-           "\n#define ARR_MAX_PIECES " + std::to_string(kArrPieces) + "\n#define ARR_MAX_POOL " +
-           std::to_string(kArrPool) + "\n";
+    std::string d;
+    const std::pair<const char*, size_t> defines[] = {
+        {"ARR_MAX_VERTS", kArrVerts},     {"ARR_MAX_PLANES", kArrPlanes},   {"ARR_MAX_SURFACES", kArrSurfaces},
+        {"ARR_MAX_PIECES", kArrPieces},   {"ARR_MAX_POOL", kArrPool},       {"ARR_MAX_NODES", kArrNodes},
+        {"ARR_MAX_REGIONS", kArrRegions}, {"ARR_MAX_LOOPS", kArrLoops},     {"ARR_MAX_LOOP_CORNERS", kArrLoopCorners}};
+    for (const auto& [name, value] : defines) d += "#define " + std::string(name) + " " + std::to_string(value) + "\n";
+    return d;
 }
 
 /// A storage buffer of `bytes` (at least one element, GL wants a size) from `data`.
@@ -40,6 +57,8 @@ Buffer storage(size_t bytes, const void* data, size_t minimum)
 struct BoundInput
 {
     Buffer cells, quads, sides, tets;
+    float isovalue;
+    bool prism;
     BoundInput(const cutter::PackedKernelInput& input, const Program& program)
         : cells(storage(input.cells.size() * sizeof(cutter::PackedKernelCell), input.cells.data(),
                         sizeof(cutter::PackedKernelCell))),
@@ -47,18 +66,25 @@ struct BoundInput
                         sizeof(cutter::PackedKernelQuad))),
           sides(storage(input.sides.size() * sizeof(cutter::PackedKernelSide), input.sides.data(),
                         sizeof(cutter::PackedKernelSide))),
-          tets(sizeof(input.tets), input.tets.data())
+          tets(sizeof(input.tets), input.tets.data()), isovalue(input.isovalue), prism(input.prism)
     {
-        glProgramUniform1f(program.id(), program.uniform("uIsovalue"), input.isovalue);
-        glProgramUniform1i(program.id(), program.uniform("uPrism"), input.prism ? 1 : 0);
+        setUniforms(program);
         const Buffer* bound[] = {&cells, &quads, &sides, &tets};
         for (GLuint b = 0; b < 4; ++b) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, b, bound[b]->id());
     }
+    /// The input's uniforms of a further program that reads the bound input.
+    void setUniforms(const Program& program) const
+    {
+        glProgramUniform1f(program.id(), program.uniform("uIsovalue"), isovalue);
+        glProgramUniform1i(program.id(), program.uniform("uPrism"), prism ? 1 : 0);
+    }
 };
 
-/// One tet's record of cut_arrange.vert, at most `size` words at `w`: tet |
-/// fail << 32; vertices | surfaces << 32; per surface its plane, its piece
-/// count, per piece (corners | kept << 32) and (vertex, label) per corner;
+/// One tet's record of cut_arrange.vert and cut_regions.vert, at most
+/// `size` words at `w`: tet | fail << 32; vertices | surfaces << 32; nodes |
+/// triangles << 32; per surface its plane, its piece count, per piece
+/// (corners | kept << 32) and (vertex, label) per corner; per triangle its
+/// three nodes, 21 bits each; per node (vertex | tags << 32) and its tags;
 /// then 15 words per vertex. Throws when the record runs past its slot.
 GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
 {
@@ -73,7 +99,8 @@ GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
     t.tet = uint32_t(w[0]);
     t.fail = uint32_t(w[0] >> 32);
     const size_t verts = uint32_t(w[1]), surfaces = uint32_t(w[1] >> 32);
-    at = 2;
+    const size_t nodes = uint32_t(w[2]), triangles = uint32_t(w[2] >> 32);
+    at = 3;
     for (size_t s = 0; s < surfaces; ++s) {
         need(2, "a truncated surface");
         GpuArrangedTet::Surface& surface = t.surfaces.emplace_back();
@@ -93,6 +120,21 @@ GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
             }
             at += 2 * n;
         }
+    }
+    need(triangles, "truncated triangles");
+    for (size_t i = 0; i < triangles; ++i, ++at) {
+        const uint64_t x = w[at], mask = (uint64_t(1) << 21) - 1;
+        t.triangles.push_back({int(x & mask), int(x >> 21 & mask), int(x >> 42 & mask)});
+    }
+    for (size_t i = 0; i < nodes; ++i) {
+        need(1, "a truncated node table");
+        GpuArrangedTet::Node& node = t.nodes.emplace_back();
+        node.vert = int(uint32_t(w[at]));
+        const size_t tags = uint32_t(w[at] >> 32);
+        ++at;
+        need(tags, "a truncated node table");
+        node.tags.assign(w + at, w + at + tags);
+        at += tags;
     }
     need(15 * verts, "a truncated vertex table");
     for (size_t v = 0; v < verts; ++v, at += 15) {
@@ -134,7 +176,10 @@ GpuCutKernel::GpuCutKernel()
       mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
       mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl"))),
       mArrange(buildProgram({"cut_arrange.vert"},
-                            shaderSource("cut_kernel.glsl") + arrangeDefines() + shaderSource("cut_arrange.glsl")))
+                            shaderSource("cut_kernel.glsl") + arrangeDefines() + shaderSource("cut_arrange.glsl"))),
+      mRegions(buildProgram({"cut_regions.vert"}, shaderSource("cut_kernel.glsl") + arrangeDefines() +
+                                                      shaderSource("cut_arrange.glsl") + shaderSource("poly2.glsl") +
+                                                      shaderSource("cut_regions.glsl")))
 {
 }
 
@@ -232,16 +277,12 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
                                 std::to_string(5 * input.cells.size()));
     std::vector<GpuArrangedTet> out;
     if (tetCount == 0) return out;
-    mArrange.use();
     const BoundInput bound(input, mArrange);
-    // Scratch per invocation (cut_arrange.glsl's kScratchI/L/D, by its
-    // capacities; the tet's state between stages at the end), for a batch
-    // of invocations at a time.
+    bound.setUniforms(mRegions);
+    // Scratch per invocation (kScratchI/L/D), for a batch of invocations at a time.
     constexpr size_t kBatch = 1024;
-    constexpr int kStageEnd = 1 + 2 * int(kArrSurfaces);
-    constexpr size_t kScratchI = kArrVerts + 3 * kArrPool + 6 * kArrPieces + 2 * kArrPlanes + 16 + 12 * kArrSurfaces;
-    constexpr size_t kScratchL = 11 * kArrVerts + 3 * kArrPool + kArrPlanes + 5 * kArrSurfaces;
-    constexpr size_t kScratchD = 3 * kArrVerts + 3 * kArrSurfaces;
+    constexpr int kStageEnd = 1 + 2 * int(kArrSurfaces);                            // cut_arrange.vert
+    constexpr int kStageCorners = int(kArrSurfaces), kStageClose = 2 * int(kArrSurfaces) + 1; // cut_regions.vert
     const size_t batch = std::min(tetCount, kBatch);
     const Buffer scratchI(batch * kScratchI * sizeof(int32_t), nullptr);
     const Buffer scratchL(batch * kScratchL * sizeof(uint64_t), nullptr);
@@ -249,7 +290,7 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, scratchI.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, scratchL.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, scratchD.id());
-    constexpr size_t kSlot = 8192; // words per tet's record (cut_arrange.vert)
+    constexpr size_t kSlot = 8192; // words per tet's record
     const Buffer records(batch * kSlot * sizeof(uint64_t), nullptr, GL_MAP_READ_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, records.id());
     const Buffer tetList(batch * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
@@ -257,39 +298,52 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, tetList.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, tetStatus.id());
     std::vector<GLint> status(batch);
-    glProgramUniform1ui(mArrange.id(), mArrange.uniform("uSlotWords"), GLuint(kSlot));
-    glProgramUniform1ui(mArrange.id(), mArrange.uniform("uLaneStride"), GLuint(lanesPerTet));
-    glProgramUniform1i(mArrange.id(), mArrange.uniform("uProbeTrips"), 2);
+    for (const Program* p : {&mArrange, &mRegions}) {
+        glProgramUniform1ui(p->id(), p->uniform("uSlotWords"), GLuint(kSlot));
+        glProgramUniform1ui(p->id(), p->uniform("uLaneStride"), GLuint(lanesPerTet));
+        glProgramUniform1i(p->id(), p->uniform("uProbeTrips"), 2);
+    }
     const PointPass pass;
     std::vector<uint64_t> slots(batch * kSlot);
     for (size_t from = 0; from < tetCount; from += batch) {
         const size_t count = std::min(batch, tetCount - from);
-        glProgramUniform1ui(mArrange.id(), mArrange.uniform("uFirstTet"), GLuint(firstTet + from));
-        // The stages (cut_arrange.vert): the tet, each surface, the end,
-        // each over the slots that have it.
+        for (const Program* p : {&mArrange, &mRegions})
+            glProgramUniform1ui(p->id(), p->uniform("uFirstTet"), GLuint(firstTet + from));
+        // The stages (cut_arrange.vert, cut_regions.vert), each over the
+        // slots that have it: the tet; per surface its split, finish and
+        // regions; the corners; per surface its triangles; the node table;
+        // the vertex table.
         std::vector<GLuint> list(count);
         for (size_t i = 0; i < count; ++i) list[i] = GLuint(i);
-        auto draw = [&](int stage) {
+        auto draw = [&](const Program& program, int stage) {
+            program.use();
             glNamedBufferSubData(tetList.id(), 0, GLsizeiptr(list.size() * sizeof(GLuint)), list.data());
-            glProgramUniform1ui(mArrange.id(), mArrange.uniform("uListCount"), GLuint(list.size()));
-            glProgramUniform1i(mArrange.id(), mArrange.uniform("uStage"), stage);
+            glProgramUniform1ui(program.id(), program.uniform("uListCount"), GLuint(list.size()));
+            glProgramUniform1i(program.id(), program.uniform("uStage"), stage);
             pass.draw(list.size() * lanesPerTet);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
         };
-        draw(0);
-        glGetNamedBufferSubData(tetStatus.id(), 0, GLsizeiptr(count * sizeof(GLint)), status.data());
-        for (int surface = 0; 1 + 2 * surface < kStageEnd; ++surface) {
+        auto listSlots = [&](int minStatus) {
             list.clear();
             for (size_t i = 0; i < count; ++i)
-                if (status[i] > surface) list.push_back(GLuint(i));
-            if (list.empty()) break;
-            draw(1 + 2 * surface); // split
-            draw(2 + 2 * surface); // conform, classify, write
+                if (status[i] >= minStatus) list.push_back(GLuint(i));
+            return !list.empty();
+        };
+        draw(mArrange, 0);
+        glGetNamedBufferSubData(tetStatus.id(), 0, GLsizeiptr(count * sizeof(GLint)), status.data());
+        for (int surface = 0; surface < int(kArrSurfaces) && listSlots(surface + 1); ++surface) {
+            draw(mArrange, 1 + 2 * surface); // split
+            draw(mArrange, 2 + 2 * surface); // conform, classify, write
+            draw(mRegions, surface);         // regions
         }
-        list.clear();
-        for (size_t i = 0; i < count; ++i)
-            if (status[i] >= -1) list.push_back(GLuint(i));
-        if (!list.empty()) draw(kStageEnd);
+        if (listSlots(1)) {
+            draw(mRegions, kStageCorners);
+            for (int surface = 0; surface < int(kArrSurfaces) && listSlots(surface + 1); ++surface)
+                draw(mRegions, kStageCorners + 1 + surface);
+            listSlots(1);
+            draw(mRegions, kStageClose);
+        }
+        if (listSlots(-1)) draw(mArrange, kStageEnd);
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
         glGetNamedBufferSubData(records.id(), 0, GLsizeiptr(count * kSlot * sizeof(uint64_t)), slots.data());
         // The records, slot by slot (ascending tets).
@@ -301,6 +355,79 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     glUseProgram(0);
     checkGlError("GpuCutKernel::arrangement");
     return out;
+}
+
+std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& input, size_t lanesPerTet) const
+{
+    const size_t cellCount = input.cells.size();
+    std::vector<GpuCutCell> out(cellCount);
+    for (GpuCutCell& c : out) c.complete = true;
+    const std::vector<GpuArrangedTet> tets = arrangement(input, 0, 5 * cellCount, lanesPerTet);
+    std::unordered_map<cutter::CutVertexId, uint32_t, cutter::CutVertexIdHash> index;
+    size_t indexCell = cellCount;
+    for (const GpuArrangedTet& t : tets) {
+        GpuCutCell& cell = out[t.tet / 5];
+        if (!cell.complete) continue;
+        if (t.fail != 0) {
+            cell.complete = false;
+            cell.geometry.clear();
+            continue;
+        }
+        if (indexCell != t.tet / 5) { // the tets come ascending: a new cell
+            index.clear();
+            indexCell = t.tet / 5;
+        }
+        cutter::CutCellGeometry& g = cell.geometry;
+        for (const std::array<int, 3>& tri : t.triangles)
+            for (int n : tri) {
+                if (n < 0 || size_t(n) >= t.nodes.size() || size_t(t.nodes[size_t(n)].vert) >= t.verts.size())
+                    throw std::runtime_error("GpuCutKernel::cutCells: a triangle past the node or vertex table of tet " +
+                                             std::to_string(t.tet));
+                const GpuArrangedTet::Node& node = t.nodes[size_t(n)];
+                const GpuArrangedTet::Vertex& v = t.verts[size_t(node.vert)];
+                cutter::CutVertexId id;
+                id.dim = uint8_t(v.dim);
+                id.planeCount = uint8_t(v.planeCount);
+                std::copy(v.feature, v.feature + 3, id.feature.begin());
+                std::copy(v.planes, v.planes + 8, id.planes.begin());
+                if (node.tags.size() > id.tags.size())
+                    throw std::runtime_error("GpuCutKernel::cutCells: more than 4 tags in tet " + std::to_string(t.tet));
+                id.tagCount = uint8_t(node.tags.size());
+                std::copy(node.tags.begin(), node.tags.end(), id.tags.begin());
+                auto it = index.find(id);
+                if (it == index.end()) {
+                    it = index.emplace(id, uint32_t(g.vertexIds.size())).first;
+                    g.vertexIds.push_back(id);
+                    g.indexPositions.emplace_back(v.pos[0], v.pos[1], v.pos[2]);
+                }
+                g.indices.push_back(it->second);
+            }
+    }
+    return out;
+}
+
+RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volume, float isovalue,
+                               const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells,
+                               size_t lanesPerTet)
+{
+    const cutter::PackedKernelInput input = cutter::packKernelInput(volume, isovalue, mask, cells);
+    std::vector<GpuCutCell> gpuCells = gpu.cutCells(input, lanesPerTet);
+    RecoveredCells r;
+    r.cells.resize(cells.size());
+    cutter::remesh_detail::CellKernel cpu(volume, isovalue);
+    const bool prism = mask.kerf() > 0;
+    for (size_t i = 0; i < cells.size(); ++i) {
+        const std::vector<cutter::remesh_detail::QuadGeom> quads = cutter::remesh_detail::kernelQuadsOf(mask, cells[i]);
+        if (gpuCells[i].complete) {
+            r.cells[i] = std::move(gpuCells[i].geometry);
+            cpu.finish(cells[i], quads, prism, r.cells[i]);
+            r.byGpu += !r.cells[i].indices.empty();
+        } else {
+            cpu.remesh(cells[i], quads, prism, r.cells[i]);
+            ++r.byCpu;
+        }
+    }
+    return r;
 }
 
 } // namespace mtcut::render

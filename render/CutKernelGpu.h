@@ -1,14 +1,19 @@
-// The GPU cut pass (DESIGN "GPU passes", pass 3) as far as the re-meshing
-// kernel is ported to GLSL (shaders/cut_kernel.glsl): for now its first
-// phase in every tet of a batch of cut cells, read back for the tests that
-// hold it equal, bit for bit, to the CPU kernel's
-// (remesh_detail::CellKernel::phaseOneForTesting). The draw still takes
-// the CPU's cut geometry (CutGeometry.h) until the port is whole.
+// The GPU cut pass (DESIGN "GPU passes", pass 3): the re-meshing kernel
+// ported to GLSL (shaders/cut_kernel.glsl, cut_arrange.glsl,
+// cut_regions.glsl), bit for bit the CPU kernel's, run over the tets of a
+// batch of cut cells; and pass 4, recovery: its triangles read back into
+// each cell's CutCellGeometry and finished as the CPU kernel finishes a
+// cell (recoverCutCells). Its pieces are also exposed for the tests that
+// hold each phase equal to the CPU's (phaseOne, vertexPositions, names,
+// arrangement). The draw still takes the CPU's cut geometry
+// (CutGeometry.h) until the triangles are drawn from the GPU's own output.
 #pragma once
 
 #include "cutter/KernelInput.h"
+#include "cutter/Remesh.h"
 #include "render/GlObjects.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -94,8 +99,28 @@ struct GpuArrangedTet
         uint64_t plane = 0;
         std::vector<Piece> pieces;
     };
-    std::vector<Vertex> verts;       ///< empty when `fail`
+    /// A corner of the tet's regions: a vertex and the sorted side tags of
+    /// the slits it lies in (CutVertexId::tags).
+    struct Node
+    {
+        int vert = 0;
+        std::vector<uint64_t> tags;
+    };
+    std::vector<Vertex> verts;       ///< empty when `fail`; the regions' Steiner centres last
     std::vector<Surface> surfaces;   ///< empty when `fail`
+    std::vector<Node> nodes;         ///< empty when `fail`
+    std::vector<std::array<int, 3>> triangles; ///< nodes, CCW seen from outside the solid; empty when `fail`
+};
+
+/// One cut cell's geometry as the GPU cut pass makes it (the triangles of
+/// its five tets, before the CPU's float repairs: CellKernel::finish).
+struct GpuCutCell
+{
+    /// false: a tet of the cell was flagged (a capacity of the shader,
+    /// llvmpipe's loop limit, a configuration the CPU refuses), and
+    /// `geometry` is empty; the CPU kernel takes such a cell.
+    bool complete = false;
+    cutter::CutCellGeometry geometry;
 };
 
 /// The GL state of a pass drawn as points by a vertex shader that writes
@@ -143,12 +168,33 @@ public:
     /// std::out_of_range for tets past the input's.
     std::vector<GpuArrangedTet> arrangement(const cutter::PackedKernelInput& input, size_t firstTet, size_t tetCount,
                                             size_t lanesPerTet = 1) const;
+    /// The geometry of every cell of `input` (arrangement() of its tets,
+    /// their triangles in tet order, vertices welded by CutVertexId within
+    /// the cell, as the CPU kernel's remesh() before its finish).
+    std::vector<GpuCutCell> cutCells(const cutter::PackedKernelInput& input, size_t lanesPerTet = 1) const;
 
 private:
     Program mPhaseOne;
     Program mVertexPositions;
     Program mNames;
     Program mArrange;
+    Program mRegions;
 };
+
+/// Pass 4, recovery: the geometry of `cells` (cut cells of `mask`) made by
+/// the GPU cut pass and finished on the CPU (CellKernel::finish); the cells
+/// the GPU flagged are re-meshed by the CPU kernel. Each cell's geometry is
+/// then what the CPU kernel's remesh() gives (tests/test_render_cut_kernel
+/// holds them equal). Throws std::runtime_error for a cell the CPU kernel
+/// refuses, as CutRemesher::update does.
+struct RecoveredCells
+{
+    std::vector<cutter::CutCellGeometry> cells; ///< one per cell, in order
+    size_t byGpu = 0; ///< cells with triangles the GPU made
+    size_t byCpu = 0; ///< cells the GPU flagged, re-meshed by the CPU
+};
+RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volume, float isovalue,
+                               const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells,
+                               size_t lanesPerTet = 1);
 
 } // namespace mtcut::render

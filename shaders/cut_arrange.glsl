@@ -30,15 +30,61 @@
 #define ARR_MAX_SURFACES 24
 #define ARR_MAX_PIECES 64  // per region of the piece pool
 #define ARR_MAX_POOL 640   // corners per region of the piece pool
+#define ARR_MAX_NODES 256  // region corners: (vertex, side tags) (cut_regions.glsl)
+#define ARR_MAX_REGIONS 48
+#define ARR_MAX_LOOPS 64
+#define ARR_MAX_LOOP_CORNERS 768
 #endif
 #define ARR_MAX_CORNERS 48 // corners of one piece
 
 const uint64_t kBoundaryLabel = 1ul << 63;
 // gFail bits: what stopped the tet.
 const uint kFailVerts = 1u, kFailPlanes = 2u, kFailSurfaces = 4u, kFailPieces = 8u, kFailPool = 16u,
-           kFailCorners = 32u, kFailNameLists = 64u;
-const uint kRefused = 256u; // the CPU refuses the cell here (a point on more than 8 planes)
+           kFailCorners = 32u, kFailNameLists = 64u, kFailRegions = 128u;
+// The CPU refuses the cell here (a point on more than 8 planes; a region's
+// loops that do not close or cannot be triangulated: cut_regions.glsl).
+const uint kRefused = 256u;
+const uint kFailSlot = 512u, kFailLoopLimit = 1024u; // the record past its slot; llvmpipe's loop limit
 uint gFail;
+
+// ---- the tet's record (render/CutKernelGpu.cpp parses it): written at
+// gAt, up to its slot's end (a record past it: the header alone, bit 9)
+layout(std430, binding = 5) buffer Records { uint64_t outRecord[]; };
+uint gAt;      // next word of this record
+uint gSlotEnd; // the end of this invocation's slot
+
+void put(uint64_t w)
+{
+    if (gAt < gSlotEnd) outRecord[gAt] = w;
+    ++gAt;
+}
+
+void putDouble(double d) { put(doubleBitsToUint64(d)); }
+
+// ---- the staged draws (cut_arrange.vert, cut_regions.vert): one vertex
+// per tet, uLaneStride vertices apart, over the slots in tetList
+layout(std430, binding = 4) readonly buffer TetList { uint tetList[]; };   // the slots this draw arranges
+layout(std430, binding = 9) writeonly buffer TetStatus { int tetStatus[]; }; // per slot, after stage 0
+uniform uint uFirstTet;   // the tet of slot 0
+uniform uint uListCount;  // entries of tetList
+uniform uint uSlotWords;  // words of each invocation's slot of Records
+uniform uint uLaneStride; // vertices per tet (one arranging, the rest idle)
+uniform int uStage;       // the stage (each .vert numbers its own)
+
+/// This vertex's slot and tet, gAt at the slot's start; false for the
+/// idle lanes and those past the list.
+bool stageSlot(out uint slot, out uint tet)
+{
+    const uint vertex = uint(gl_VertexID);
+    slot = 0u;
+    tet = 0u;
+    if (vertex % uLaneStride != 0u || vertex / uLaneStride >= uListCount) return false;
+    slot = tetList[vertex / uLaneStride];
+    tet = uFirstTet + slot;
+    gAt = slot * uSlotWords;
+    gSlotEnd = gAt + uSlotWords;
+    return true;
+}
 
 // The big per-tet lists live in scratch storage, one slice per invocation
 // (the host binds room for its batch): as private arrays they made
@@ -50,11 +96,17 @@ layout(std430, binding = 8) buffer ArrangeScratchD { double sD[]; };
 const uint kOffVMeta = 0u, kOffPV = kOffVMeta + ARR_MAX_VERTS, kOffPieceStart = kOffPV + 3 * ARR_MAX_POOL,
            kOffPieceLen = kOffPieceStart + 3 * ARR_MAX_PIECES, kOffSplitOwner = kOffPieceLen + 3 * ARR_MAX_PIECES,
            kOffPlaneOrder = kOffSplitOwner + ARR_MAX_PLANES, kOffStateI = kOffPlaneOrder + ARR_MAX_PLANES,
-           kScratchI = kOffStateI + 16 + 12 * ARR_MAX_SURFACES;
+           kOffRegionsI = kOffStateI + 16 + 12 * ARR_MAX_SURFACES,
+           kOffKept = kOffRegionsI, // region 0's kept flags, between the finish and trace stages
+           // the rest of the regions' part: cut_regions.glsl
+           kScratchI = kOffRegionsI + 4 * ARR_MAX_PIECES + 8 + 5 * ARR_MAX_NODES + 2 * ARR_MAX_VERTS +
+                       5 * ARR_MAX_REGIONS + 2 * ARR_MAX_LOOPS + ARR_MAX_LOOP_CORNERS + 11 * ARR_MAX_POOL;
 const uint kOffVFeature = 0u, kOffVPlanes = kOffVFeature + 3 * ARR_MAX_VERTS, kOffPL = kOffVPlanes + 8 * ARR_MAX_VERTS,
            kOffSplitId = kOffPL + 3 * ARR_MAX_POOL, kOffStateL = kOffSplitId + ARR_MAX_PLANES,
-           kScratchL = kOffStateL + 5 * ARR_MAX_SURFACES;
-const uint kOffVPos = 0u, kOffStateD = kOffVPos + 3 * ARR_MAX_VERTS, kScratchD = kOffStateD + 3 * ARR_MAX_SURFACES;
+           kOffRegionsL = kOffStateL + 5 * ARR_MAX_SURFACES,
+           kScratchL = kOffRegionsL + 4 * ARR_MAX_NODES + ARR_MAX_LOOP_CORNERS + ARR_MAX_POOL;
+const uint kOffVPos = 0u, kOffStateD = kOffVPos + 3 * ARR_MAX_VERTS, kOffRegionsD = kOffStateD + 3 * ARR_MAX_SURFACES,
+           kScratchD = kOffRegionsD + 3 * ARR_MAX_REGIONS;
 uint gBaseI, gBaseL, gBaseD; // this invocation's slices
 #define gVMeta(v) uint(sI[gBaseI + kOffVMeta + uint(v)])
 #define gVMetaRef(v) sI[gBaseI + kOffVMeta + uint(v)]
@@ -1077,6 +1129,21 @@ bool restoreTetState(uint slot, uint cell, int t, out uint at)
     gatherPlanes(); // the same lists as in the first draw (it may flag nothing new)
     gFail = fail;
     return true;
+}
+
+/// Region 0's piece and corner counts and kept flags, kept between the
+/// draws that finish a surface and trace its regions.
+void savePieces()
+{
+    gStateI(14) = gPieceCount[0];
+    gStateI(15) = gPoolUsed[0];
+    for (int i = 0; i < gPieceCount[0]; ++i) sI[gBaseI + kOffKept + uint(i)] = gKept[i] ? 1 : 0;
+}
+void restorePieces()
+{
+    gPieceCount[0] = gStateI(14);
+    gPoolUsed[0] = gStateI(15);
+    for (int i = 0; i < gPieceCount[0]; ++i) gKept[i] = sI[gBaseI + kOffKept + uint(i)] != 0;
 }
 
 /// Surface s's pieces in region 0, once split (splitSurface): conforming,

@@ -19,28 +19,7 @@
 // a probe loop at its end), never returns it truncated. Each draw runs
 // the slots in tetList: stage 0 all, then those with surface s (tetStatus:
 // the surface count, -1 failed, -2 no solid), the end those with solid.
-layout(std430, binding = 5) writeonly buffer Records { uint64_t outRecord[]; };
-layout(std430, binding = 4) readonly buffer TetList { uint tetList[]; };   // the slots this draw arranges
-layout(std430, binding = 9) writeonly buffer TetStatus { int tetStatus[]; }; // per slot, after stage 0
-uniform uint uFirstTet;  // the tet of slot 0
-uniform uint uListCount; // entries of tetList
-uniform uint uSlotWords; // words of each invocation's slot of Records
-uniform uint uLaneStride; // vertices per tet (one arranging, the rest idle)
-uniform int uStage;       // 0, 1 + 2 surface (split), 2 + 2 surface (finish), or kStageEnd
-
 const int kStageEnd = 1 + 2 * ARR_MAX_SURFACES;
-const uint kFailSlot = 512u, kFailLoopLimit = 1024u; // and cut_arrange.glsl's capacities
-
-uint gAt;       // next word of this record
-uint gSlotEnd;  // the end of this invocation's slot
-
-void put(uint64_t w)
-{
-    if (gAt < gSlotEnd) outRecord[gAt] = w;
-    ++gAt;
-}
-
-void putDouble(double d) { put(doubleBitsToUint64(d)); }
 
 /// Stage 0: the tet's vertex table, surfaces and split order; the record's
 /// header (~0 alone for a tet without solid).
@@ -54,6 +33,7 @@ void stageBegin(uint slot, uint tet)
     }
     put(uint64_t(tet));
     put(0ul); // vertices | surfaces << 32, at the end
+    put(0ul); // nodes | triangles << 32 (cut_regions.vert)
     if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true);
     tetStatus[slot] = gFail == 0u ? gSurfaceCount : -1;
@@ -97,6 +77,7 @@ void stageFinish(uint slot, uint tet, int s)
     }
     if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true);
+    savePieces(); // for cut_regions.vert's trace of surface s
 }
 
 /// The last stage: the vertex table, then the header (a failed tet: the
@@ -121,6 +102,7 @@ void stageEnd(uint slot, uint tet, uint headerAt)
     if (gFail != 0u) {
         outRecord[headerAt] = uint64_t(tet) | uint64_t(gFail) << 32;
         outRecord[headerAt + 1u] = 0ul;
+        outRecord[headerAt + 2u] = 0ul;
         return;
     }
     outRecord[headerAt + 1u] = uint64_t(gVertCount) | uint64_t(gSurfaceCount) << 32;
@@ -128,11 +110,8 @@ void stageEnd(uint slot, uint tet, uint headerAt)
 
 void main()
 {
-    const uint vertex = uint(gl_VertexID);
-    if (vertex % uLaneStride != 0u || vertex / uLaneStride >= uListCount) return;
-    const uint slot = tetList[vertex / uLaneStride], tet = uFirstTet + slot;
-    gAt = slot * uSlotWords;
-    gSlotEnd = gAt + uSlotWords;
+    uint slot, tet;
+    if (!stageSlot(slot, tet)) return;
     if (uStage == 0) stageBegin(slot, tet);
     else if (uStage == kStageEnd) stageEnd(slot, tet, gAt);
     else if ((uStage & 1) == 1) stageSplit(slot, tet, (uStage - 1) / 2);

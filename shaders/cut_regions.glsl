@@ -1,0 +1,648 @@
+// The re-meshing kernel's regions and triangles of one tet
+// (cutter/RemeshKernel.cpp: traceRegions, markCorners, triangulateRegions),
+// ported to GLSL after cut_arrange.glsl, whose state (the vertex table and
+// region 0 of the piece pool, a surface's pieces once finished) they read;
+// poly2.glsl triangulates. The rules of cut_kernel.glsl hold: the CPU's
+// doubles in the CPU's order, `precise` wherever a product feeds a sum.
+// - traceRegions, per surface: the kept pieces joined across shared edges
+//   that are not slits (union-find, each later use of an edge joining its
+//   piece to the edge's first piece), corners as nodes (a vertex and the
+//   sorted side tags of the slits it lies in), per region (root piece,
+//   ascending) its directed edges, those whose reverse it lacks, and loops
+//   walked from them taking the most clockwise edge from the way back.
+// - markCorners: the loop nodes that stay corners (a label change, a turn
+//   back, a Steiner point, a quad's own rim).
+// - triangulateRegions, per surface: each region's loops of corners
+//   projected on its plane, outer loops and holes, holes bridged into
+//   their outer loop, a cap region fanned from a Steiner centre, others by
+//   bestTriangulation (kerf > 0) or earClip; each triangle's corners as
+//   nodes into the record.
+// The CPU's lookups become chains here (nodes per vertex, edge uses per
+// lower vertex, edges per region and per node), which keep the CPU's order
+// wherever it decides something (the first use of an edge, the first of
+// equally clockwise edges). Where the CPU throws (a loop that does not
+// close, cannot be bridged or triangulated, coplanar overlapping quads) the
+// tet is refused (kRefused); past a capacity here it is flagged
+// (kFailRegions); the CPU takes either.
+
+// ---- the layout of the regions' part of the scratch slice (kOffRegions*)
+const uint kOffRC = kOffKept + ARR_MAX_PIECES, // 0 nodes, 1 regions, 2 loops, 3 loop corners, 4 triangles, 5 node heads set
+    kOffNodeVert = kOffRC + 8u, kOffNodeTagCount = kOffNodeVert + ARR_MAX_NODES,
+           kOffNodeNext = kOffNodeTagCount + ARR_MAX_NODES, kOffNodeCorner = kOffNodeNext + ARR_MAX_NODES,
+           kOffNodeAux = kOffNodeCorner + ARR_MAX_NODES, // per node: a chain head while tracing a region
+    kOffNodeHead = kOffNodeAux + ARR_MAX_NODES, kOffRegionCap = kOffNodeHead + ARR_MAX_VERTS,
+           kOffRegionSide = kOffRegionCap + ARR_MAX_REGIONS, kOffRegionLoop = kOffRegionSide + ARR_MAX_REGIONS,
+           kOffRegionLoops = kOffRegionLoop + ARR_MAX_REGIONS, kOffRegionSurface = kOffRegionLoops + ARR_MAX_REGIONS,
+           kOffLoopStart = kOffRegionSurface + ARR_MAX_REGIONS, kOffLoopLen = kOffLoopStart + ARR_MAX_LOOPS,
+           kOffLoopNode = kOffLoopLen + ARR_MAX_LOOPS, kOffParent = kOffLoopNode + ARR_MAX_LOOP_CORNERS,
+           kOffRootHead = kOffParent + ARR_MAX_PIECES, kOffRootTail = kOffRootHead + ARR_MAX_PIECES,
+           // per edge use or directed edge (at most the pool's corners)
+    kOffUseB = kOffRootTail + ARR_MAX_PIECES, kOffUsePiece = kOffUseB + ARR_MAX_POOL,
+           kOffUseNext = kOffUsePiece + ARR_MAX_POOL, kOffDirFrom = kOffUseNext + ARR_MAX_POOL,
+           kOffDirTo = kOffDirFrom + ARR_MAX_POOL, kOffDirNext = kOffDirTo + ARR_MAX_POOL,
+           kOffOutNext = kOffDirNext + ARR_MAX_POOL, kOffBnd = kOffOutNext + ARR_MAX_POOL,
+           kOffBndNext = kOffBnd + ARR_MAX_POOL, kOffBndUsed = kOffBndNext + ARR_MAX_POOL,
+           kOffPieceNode = kOffBndUsed + ARR_MAX_POOL, kOffUseHead = kOffPieceNode + ARR_MAX_POOL,
+           kEndRegionsI = kOffUseHead + ARR_MAX_VERTS;
+const uint kOffNodeTags = kOffRegionsL, kOffLoopLabel = kOffNodeTags + 4 * ARR_MAX_NODES,
+           kOffDirLabel = kOffLoopLabel + ARR_MAX_LOOP_CORNERS, kEndRegionsL = kOffDirLabel + ARR_MAX_POOL;
+const uint kOffRegionNormal = kOffRegionsD, kEndRegionsD = kOffRegionNormal + 3 * ARR_MAX_REGIONS;
+// cut_arrange.glsl's kScratchI/L/D (and the host's) must end where this
+// layout does: an array of size -1 does not compile.
+int gRegionsLayoutCheck[kEndRegionsI == kScratchI && kEndRegionsL == kScratchL && kEndRegionsD == kScratchD ? 1 : -1];
+
+#define gRC(i) sI[gBaseI + kOffRC + uint(i)]
+#define gNodeVert(i) sI[gBaseI + kOffNodeVert + uint(i)]
+#define gNodeTagCount(i) sI[gBaseI + kOffNodeTagCount + uint(i)]
+#define gNodeNext(i) sI[gBaseI + kOffNodeNext + uint(i)]
+#define gNodeCorner(i) sI[gBaseI + kOffNodeCorner + uint(i)]
+#define gNodeAux(i) sI[gBaseI + kOffNodeAux + uint(i)]
+#define gNodeHead(v) sI[gBaseI + kOffNodeHead + uint(v)]
+#define gNodeTag(i, k) sL[gBaseL + kOffNodeTags + 4u * uint(i) + uint(k)]
+#define gRegionCap(r) sI[gBaseI + kOffRegionCap + uint(r)]
+#define gRegionSide(r) sI[gBaseI + kOffRegionSide + uint(r)]
+#define gRegionLoop(r) sI[gBaseI + kOffRegionLoop + uint(r)]
+#define gRegionLoops(r) sI[gBaseI + kOffRegionLoops + uint(r)]
+#define gRegionSurface(r) sI[gBaseI + kOffRegionSurface + uint(r)]
+#define gLoopStart(l) sI[gBaseI + kOffLoopStart + uint(l)]
+#define gLoopLen(l) sI[gBaseI + kOffLoopLen + uint(l)]
+#define gLoopNode(i) sI[gBaseI + kOffLoopNode + uint(i)]
+#define gLoopLabel(i) sL[gBaseL + kOffLoopLabel + uint(i)]
+#define gParent(i) sI[gBaseI + kOffParent + uint(i)]
+#define gRootHead(i) sI[gBaseI + kOffRootHead + uint(i)]
+#define gRootTail(i) sI[gBaseI + kOffRootTail + uint(i)]
+#define gUseB(i) sI[gBaseI + kOffUseB + uint(i)]
+#define gUsePiece(i) sI[gBaseI + kOffUsePiece + uint(i)]
+#define gUseNext(i) sI[gBaseI + kOffUseNext + uint(i)]
+#define gUseHead(v) sI[gBaseI + kOffUseHead + uint(v)]
+#define gDirFrom(i) sI[gBaseI + kOffDirFrom + uint(i)]
+#define gDirTo(i) sI[gBaseI + kOffDirTo + uint(i)]
+#define gDirNext(i) sI[gBaseI + kOffDirNext + uint(i)]
+#define gDirLabel(i) sL[gBaseL + kOffDirLabel + uint(i)]
+#define gOutNext(i) sI[gBaseI + kOffOutNext + uint(i)]
+#define gBnd(i) sI[gBaseI + kOffBnd + uint(i)]
+#define gBndNext(i) sI[gBaseI + kOffBndNext + uint(i)]
+#define gBndUsed(i) sI[gBaseI + kOffBndUsed + uint(i)]
+#define gPieceNode(i) sI[gBaseI + kOffPieceNode + uint(i)]
+#define gRegionNormal(r) \
+    dvec3(sD[gBaseD + kOffRegionNormal + 3u * uint(r)], sD[gBaseD + kOffRegionNormal + 3u * uint(r) + 1u], \
+          sD[gBaseD + kOffRegionNormal + 3u * uint(r) + 2u])
+
+/// Before a tet's first surface is traced: no nodes, regions or triangles.
+void regionsReset()
+{
+    for (int i = 0; i < 8; ++i) gRC(i) = 0;
+}
+
+/// The side tag of quad q's side `side` (Node::tags, CutVertexId::tags).
+uint64_t sideTag(int q, int side) { return kQuads[q].id << 1 | (side < 0 ? 1ul : 0ul); }
+
+/// RemeshKernel::nodeOf: the node of vertex `vert` with tags t0..t3 (n of
+/// them, at most 4; sorted here), made when new. -1 when full.
+int nodeOf(int vert, uint64_t t0, uint64_t t1, uint64_t t2, uint64_t t3, int n)
+{
+    // Sorted by a network of compare-swaps; the unused ones (~0) go last.
+    uint64_t a = n > 0 ? t0 : ~0ul, b = n > 1 ? t1 : ~0ul, c = n > 2 ? t2 : ~0ul, d = n > 3 ? t3 : ~0ul, x;
+    if (b < a) { x = a; a = b; b = x; }
+    if (d < c) { x = c; c = d; d = x; }
+    if (c < a) { x = a; a = c; c = x; }
+    if (d < b) { x = b; b = d; d = x; }
+    if (c < b) { x = b; b = c; c = x; }
+    while (gRC(5) <= vert) {
+        gNodeHead(gRC(5)) = -1;
+        gRC(5) = gRC(5) + 1;
+    }
+    int last = -1;
+    for (int i = gNodeHead(vert); i >= 0; i = gNodeNext(i)) {
+        if (gNodeTagCount(i) == n && (n < 1 || gNodeTag(i, 0) == a) && (n < 2 || gNodeTag(i, 1) == b) &&
+            (n < 3 || gNodeTag(i, 2) == c) && (n < 4 || gNodeTag(i, 3) == d))
+            return i;
+        last = i;
+    }
+    if (gRC(0) == ARR_MAX_NODES) {
+        gFail |= kFailRegions;
+        return -1;
+    }
+    const int id = gRC(0);
+    gRC(0) = id + 1;
+    gNodeVert(id) = vert;
+    gNodeTagCount(id) = n;
+    gNodeTag(id, 0) = a;
+    gNodeTag(id, 1) = b;
+    gNodeTag(id, 2) = c;
+    gNodeTag(id, 3) = d;
+    gNodeNext(id) = -1;
+    gNodeCorner(id) = 0;
+    if (last < 0) gNodeHead(vert) = id;
+    else gNodeNext(last) = id;
+    return id;
+}
+
+bool nodeHasTag(int node, uint64_t tag)
+{
+    for (int k = 0; k < gNodeTagCount(node); ++k)
+        if (gNodeTag(node, k) == tag) return true;
+    return false;
+}
+
+/// traceRegions' isSlit: edge (a, b) on another quad's plane inside that quad.
+bool isSlit(int a, int b, int s)
+{
+    if (uPrism) return false;
+    for (int j = 0; j < gReachCount; ++j) {
+        const int r = gReachQuad[j];
+        if (r == gSQuad[s]) continue;
+        const uint64_t id = kQuads[r].id;
+        if (signOf(a, id) == 0 && signOf(b, id) == 0 && inExtentClosed(a, r) && inExtentClosed(b, r)) return true;
+    }
+    return false;
+}
+
+/// traceRegions' stripSide: the side of quad r's slit that piece i (region
+/// 0) lies on at vertex v, for surface s traced on `side`. 0: refused.
+int stripSide(int i, int r, int v, int s, int side)
+{
+    if (r == gSQuad[s]) return side;
+    for (uint sd = kQuads[r].firstSide; sd < kQuads[r].firstSide + kQuads[r].sideCount; ++sd) {
+        if (kSides[sd].partnerId == 0ul || signOf(v, kSides[sd].id) != 0) continue;
+        const int o = reachingQuadById(kSides[sd].partnerId);
+        if (o < 0) continue;
+        if (kSides[sd].orient * double(pieceSign(0, i, kSides[sd].id)) < 0.0lf) { // on the partner's half
+            if (o == gSQuad[s]) return side;
+            const int sg = pieceSign(0, i, kQuads[o].id);
+            if (sg == 0) gFail |= kRefused; // coplanar overlapping quads
+            return sg;
+        }
+    }
+    const int sg = pieceSign(0, i, kQuads[r].id);
+    if (sg == 0) gFail |= kRefused;
+    return sg;
+}
+
+/// The node of corner k of piece i (region 0) traced on `side`: its vertex
+/// and the tags of the slits it lies inside.
+int pieceCornerNode(int i, int k, int s, int side)
+{
+    const int v = pieceV(0, i, k);
+    uint64_t t[4] = uint64_t[4](0ul, 0ul, 0ul, 0ul);
+    int n = 0;
+    for (int j = 0; j < gReachCount && !uPrism; ++j) {
+        const int r = gReachQuad[j];
+        if (signOf(v, kQuads[r].id) != 0 || !inSlitOpen(v, r) || onStripRim(v, r)) continue;
+        const int sg = stripSide(i, r, v, s, side);
+        if (gFail != 0u) return -1;
+        if (n == 4) { // more than Node's 4 tags: the CPU would refuse if it made a triangle of it
+            gFail |= kFailRegions;
+            return -1;
+        }
+        t[n++] = sideTag(r, sg);
+    }
+    return nodeOf(v, t[0], t[1], t[2], t[3], n);
+}
+
+/// Union-find's root of piece x (path compression, as the CPU).
+int findRoot(int x)
+{
+    int r = x;
+    while (gParent(r) != r) r = gParent(r);
+    while (gParent(x) != r) {
+        const int next = gParent(x);
+        gParent(x) = r;
+        x = next;
+    }
+    return r;
+}
+
+/// The projection of node `node`'s vertex on (e1, e2).
+dvec2 project(int node, dvec3 e1, dvec3 e2)
+{
+    const dvec3 x = gVPos(gNodeVert(node));
+    return dvec2(dot3(x, e1), dot3(x, e2));
+}
+
+/// The in-plane axes of normal n: e1 = normalize(x or y axis less its part along n), e2 = n x e1.
+void planeAxes(dvec3 n, out dvec3 e1, out dvec3 e2)
+{
+    const dvec3 a = abs(n.x) < 0.9lf ? dvec3(1.0lf, 0.0lf, 0.0lf) : dvec3(0.0lf, 1.0lf, 0.0lf);
+    const double d = dot3(n, a);
+    precise dvec3 u = dvec3(a.x - n.x * d, a.y - n.y * d, a.z - n.z * d);
+    const double inv = 1.0lf / sqrt(dot3(u, u)); // glm::normalize
+    e1 = u * inv;
+    e2 = cross3(n, e1);
+}
+
+/// poly2::clockwiseLess: d1 reached before d2 turning clockwise from `back`.
+int clockwiseHalf(dvec2 back, dvec2 d)
+{
+    precise double c = back.x * d.y - back.y * d.x, dt = back.x * d.x + back.y * d.y;
+    return c < 0.0lf ? 0 : c == 0.0lf && dt < 0.0lf ? 1 : c > 0.0lf ? 2 : 3;
+}
+bool clockwiseLess(dvec2 back, dvec2 d1, dvec2 d2)
+{
+    const int h1 = clockwiseHalf(back, d1), h2 = clockwiseHalf(back, d2);
+    if (h1 != h2) return h1 < h2;
+    precise double c = d1.x * d2.y - d1.y * d2.x;
+    return c < 0.0lf;
+}
+
+/// Regions of the root piece `root`'s directed edges (gRootHead chain), of
+/// surface s traced on `side`, with outward normal `normal`: its boundary
+/// edges walked into loops, a region appended when it has any.
+void traceRoot(int root, int s, int side, dvec3 normal)
+{
+    // Boundary edges (those whose reverse the region lacks), in the
+    // region's order; its edges chained per from-node first.
+    for (int e = gRootHead(root); e >= 0; e = gDirNext(e)) {
+        gNodeAux(gDirFrom(e)) = -1;
+        gNodeAux(gDirTo(e)) = -1;
+    }
+    for (int e = gRootHead(root); e >= 0; e = gDirNext(e)) {
+        gOutNext(e) = gNodeAux(gDirFrom(e));
+        gNodeAux(gDirFrom(e)) = e;
+    }
+    int nb = 0;
+    for (int e = gRootHead(root); e >= 0; e = gDirNext(e)) {
+        const int from = gDirFrom(e), to = gDirTo(e);
+        bool back = false;
+        for (int f = gNodeAux(to); f >= 0 && !back; f = gOutNext(f)) back = gDirTo(f) == from;
+        if (!back) gBnd(nb++) = e;
+    }
+    if (nb == 0) return;
+    // The boundary edges per from-node, in boundary order (built backwards).
+    for (int k = 0; k < nb; ++k) {
+        gNodeAux(gDirFrom(gBnd(k))) = -1;
+        gNodeAux(gDirTo(gBnd(k))) = -1;
+    }
+    for (int k = nb - 1; k >= 0; --k) {
+        const int from = gDirFrom(gBnd(k));
+        gBndNext(k) = gNodeAux(from);
+        gNodeAux(from) = k;
+        gBndUsed(k) = 0;
+    }
+    dvec3 e1, e2;
+    planeAxes(normal, e1, e2);
+    if (gRC(1) == ARR_MAX_REGIONS) {
+        gFail |= kFailRegions;
+        return;
+    }
+    const int region = gRC(1);
+    gRC(1) = region + 1;
+    gRegionCap(region) = gSQuad[s];
+    gRegionSide(region) = side;
+    gRegionSurface(region) = s;
+    gRegionLoop(region) = gRC(2);
+    gRegionLoops(region) = 0;
+    const uint nb3 = gBaseD + kOffRegionNormal + 3u * uint(region);
+    sD[nb3] = normal.x;
+    sD[nb3 + 1u] = normal.y;
+    sD[nb3 + 2u] = normal.z;
+    for (int start = 0; start < nb; ++start) {
+        if (gBndUsed(start) != 0) continue;
+        if (gRC(2) == ARR_MAX_LOOPS) {
+            gFail |= kFailRegions;
+            return;
+        }
+        const int loop = gRC(2);
+        gRC(2) = loop + 1;
+        gRegionLoops(region) = gRegionLoops(region) + 1;
+        gLoopStart(loop) = gRC(3);
+        gLoopLen(loop) = 0;
+        const int first = gDirFrom(gBnd(start));
+        int cur = start;
+        for (int guard = 0; guard <= nb; ++guard) {
+            gBndUsed(cur) = 1;
+            const int e = gBnd(cur);
+            if (gRC(3) == ARR_MAX_LOOP_CORNERS) {
+                gFail |= kFailRegions;
+                return;
+            }
+            gLoopNode(gRC(3)) = gDirFrom(e);
+            gLoopLabel(gRC(3)) = gDirLabel(e);
+            gRC(3) = gRC(3) + 1;
+            gLoopLen(loop) = gLoopLen(loop) + 1;
+            const int at = gDirTo(e);
+            if (at == first) break;
+            // Next: the unused edge from `at` most clockwise from the way back.
+            int best = -1;
+            dvec2 bestDir = dvec2(0.0lf);
+            const dvec2 pa = project(at, e1, e2), pb = project(gDirFrom(e), e1, e2);
+            precise dvec2 back = dvec2(pb.x - pa.x, pb.y - pa.y);
+            for (int k = gNodeAux(at); k >= 0; k = gBndNext(k)) {
+                if (gBndUsed(k) != 0) continue;
+                const dvec2 pc = project(gDirTo(gBnd(k)), e1, e2);
+                precise dvec2 dir = dvec2(pc.x - pa.x, pc.y - pa.y);
+                if (best < 0 || clockwiseLess(back, dir, bestDir)) {
+                    bestDir = dir;
+                    best = k;
+                }
+            }
+            if (best < 0) { // an open boundary loop: the CPU refuses the cell
+                gFail |= kRefused;
+                return;
+            }
+            cur = best;
+        }
+    }
+}
+
+/// RemeshKernel::traceRegions for both sides of surface s (region 0 of the
+/// pool holds its finished pieces, gKept which are kept): the regions and
+/// their loops appended.
+void traceSurface(int s)
+{
+    const int pieces = gPieceCount[0];
+    // Union-find over the kept pieces across non-slit shared edges, in the
+    // order of the edge uses; a use's edge is found among the earlier ones
+    // through the chain of its lower vertex, which keeps each edge's first
+    // piece.
+    for (int i = 0; i < pieces; ++i) gParent(i) = i;
+    for (int v = 0; v < gVertCount; ++v) gUseHead(v) = -1;
+    int uses = 0;
+    for (int i = 0; i < pieces && gFail == 0u; ++i) {
+        if (!gKept[i]) continue;
+        const int n = pieceLen(0, i);
+        for (int k = 0; k < n; ++k) {
+            int a = pieceV(0, i, k), b = pieceV(0, i, (k + 1) % n);
+            if (a > b) {
+                const int x = a;
+                a = b;
+                b = x;
+            }
+            int first = -1;
+            for (int u = gUseHead(a); u >= 0 && first < 0; u = gUseNext(u))
+                if (gUseB(u) == b) first = gUsePiece(u);
+            if (first < 0) {
+                gUseB(uses) = b;
+                gUsePiece(uses) = i;
+                gUseNext(uses) = gUseHead(a);
+                gUseHead(a) = uses;
+                ++uses;
+            } else if (!isSlit(a, b, s)) {
+                gParent(findRoot(i)) = findRoot(first);
+            }
+        }
+    }
+    const bool cap = gSQuad[s] >= 0 && !uPrism;
+    for (int side = 1; side >= -1 && gFail == 0u; side -= 2) {
+        if (cap ? (gSSides[s] & (side > 0 ? 1 : 2)) == 0 : side < 0) continue;
+        const bool reverse = cap && side > 0;
+        // Directed edges per root piece, in piece order.
+        for (int i = 0; i < pieces; ++i) gRootHead(i) = -1;
+        int edges = 0;
+        for (int i = 0; i < pieces && gFail == 0u; ++i) {
+            if (!gKept[i]) continue;
+            const int n = pieceLen(0, i);
+            for (int k = 0; k < n && gFail == 0u; ++k) gPieceNode(k) = pieceCornerNode(i, k, s, side);
+            if (gFail != 0u) return;
+            const int root = findRoot(i);
+            for (int k = 0; k < n; ++k) {
+                const int a = gPieceNode(k), b = gPieceNode((k + 1) % n);
+                gDirFrom(edges) = reverse ? b : a;
+                gDirTo(edges) = reverse ? a : b;
+                gDirLabel(edges) = pieceL(0, i, k);
+                gDirNext(edges) = -1;
+                if (gRootHead(root) < 0) gRootHead(root) = edges;
+                else gDirNext(gRootTail(root)) = edges;
+                gRootTail(root) = edges;
+                ++edges;
+            }
+        }
+        const dvec3 normal = reverse ? -gSNormal[s] : gSNormal[s];
+        for (int root = 0; root < pieces && gFail == 0u; ++root)
+            if (gRootHead(root) >= 0) traceRoot(root, s, side, normal);
+    }
+}
+
+/// RemeshKernel::markCorners' onOwnRim: a point of a quad's rim (kerf 0).
+bool onOwnRim(int v)
+{
+    if (uPrism || vDim(v) == 3u) return false;
+    const int pc = vPlaneCount(v);
+    for (int i = 0; i < pc; ++i) {
+        const uint64_t p = gVPlanes(8 * v + i), kind = p & 15ul;
+        if (p < (1ul << 36) || kind < 1ul || kind > 4ul) continue;
+        const uint64_t quad = p & ~15ul;
+        for (int j = 0; j < pc; ++j)
+            if (gVPlanes(8 * v + j) == quad) return true;
+    }
+    return false;
+}
+
+/// RemeshKernel::markCorners: gNodeCorner of every node of every loop.
+void markCorners()
+{
+    for (int i = 0; i < gRC(0); ++i) gNodeCorner(i) = 0;
+    for (int l = 0; l < gRC(2); ++l) {
+        const int start = gLoopStart(l), n = gLoopLen(l);
+        for (int i = 0; i < n; ++i) {
+            const int prev = start + (i + n - 1) % n, at = start + i, next = start + (i + 1) % n;
+            bool c = gLoopLabel(prev) != gLoopLabel(at);
+            if (!c) {
+                const dvec3 a = gVPos(gNodeVert(gLoopNode(prev))), b = gVPos(gNodeVert(gLoopNode(at))),
+                            d = gVPos(gNodeVert(gLoopNode(next)));
+                c = dot3(b - a, d - b) < 0.0lf;
+            }
+            const int v = gNodeVert(gLoopNode(at));
+            if (c || vSteiner(v) || onOwnRim(v)) gNodeCorner(gLoopNode(at)) = 1;
+        }
+    }
+}
+
+// ---- triangulateRegions: per region, its loops' corners as poly2 points
+int gPtNode[POLY2_MAX_POINTS]; // the node of each poly2 point
+int gLoopPt[ARR_MAX_LOOPS];    // per loop of the region: its first point (its points are consecutive)
+int gLoopPts[ARR_MAX_LOOPS];   // and how many
+bool gLoopOuter[ARR_MAX_LOOPS];
+int gHoleOf[ARR_MAX_LOOPS];    // per hole: the outer loop it is bridged into
+
+/// Sets poly2Poly to loop l's points.
+void polyOfLoop(int l)
+{
+    poly2PolyCount = 0;
+    for (int i = 0; i < gLoopPts[l]; ++i) poly2AddCorner(gLoopPt[l] + i);
+}
+
+/// Appends the triangles of poly2Tri (point indices) to the record as nodes.
+void putTriangles()
+{
+    for (int t = 0; t + 2 < poly2TriCount; t += 3) {
+        put(uint64_t(gPtNode[poly2Tri[t]]) | uint64_t(gPtNode[poly2Tri[t + 1]]) << 21 |
+            uint64_t(gPtNode[poly2Tri[t + 2]]) << 42);
+        gRC(4) = gRC(4) + 1;
+    }
+}
+
+/// RemeshKernel::triangulateRegions for region r.
+void triangulateRegion(int r)
+{
+    const dvec3 nrm = gRegionNormal(r);
+    dvec3 e1, e2;
+    planeAxes(nrm, e1, e2);
+    poly2Reset();
+    const int loops = gRegionLoops(r);
+    int outers = 0, holes = 0, lastHole = -1;
+    for (int j = 0; j < loops; ++j) {
+        const int l = gRegionLoop(r) + j;
+        gLoopPt[j] = poly2PtCount;
+        gLoopPts[j] = 0;
+        for (int i = 0; i < gLoopLen(l); ++i) {
+            const int nd = gLoopNode(gLoopStart(l) + i);
+            if (gNodeCorner(nd) == 0) continue;
+            const int p = poly2AddPoint(project(nd, e1, e2));
+            if (p < 0) {
+                gFail |= kFailRegions;
+                return;
+            }
+            gPtNode[p] = nd;
+            ++gLoopPts[j];
+        }
+        gLoopOuter[j] = false;
+        if (gLoopPts[j] < 3) {
+            if (gLoopPts[j] == 0) continue;
+            gFail |= kRefused; // a degenerate boundary loop
+            return;
+        }
+        // A loop of (nearly) zero area is a slit inside the region: a hole.
+        precise double perim = 0.0lf;
+        for (int i = 0; i < gLoopPts[j]; ++i) {
+            const dvec2 a = poly2Pt[gLoopPt[j] + i], b = poly2Pt[gLoopPt[j] + (i + 1) % gLoopPts[j]];
+            precise double dx = a.x - b.x, dy = a.y - b.y;
+            perim += poly2Length(dx, dy);
+        }
+        polyOfLoop(j);
+        precise double bound = 1e-9lf * perim * perim;
+        gLoopOuter[j] = poly2SignedArea() > bound;
+        if (gLoopOuter[j]) ++outers;
+        else {
+            ++holes;
+            lastHole = j;
+        }
+    }
+    // One loop of three corners too small to span an area: that triangle.
+    bool lone = false;
+    if (outers == 0) {
+        if (holes == 0) return;
+        if (holes != 1 || gLoopPts[lastHole] != 3) {
+            gFail |= kRefused; // a region without an outer loop
+            return;
+        }
+        gLoopOuter[lastHole] = true;
+        outers = 1;
+        holes = 0;
+        lone = true;
+    }
+    // Each hole into the last outer loop that holds its centroid (the first
+    // outer loop when there is one).
+    int firstOuter = 0;
+    while (!gLoopOuter[firstOuter] || gLoopPts[firstOuter] == 0) ++firstOuter;
+    for (int h = 0; h < loops; ++h) {
+        if (gLoopOuter[h] || gLoopPts[h] == 0) continue;
+        int best = firstOuter;
+        if (outers > 1) {
+            precise dvec2 c = dvec2(0.0lf);
+            const double hn = double(gLoopPts[h]);
+            for (int i = 0; i < gLoopPts[h]; ++i) {
+                c.x += poly2Pt[gLoopPt[h] + i].x / hn;
+                c.y += poly2Pt[gLoopPt[h] + i].y / hn;
+            }
+            for (int o = 0; o < loops; ++o) {
+                if (!gLoopOuter[o] || gLoopPts[o] == 0) continue;
+                bool inside = false;
+                const int L = gLoopPt[o], Ln = gLoopPts[o];
+                for (int i = 0, j = Ln - 1; i < Ln; j = i++) {
+                    const dvec2 a = poly2Pt[L + i], b = poly2Pt[L + j];
+                    precise double x = (b.x - a.x) * (c.y - a.y) / (b.y - a.y) + a.x;
+                    if ((a.y > c.y) != (b.y > c.y) && c.x < x) inside = !inside;
+                }
+                if (inside) best = o;
+            }
+        }
+        gHoleOf[h] = best;
+    }
+    const int q = gRegionCap(r);
+    for (int o = 0; o < loops && gFail == 0u; ++o) {
+        if (!gLoopOuter[o] || gLoopPts[o] == 0) continue;
+        polyOfLoop(o);
+        poly2HoleCount = 0;
+        poly2HoleStart[0] = 0;
+        poly2TriCount = 0;
+        bool hasHoles = false;
+        for (int h = 0; h < loops; ++h) {
+            if (gLoopOuter[h] || gLoopPts[h] == 0 || gHoleOf[h] != o) continue;
+            hasHoles = true;
+            poly2BeginHole();
+            for (int i = 0; i < gLoopPts[h]; ++i) poly2AddHoleCorner(gLoopPt[h] + i);
+        }
+        if (poly2Overflow) {
+            gFail |= kFailRegions;
+            return;
+        }
+        if (hasHoles && !poly2BridgeHoles()) {
+            gFail |= poly2Overflow ? kFailRegions : kRefused; // cannot bridge a hole
+            return;
+        }
+        const int n = poly2PolyCount;
+        bool convex = q >= 0 && !uPrism && outers == 1 && !hasHoles;
+        for (int i = 0; i < n && convex; ++i) {
+            const dvec2 a = poly2Pt[poly2Poly[(i + n - 1) % n]], b = poly2Pt[poly2Poly[i]],
+                        c = poly2Pt[poly2Poly[(i + 1) % n]];
+            precise double bx = b.x - a.x, by = b.y - a.y, cx = c.x - b.x, cy = c.y - b.y;
+            precise double tol = -1e-9lf * poly2Length(bx, by) * poly2Length(cx, cy);
+            convex = poly2Cross(a, b, c) >= tol;
+        }
+        // A triangle inside its own slit needs no centre.
+        bool ownSlit = convex && n == 3;
+        for (int i = 0; i < n && ownSlit; ++i) ownSlit = nodeHasTag(gPtNode[poly2Poly[i]], sideTag(q, gRegionSide(r)));
+        if (ownSlit || lone) {
+            poly2AddTri(poly2Poly[0], poly2Poly[1], poly2Poly[2]); // (n is 3 here)
+        } else if (convex) {
+            // A cap region: a fan from a tagged centre.
+            precise dvec3 centre = dvec3(0.0lf);
+            for (int i = 0; i < n; ++i) centre += gVPos(gNodeVert(gPtNode[poly2Poly[i]])) / double(n);
+            uint64_t planes[8] = uint64_t[8](kCentroid, kQuads[q].id, uint64_t(r) + 8ul, 0ul, 0ul, 0ul, 0ul, 0ul);
+            const int cv = makeSteiner(15u, planes, 3, centre);
+            if (cv < 0) return;
+            const int cn = nodeOf(cv, sideTag(q, gRegionSide(r)), 0ul, 0ul, 0ul, 1);
+            if (cn < 0) return;
+            const int ci = poly2AddPoint(dvec2(dot3(centre, e1), dot3(centre, e2)));
+            if (ci < 0) {
+                gFail |= kFailRegions;
+                return;
+            }
+            gPtNode[ci] = cn;
+            for (int i = 0; i < n; ++i) poly2AddTri(ci, poly2Poly[i], poly2Poly[(i + 1) % n]);
+        } else {
+            bool done = uPrism && poly2BestTriangulation();
+            if (!done) {
+                poly2TriCount = 0;
+                done = poly2EarClip();
+            }
+            if (!done) {
+                gFail |= poly2Overflow ? kFailRegions : kRefused; // triangulation failed
+                return;
+            }
+        }
+        if (poly2Overflow) {
+            gFail |= kFailRegions;
+            return;
+        }
+        putTriangles();
+    }
+}
+
+/// triangulateRegions for the regions of surface s (they are consecutive).
+void triangulateSurface(int s)
+{
+    for (int r = 0; r < gRC(1) && gFail == 0u; ++r)
+        if (gRegionSurface(r) == s) triangulateRegion(r);
+}
+
+/// The node table into the record: per node its vertex | tag count << 32,
+/// then its tags.
+void putNodes()
+{
+    for (int i = 0; i < gRC(0); ++i) {
+        put(uint64_t(gNodeVert(i)) | uint64_t(gNodeTagCount(i)) << 32);
+        for (int k = 0; k < gNodeTagCount(i); ++k) put(gNodeTag(i, k));
+    }
+}
