@@ -33,6 +33,11 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
     const float background = volume.grid->background();
     const openvdb::CoordBBox box = volume.indexBox();
     in.cells.reserve(cells.size());
+    in.blocks.reserve(64 * cells.size());
+    for (int a = 0; a < 3; ++a) {
+        in.origin[size_t(a)] = volume.origin()[a];
+        in.spacing[size_t(a)] = volume.spacing()[a];
+    }
     for (const openvdb::Coord& c : cells) {
         PackedKernelCell pc;
         pc.x = c.x();
@@ -69,6 +74,9 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
         }
         pc.quadCount = uint32_t(in.quads.size()) - pc.firstQuad;
         in.cells.push_back(pc);
+        for (int k = -1; k <= 2; ++k)
+            for (int j = -1; j <= 2; ++j)
+                for (int i = -1; i <= 2; ++i) in.blocks.push_back(acc.getValue(c + openvdb::Coord(i, j, k)));
     }
     return in;
 }

@@ -66,6 +66,11 @@ struct PackedKernelInput
     std::vector<PackedKernelSide> sides;
     /// The 5-tet split (cellTets): [parity][tet][corner], corner as in insideMask.
     std::array<uint32_t, 40> tets{};
+    /// For the cut pass's draw (its shading normals): per cell the grid's
+    /// values at cell + (i, j, k), i, j, k in -1 .. 2 (64, i fastest; the
+    /// grid's background where it has none), and index space to world mm.
+    std::vector<float> blocks;
+    std::array<double, 3> origin{}, spacing{};
 };
 
 /// Packs the kernel's input for `cells` (cut cells of `mask`, in that

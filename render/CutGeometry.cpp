@@ -73,6 +73,15 @@ glm::vec3 gradientNormal(const openvdb::FloatGrid::ConstAccessor& acc, const Coo
 CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue,
                           CutNormals normals)
 {
+    std::vector<std::pair<Coord, const cutter::CutCellGeometry*>> cells;
+    cells.reserve(remesher.cells().size());
+    for (const auto& [cell, geom] : remesher.cells()) cells.emplace_back(cell, &geom);
+    return cutGeometryOfCells(cells, volume, isovalue, normals);
+}
+
+CutGeometry cutGeometryOfCells(const std::vector<std::pair<openvdb::Coord, const cutter::CutCellGeometry*>>& cells,
+                               const vdb::Volume& volume, float isovalue, CutNormals normals)
+{
     CutGeometry out;
     cutter::Mesh& m = out.mesh;
     const openvdb::Vec3d origin = volume.origin(), spacing = volume.spacing();
@@ -92,7 +101,8 @@ CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume
     };
     std::unordered_map<Key, uint32_t, KeyHash> welded;
     std::vector<uint8_t> smooth; // 1: the normal is final (gradient); 0: area-weighted below
-    for (const auto& [cell, geom] : remesher.cells()) {
+    for (const auto& [cell, geomPtr] : cells) {
+        const cutter::CutCellGeometry& geom = *geomPtr;
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             const uint32_t* corner = &geom.indices[i];
             const uint64_t plane =

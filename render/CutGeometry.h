@@ -9,6 +9,7 @@
 #include "vdb/Volume.h"
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace mtcut::render {
@@ -48,6 +49,11 @@ struct CutGeometry
 /// at `isovalue` (the remesher's). Cost O(cut cells' triangles).
 CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue,
                           CutNormals normals = CutNormals::Shading);
+
+/// The same for the cells given (in that order), e.g. those the CPU kernel
+/// re-meshed for the GPU cut pass (render/CutKernelGpu.h).
+CutGeometry cutGeometryOfCells(const std::vector<std::pair<openvdb::Coord, const cutter::CutCellGeometry*>>& cells,
+                               const vdb::Volume& volume, float isovalue, CutNormals normals = CutNormals::Shading);
 
 /// Fragment id of every triangle of `mesh`: 1 + the index of its fragment
 /// (an outer shell with its cavities) in cutter::fragmentsOf order (largest

@@ -2,10 +2,12 @@
 #include "render/CutKernelGpu.h"
 
 #include "cutter/RemeshKernel.h"
+#include "render/CutGeometry.h"
 #include "render/Shaders.h"
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -153,6 +155,103 @@ GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
 
 } // namespace
 
+namespace {
+constexpr GLbitfield kReadWrite = GL_DYNAMIC_STORAGE_BIT | GL_MAP_READ_BIT;
+struct DrawCommand
+{
+    GLuint count = 0, instances = 1, first = 0, baseInstance = 0, made = 0;
+};
+} // namespace
+
+GpuCutDraw::GpuCutDraw(size_t capacity)
+    : mCapacity(std::max<size_t>(capacity, 1)), mVertices(mCapacity * 18 * sizeof(float), nullptr, kReadWrite),
+      mTriangles(mCapacity * 4 * sizeof(int32_t), nullptr, kReadWrite),
+      mKeys(mCapacity * 2 * sizeof(uint32_t), nullptr, kReadWrite), mCommand(sizeof(DrawCommand), nullptr, kReadWrite)
+{
+    if (mCapacity > size_t(std::numeric_limits<GLsizei>::max() / 3))
+        throw std::length_error("GpuCutDraw: capacity past what one draw holds");
+    clear();
+}
+
+void GpuCutDraw::clear()
+{
+    const DrawCommand c;
+    glNamedBufferSubData(mCommand.id(), 0, sizeof c, &c);
+}
+
+size_t GpuCutDraw::triangleCount() const
+{
+    GLuint count = 0;
+    glGetNamedBufferSubData(mCommand.id(), 0, sizeof count, &count);
+    return count / 3;
+}
+
+size_t GpuCutDraw::made() const
+{
+    DrawCommand c;
+    glGetNamedBufferSubData(mCommand.id(), 0, sizeof c, &c);
+    return c.made;
+}
+
+std::vector<std::array<uint32_t, 2>> GpuCutDraw::keys() const
+{
+    std::vector<std::array<uint32_t, 2>> k(triangleCount());
+    if (!k.empty()) glGetNamedBufferSubData(mKeys.id(), 0, GLsizeiptr(k.size() * sizeof k[0]), k.data());
+    return k;
+}
+
+void GpuCutDraw::setFragmentIds(const std::vector<uint32_t>& ids)
+{
+    const size_t n = triangleCount();
+    if (ids.size() != n) throw std::invalid_argument("GpuCutDraw::setFragmentIds: one id per triangle expected");
+    if (n == 0) return;
+    std::vector<int32_t> info(4 * n);
+    glGetNamedBufferSubData(mTriangles.id(), 0, GLsizeiptr(info.size() * sizeof(int32_t)), info.data());
+    for (size_t t = 0; t < n; ++t) {
+        if (ids[t] >= (1u << 30)) throw std::invalid_argument("GpuCutDraw::setFragmentIds: an id past 2^30");
+        info[4 * t + 3] = int32_t((uint32_t(info[4 * t + 3]) & 0xc0000000u) | ids[t]);
+    }
+    glNamedBufferSubData(mTriangles.id(), 0, GLsizeiptr(info.size() * sizeof(int32_t)), info.data());
+}
+
+void GpuCutDraw::append(const cutter::Mesh& mesh, const std::vector<uint8_t>& isCap)
+{
+    const size_t nt = mesh.triangleCount();
+    if (isCap.size() != nt || mesh.triangleVoxels.size() != nt || mesh.normals.size() != mesh.positions.size())
+        throw std::invalid_argument("GpuCutDraw::append: mesh arrays of mismatched sizes");
+    if (nt == 0) return;
+    DrawCommand c;
+    glGetNamedBufferSubData(mCommand.id(), 0, sizeof c, &c);
+    const size_t at = c.count / 3;
+    if (nt > mCapacity - at) throw std::length_error("GpuCutDraw::append: past the capacity");
+    std::vector<float> v(18 * nt);
+    std::vector<int32_t> info(4 * nt);
+    std::vector<uint32_t> keys(2 * nt, ~0u);
+    for (size_t t = 0; t < nt; ++t) {
+        for (size_t k = 0; k < 3; ++k) {
+            const uint32_t i = mesh.indices[3 * t + k];
+            for (int a = 0; a < 3; ++a) {
+                v[18 * t + 6 * k + size_t(a)] = mesh.positions[i][a];
+                v[18 * t + 6 * k + 3 + size_t(a)] = mesh.normals[i][a];
+            }
+        }
+        const glm::ivec3 cell = mesh.triangleVoxels[t];
+        info[4 * t] = cell.x;
+        info[4 * t + 1] = cell.y;
+        info[4 * t + 2] = cell.z;
+        info[4 * t + 3] = int32_t(1u | (isCap[t] ? 0x40000000u : 0u) | 0x80000000u);
+    }
+    glNamedBufferSubData(mVertices.id(), GLintptr(18 * at * sizeof(float)), GLsizeiptr(v.size() * sizeof(float)), v.data());
+    glNamedBufferSubData(mTriangles.id(), GLintptr(4 * at * sizeof(int32_t)), GLsizeiptr(info.size() * sizeof(int32_t)),
+                         info.data());
+    glNamedBufferSubData(mKeys.id(), GLintptr(2 * at * sizeof(uint32_t)), GLsizeiptr(keys.size() * sizeof(uint32_t)),
+                         keys.data());
+    c.count += GLuint(3 * nt);
+    c.made += GLuint(nt);
+    glNamedBufferSubData(mCommand.id(), 0, sizeof c, &c);
+    checkGlError("GpuCutDraw::append");
+}
+
 PointPass::PointPass()
 {
     glNamedFramebufferParameteri(mFbo.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, 1);
@@ -171,15 +270,20 @@ PointPass::~PointPass()
 
 void PointPass::draw(size_t count) const { glDrawArrays(GL_POINTS, 0, GLsizei(count)); }
 
+std::string cutPassLibrary(const std::string& name)
+{
+    std::string library = shaderSource("cut_kernel.glsl");
+    if (name == "cut_arrange.vert" || name == "cut_regions.vert") library += arrangeDefines() + shaderSource("cut_arrange.glsl");
+    if (name == "cut_regions.vert") library += shaderSource("poly2.glsl") + shaderSource("cut_regions.glsl");
+    return library;
+}
+
 GpuCutKernel::GpuCutKernel()
-    : mPhaseOne(buildProgram({"cut_phase_one.comp"}, shaderSource("cut_kernel.glsl"))),
-      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, shaderSource("cut_kernel.glsl"))),
-      mNames(buildProgram({"cut_names.comp"}, shaderSource("cut_kernel.glsl"))),
-      mArrange(buildProgram({"cut_arrange.vert"},
-                            shaderSource("cut_kernel.glsl") + arrangeDefines() + shaderSource("cut_arrange.glsl"))),
-      mRegions(buildProgram({"cut_regions.vert"}, shaderSource("cut_kernel.glsl") + arrangeDefines() +
-                                                      shaderSource("cut_arrange.glsl") + shaderSource("poly2.glsl") +
-                                                      shaderSource("cut_regions.glsl")))
+    : mPhaseOne(buildProgram({"cut_phase_one.comp"}, cutPassLibrary("cut_phase_one.comp"))),
+      mVertexPositions(buildProgram({"cut_vertex_positions.comp"}, cutPassLibrary("cut_vertex_positions.comp"))),
+      mNames(buildProgram({"cut_names.comp"}, cutPassLibrary("cut_names.comp"))),
+      mArrange(buildProgram({"cut_arrange.vert"}, cutPassLibrary("cut_arrange.vert"))),
+      mRegions(buildProgram({"cut_regions.vert"}, cutPassLibrary("cut_regions.vert")))
 {
 }
 
@@ -268,7 +372,7 @@ std::vector<GpuName> GpuCutKernel::names(const cutter::PackedKernelInput& input,
 }
 
 std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernelInput& input, size_t firstTet,
-                                                      size_t tetCount, size_t lanesPerTet) const
+                                                      size_t tetCount, size_t lanesPerTet, GpuCutDraw* target) const
 {
     if (lanesPerTet == 0) throw std::invalid_argument("GpuCutKernel::arrangement: lanesPerTet 0");
     if (firstTet > 5 * input.cells.size() || tetCount > 5 * input.cells.size() - firstTet)
@@ -280,9 +384,10 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     const BoundInput bound(input, mArrange);
     bound.setUniforms(mRegions);
     // Scratch per invocation (kScratchI/L/D), for a batch of invocations at a time.
-    constexpr size_t kBatch = 1024;
+    constexpr size_t kBatch = 1020; // whole cells (the draw's kStageEmit looks at a tet's cell)
     constexpr int kStageEnd = 1 + 2 * int(kArrSurfaces);                            // cut_arrange.vert
-    constexpr int kStageCorners = int(kArrSurfaces), kStageClose = 2 * int(kArrSurfaces) + 1; // cut_regions.vert
+    constexpr int kStageCorners = int(kArrSurfaces), kStageClose = 2 * int(kArrSurfaces) + 1, // cut_regions.vert
+        kStageEmit = kStageClose + 1;
     const size_t batch = std::min(tetCount, kBatch);
     const Buffer scratchI(batch * kScratchI * sizeof(int32_t), nullptr);
     const Buffer scratchL(batch * kScratchL * sizeof(uint64_t), nullptr);
@@ -302,6 +407,24 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
         glProgramUniform1ui(p->id(), p->uniform("uSlotWords"), GLuint(kSlot));
         glProgramUniform1ui(p->id(), p->uniform("uLaneStride"), GLuint(lanesPerTet));
         glProgramUniform1i(p->id(), p->uniform("uProbeTrips"), 2);
+    }
+    // Pass 3's draw: the triangles into `target`, shaded from the value blocks.
+    Buffer blocks;
+    if (target) {
+        if (firstTet % 5 != 0 || tetCount % 5 != 0)
+            throw std::invalid_argument("GpuCutKernel::arrangement: a draw takes whole cells");
+        if (input.blocks.size() != 64 * input.cells.size())
+            throw std::invalid_argument("GpuCutKernel::arrangement: the input has no value blocks to draw with");
+        blocks = storage(input.blocks.size() * sizeof(float), input.blocks.data(), sizeof(float));
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, blocks.id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 11, target->vertices().id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 12, target->triangles().id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 13, target->keysBuffer().id());
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 14, target->command().id());
+        const GLuint id = mRegions.id();
+        glProgramUniform3d(id, mRegions.uniform("uOrigin"), input.origin[0], input.origin[1], input.origin[2]);
+        glProgramUniform3d(id, mRegions.uniform("uSpacing"), input.spacing[0], input.spacing[1], input.spacing[2]);
+        glProgramUniform1ui(id, mRegions.uniform("uDrawCapacity"), GLuint(target->capacity()));
     }
     const PointPass pass;
     std::vector<uint64_t> slots(batch * kSlot);
@@ -344,7 +467,8 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
             draw(mRegions, kStageClose);
         }
         if (listSlots(-1)) draw(mArrange, kStageEnd);
-        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+        if (target && listSlots(1)) draw(mRegions, kStageEmit);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT);
         glGetNamedBufferSubData(records.id(), 0, GLsizeiptr(count * kSlot * sizeof(uint64_t)), slots.data());
         // The records, slot by slot (ascending tets).
         for (size_t i = 0; i < count; ++i) {
@@ -357,12 +481,13 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     return out;
 }
 
-std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& input, size_t lanesPerTet) const
+std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& input, size_t lanesPerTet,
+                                               GpuCutDraw* draw) const
 {
     const size_t cellCount = input.cells.size();
     std::vector<GpuCutCell> out(cellCount);
     for (GpuCutCell& c : out) c.complete = true;
-    const std::vector<GpuArrangedTet> tets = arrangement(input, 0, 5 * cellCount, lanesPerTet);
+    const std::vector<GpuArrangedTet> tets = arrangement(input, 0, 5 * cellCount, lanesPerTet, draw);
     std::unordered_map<cutter::CutVertexId, uint32_t, cutter::CutVertexIdHash> index;
     size_t indexCell = cellCount;
     for (const GpuArrangedTet& t : tets) {
@@ -371,6 +496,7 @@ std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& 
         if (t.fail != 0) {
             cell.complete = false;
             cell.geometry.clear();
+            cell.tetTriangles = {};
             continue;
         }
         if (indexCell != t.tet / 5) { // the tets come ascending: a new cell
@@ -378,6 +504,7 @@ std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& 
             indexCell = t.tet / 5;
         }
         cutter::CutCellGeometry& g = cell.geometry;
+        cell.tetTriangles[t.tet % 5] = uint32_t(t.triangles.size());
         for (const std::array<int, 3>& tri : t.triangles)
             for (int n : tri) {
                 if (n < 0 || size_t(n) >= t.nodes.size() || size_t(t.nodes[size_t(n)].vert) >= t.verts.size())
@@ -408,16 +535,21 @@ std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& 
 
 RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volume, float isovalue,
                                const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells,
-                               size_t lanesPerTet)
+                               size_t lanesPerTet, GpuCutDraw* draw)
 {
     const cutter::PackedKernelInput input = cutter::packKernelInput(volume, isovalue, mask, cells);
-    std::vector<GpuCutCell> gpuCells = gpu.cutCells(input, lanesPerTet);
+    if (draw) draw->clear();
+    std::vector<GpuCutCell> gpuCells = gpu.cutCells(input, lanesPerTet, draw);
     RecoveredCells r;
     r.cells.resize(cells.size());
+    r.madeByGpu.resize(cells.size());
+    r.tetTriangles.resize(cells.size());
     cutter::remesh_detail::CellKernel cpu(volume, isovalue);
     const bool prism = mask.kerf() > 0;
     for (size_t i = 0; i < cells.size(); ++i) {
         const std::vector<cutter::remesh_detail::QuadGeom> quads = cutter::remesh_detail::kernelQuadsOf(mask, cells[i]);
+        r.madeByGpu[i] = gpuCells[i].complete;
+        r.tetTriangles[i] = gpuCells[i].tetTriangles;
         if (gpuCells[i].complete) {
             r.cells[i] = std::move(gpuCells[i].geometry);
             cpu.finish(cells[i], quads, prism, r.cells[i]);
@@ -426,6 +558,13 @@ RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volum
             cpu.remesh(cells[i], quads, prism, r.cells[i]);
             ++r.byCpu;
         }
+    }
+    if (draw) { // the cells the CPU took join the GPU's triangles
+        std::vector<std::pair<openvdb::Coord, const cutter::CutCellGeometry*>> byCpu;
+        for (size_t i = 0; i < cells.size(); ++i)
+            if (!gpuCells[i].complete) byCpu.emplace_back(cells[i], &r.cells[i]);
+        const CutGeometry g = cutGeometryOfCells(byCpu, volume, isovalue, CutNormals::Shading);
+        draw->append(g.mesh, g.triangleIsCap);
     }
     return r;
 }

@@ -10,11 +10,13 @@
 #pragma once
 
 #include "cutter/KernelInput.h"
+#include "cutter/Mesh.h"
 #include "cutter/Remesh.h"
 #include "render/GlObjects.h"
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace mtcut::render {
@@ -112,6 +114,10 @@ struct GpuArrangedTet
     std::vector<std::array<int, 3>> triangles; ///< nodes, CCW seen from outside the solid; empty when `fail`
 };
 
+/// The text buildProgram puts in front of the cut pass's shader `name`
+/// (cut_*.comp, cut_*.vert): its GLSL libraries with the host's capacities.
+std::string cutPassLibrary(const std::string& name);
+
 /// One cut cell's geometry as the GPU cut pass makes it (the triangles of
 /// its five tets, before the CPU's float repairs: CellKernel::finish).
 struct GpuCutCell
@@ -121,6 +127,45 @@ struct GpuCutCell
     /// `geometry` is empty; the CPU kernel takes such a cell.
     bool complete = false;
     cutter::CutCellGeometry geometry;
+    std::array<uint32_t, 5> tetTriangles{}; ///< triangles of each tet (in `geometry`, tet after tet)
+};
+
+/// Pass 3's draw buffers: the cut geometry's triangles as the GPU cut pass
+/// writes them (shaders/cut_regions.glsl, emitTriangles), each at a slot an
+/// atomic counter gives it, drawn with glDrawArraysIndirect (three vertices
+/// a triangle, surface.vert's layout) without a trip through the CPU
+/// (SurfaceRenderer::setGpuCutGeometry). Needs a current GL 4.5 context.
+class GpuCutDraw
+{
+public:
+    /// Room for `capacity` triangles (at least 1).
+    explicit GpuCutDraw(size_t capacity);
+    size_t capacity() const { return mCapacity; }
+    /// No triangles (the command's count 0).
+    void clear();
+    /// The triangles in the buffers, and those the GPU made (more when the
+    /// capacity was short: the rest were dropped). Each reads back 4 bytes.
+    size_t triangleCount() const;
+    size_t made() const;
+    /// Per triangle in the buffers, the tet (5 c + t of the input's cell c)
+    /// that made it and its index among that tet's triangles. Reads back.
+    std::vector<std::array<uint32_t, 2>> keys() const;
+    /// Rewrites the fragment ids (one per triangle in the buffers; ids <
+    /// 2^30), keeping the cap and cut-geometry bits.
+    void setFragmentIds(const std::vector<uint32_t>& ids);
+    /// Appends triangles made elsewhere (the cells the GPU left to the
+    /// CPU): world mm with normals, one cell and cap flag per triangle,
+    /// fragment id 1. Throws std::length_error past the capacity.
+    void append(const cutter::Mesh& mesh, const std::vector<uint8_t>& isCap);
+
+    const Buffer& vertices() const { return mVertices; }   ///< 6 floats a vertex: world mm, unit normal
+    const Buffer& triangles() const { return mTriangles; } ///< surface.frag's TriangleInfo per triangle
+    const Buffer& keysBuffer() const { return mKeys; }     ///< (tet, triangle of the tet) per triangle
+    const Buffer& command() const { return mCommand; }     ///< DrawArraysIndirectCommand, then made()
+
+private:
+    size_t mCapacity;
+    Buffer mVertices, mTriangles, mKeys, mCommand;
 };
 
 /// The GL state of a pass drawn as points by a vertex shader that writes
@@ -166,12 +211,15 @@ public:
     /// SIMD width, 8, so that no tet shares the loop limit with another:
     /// cut_arrange.vert). Throws std::invalid_argument for lanesPerTet 0,
     /// std::out_of_range for tets past the input's.
+    /// With `draw`, the triangles of the tets it arranges (and did not
+    /// flag) also go into it, appended to what it holds (pass 3).
     std::vector<GpuArrangedTet> arrangement(const cutter::PackedKernelInput& input, size_t firstTet, size_t tetCount,
-                                            size_t lanesPerTet = 1) const;
+                                            size_t lanesPerTet = 1, GpuCutDraw* draw = nullptr) const;
     /// The geometry of every cell of `input` (arrangement() of its tets,
     /// their triangles in tet order, vertices welded by CutVertexId within
     /// the cell, as the CPU kernel's remesh() before its finish).
-    std::vector<GpuCutCell> cutCells(const cutter::PackedKernelInput& input, size_t lanesPerTet = 1) const;
+    std::vector<GpuCutCell> cutCells(const cutter::PackedKernelInput& input, size_t lanesPerTet = 1,
+                                     GpuCutDraw* draw = nullptr) const;
 
 private:
     Program mPhaseOne;
@@ -192,9 +240,16 @@ struct RecoveredCells
     std::vector<cutter::CutCellGeometry> cells; ///< one per cell, in order
     size_t byGpu = 0; ///< cells with triangles the GPU made
     size_t byCpu = 0; ///< cells the GPU flagged, re-meshed by the CPU
+    /// Per cell: whether the GPU made it, and then its tets' triangle
+    /// counts as the GPU made them (before the CPU's finish).
+    std::vector<uint8_t> madeByGpu;
+    std::vector<std::array<uint32_t, 5>> tetTriangles;
 };
+/// With `draw` (cleared first), the GPU's triangles also go into it (pass
+/// 3), and then those of the cells the CPU took (its shading normals:
+/// CutGeometry.h).
 RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volume, float isovalue,
                                const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells,
-                               size_t lanesPerTet = 1);
+                               size_t lanesPerTet = 1, GpuCutDraw* draw = nullptr);
 
 } // namespace mtcut::render

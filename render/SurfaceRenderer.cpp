@@ -1,5 +1,6 @@
 #include "render/SurfaceRenderer.h"
 
+#include "render/CutKernelGpu.h"
 #include "render/Shaders.h"
 #include "vdb/Error.h"
 
@@ -161,9 +162,26 @@ void SurfaceRenderer::setSurfaceFragmentIds(const cutter::Mesh& uncut, const std
     checkGlError("SurfaceRenderer::setSurfaceFragmentIds");
 }
 
+void SurfaceRenderer::setGpuCutGeometry(std::shared_ptr<const GpuCutDraw> draw)
+{
+    mCut.reset();
+    mGpuCut = std::move(draw);
+    if (!mGpuCut) return;
+    const GLuint vao = mGpuCutVao.id();
+    glVertexArrayVertexBuffer(vao, 0, mGpuCut->vertices().id(), 0, GLsizei(6 * sizeof(float)));
+    glEnableVertexArrayAttrib(vao, 0);
+    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(vao, 0, 0);
+    glEnableVertexArrayAttrib(vao, 1);
+    glVertexArrayAttribFormat(vao, 1, 3, GL_FLOAT, GL_FALSE, GLuint(3 * sizeof(float)));
+    glVertexArrayAttribBinding(vao, 1, 0);
+    checkGlError("SurfaceRenderer::setGpuCutGeometry");
+}
+
 void SurfaceRenderer::clearCut()
 {
     mCut.reset();
+    mGpuCut.reset();
     mAtlas.reset();
 }
 
@@ -180,6 +198,7 @@ void SurfaceRenderer::setCutCells(const MaskTiling& tiling, bool gpuCoding)
 void SurfaceRenderer::setCutGeometry(const cutter::Mesh& mesh, const std::vector<uint32_t>& fragmentIds,
                                      const std::vector<uint8_t>& isCap)
 {
+    mGpuCut.reset();
     mCut = upload(mesh, fragmentIds, isCap, true);
 }
 
@@ -259,6 +278,15 @@ void SurfaceRenderer::render(const Camera& camera, const RenderStyle& style)
         }
     }
     if (mCut) draw(*mCut, mPlainProgram);
+    if (mGpuCut) {
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, mGpuCut->triangles().id());
+        mPlainProgram.use();
+        glBindVertexArray(mGpuCutVao.id());
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, mGpuCut->command().id());
+        glDrawArraysIndirect(GL_TRIANGLES, nullptr);
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
+        glBindVertexArray(0);
+    }
     glUseProgram(0);
     glDisable(GL_CULL_FACE);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);

@@ -25,6 +25,8 @@
 
 namespace mtcut::render {
 
+class GpuCutDraw;
+
 struct RenderStyle
 {
     glm::vec3 colour{0.89f, 0.85f, 0.74f};         ///< bone
@@ -70,6 +72,10 @@ public:
     /// Fragment ids must be < 2^30.
     void setCutGeometry(const cutter::Mesh& mesh, const std::vector<uint32_t>& fragmentIds = {},
                         const std::vector<uint8_t>& isCap = {});
+    /// The cut geometry as the GPU cut pass wrote it (pass 3), drawn after
+    /// the surface with glDrawArraysIndirect from `draw`'s buffers, which
+    /// this renderer shares; instead of setCutGeometry's. Null: none.
+    void setGpuCutGeometry(std::shared_ptr<const GpuCutDraw> draw);
     /// Drops the cut cells and the cut geometry (the surface alone again).
     void clearCut();
 
@@ -110,6 +116,8 @@ private:
     Texture mDepth{GL_TEXTURE_2D};
     Program mDiscardProgram, mPlainProgram;
     std::unique_ptr<DrawMesh> mSurface, mCut;
+    std::shared_ptr<const GpuCutDraw> mGpuCut;
+    VertexArray mGpuCutVao;
     std::unique_ptr<MaskAtlas> mAtlas;
     Buffer mFragmentColours; ///< RenderStyle::fragmentColours, uploaded per render
 };

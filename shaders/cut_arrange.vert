@@ -99,6 +99,7 @@ void stageEnd(uint slot, uint tet, uint headerAt)
     }
     if (gAt > gSlotEnd) gFail |= kFailSlot; // past the slot: the header alone
     if (loopLimitHit()) gFail |= kFailLoopLimit;
+    saveTetState(gAt, true); // its verdict, for cut_regions.vert's kStageEmit
     if (gFail != 0u) {
         outRecord[headerAt] = uint64_t(tet) | uint64_t(gFail) << 32;
         outRecord[headerAt + 1u] = 0ul;

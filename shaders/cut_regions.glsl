@@ -51,6 +51,8 @@ const uint kOffRegionNormal = kOffRegionsD, kEndRegionsD = kOffRegionNormal + 3 
 // layout does: an array of size -1 does not compile.
 int gRegionsLayoutCheck[kEndRegionsI == kScratchI && kEndRegionsL == kScratchL && kEndRegionsD == kScratchD ? 1 : -1];
 
+// gRC: 0 nodes, 1 regions, 2 loops, 3 loop corners, 4 triangles, 5 node
+// heads set, 6 the record's word of the first triangle
 #define gRC(i) sI[gBaseI + kOffRC + uint(i)]
 #define gNodeVert(i) sI[gBaseI + kOffNodeVert + uint(i)]
 #define gNodeTagCount(i) sI[gBaseI + kOffNodeTagCount + uint(i)]
@@ -644,5 +646,168 @@ void putNodes()
     for (int i = 0; i < gRC(0); ++i) {
         put(uint64_t(gNodeVert(i)) | uint64_t(gNodeTagCount(i)) << 32);
         for (int k = 0; k < gNodeTagCount(i); ++k) put(gNodeTag(i, k));
+    }
+}
+
+// ---- pass 3's draw: the tet's triangles into the draw buffers
+// (render/CutKernelGpu.h GpuCutDraw), drawn with glDrawArraysIndirect:
+// three vertices per triangle in surface.vert's layout (world mm, unit
+// normal), its TriangleInfo (surface.frag) and its key, at a slot taken
+// with an atomic counter; past the capacity a triangle is only counted.
+// Normals as render/CutGeometry.cpp's CutNormals::Shading: on the
+// isosurface the volume's gradient (extractIsosurface's at a marching-
+// tetrahedra vertex, else the trilinear interpolation of the cell corners'
+// central differences), on caps the triangle's plane.
+layout(std430, binding = 10) readonly buffer KernelBlocks { float kBlock[]; }; // per cell: 4^3 values round it
+layout(std430, binding = 11) writeonly buffer DrawVertices { float dVertex[]; }; // 6 floats per vertex
+layout(std430, binding = 12) writeonly buffer DrawTriangles { ivec4 dTriangle[]; }; // cell xyz, info
+layout(std430, binding = 13) writeonly buffer DrawKeys { uvec2 dKey[]; };           // (tet, triangle of the tet)
+layout(std430, binding = 14) buffer DrawCommand
+{
+    uint dCount, dInstances, dFirst, dBaseInstance; // DrawArraysIndirectCommand
+    uint dWanted;                                   // triangles made, also those past the capacity
+};
+uniform dvec3 uOrigin, uSpacing; // index space to world mm
+uniform uint uDrawCapacity;      // triangles the draw buffers hold
+
+/// The value at grid point g of the block of the cell at `cell` (g within cell - 1 .. cell + 2).
+float blockValue(ivec3 cell, ivec3 g)
+{
+    const ivec3 d = g - cell + ivec3(1);
+    return kBlock[64u * gCell + uint(d.x + 4 * d.y + 16 * d.z)];
+}
+
+/// Remesh.cpp isBladePlaneId.
+bool isBladePlaneId(uint64_t p)
+{
+    if (p < (1ul << 36) || (p & kBoundaryLabel) != 0ul) return false;
+    const uint64_t kind = p & 15ul;
+    return kind <= 4ul || kind == uint64_t(kJunctionKind) || kind == uint64_t(kPlusKind) ||
+           kind == uint64_t(kMinusKind);
+}
+
+bool vOnPlane(int v, uint64_t p)
+{
+    for (int i = 0; i < vPlaneCount(v); ++i)
+        if (gVPlanes(8 * v + i) == p) return true;
+    return false;
+}
+
+/// Remesh.cpp capPlaneOf: a blade plane all three vertices lie on.
+bool isCapTriangle(int a, int b, int c)
+{
+    for (int i = 0; i < vPlaneCount(a); ++i) {
+        const uint64_t p = gVPlanes(8 * a + i);
+        if (isBladePlaneId(p) && vOnPlane(b, p) && vOnPlane(c, p)) return true;
+    }
+    return false;
+}
+
+ivec3 gridVertexCoord(uint64_t id)
+{
+    const int64_t off = 1l << 20, mask = (1l << 21) - 1l;
+    const int64_t i = int64_t(id) & mask, j = (int64_t(id) >> 21) & mask, k = (int64_t(id) >> 42) & mask;
+    return ivec3(int(i - off), int(j - off), int(k - off));
+}
+
+/// CutGeometry.cpp gradientNormal: at the marching-tetrahedra vertex on
+/// grid edge (p0, p1), p0 the lower-keyed end.
+vec3 edgeGradientNormal(ivec3 cell, ivec3 p0, ivec3 p1)
+{
+    const float v0 = blockValue(cell, p0), v1 = blockValue(cell, p1);
+    const double t = edgeCrossing(v0, v1, uIsovalue);
+    vec3 g;
+    for (int a = 0; a < 3; ++a) {
+        ivec3 e = ivec3(0);
+        e[a] = 1;
+        precise float g0 = 0.5 * (blockValue(cell, p0 + e) - blockValue(cell, p0 - e));
+        precise float g1 = 0.5 * (blockValue(cell, p1 + e) - blockValue(cell, p1 - e));
+        precise float d = g1 - g0;
+        precise double x = -(double(g0) + t * double(d)) * (1.0lf / uSpacing[a]);
+        g[a] = float(x);
+    }
+    precise float len = sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+    if (len > 0.0 && !isinf(len) && !isnan(len)) return g / len;
+    const KernelCell c = kCells[gCell];
+    const ivec3 lo = p0 - ivec3(c.x, c.y, c.z);
+    const bool in0 = ((c.insideMask >> uint(lo.x + 2 * lo.y + 4 * lo.z)) & 1u) != 0u;
+    const float s = in0 ? 1.0 : -1.0;
+    for (int a = 0; a < 3; ++a) g[a] = s * float(double(p1[a] - p0[a]) * uSpacing[a]);
+    return g / sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+}
+
+/// CutGeometry.cpp trilinearGradientNormal at index point p; zero when flat.
+vec3 trilinearGradientNormal(ivec3 cell, dvec3 p)
+{
+    precise dvec3 g = dvec3(0.0lf);
+    const dvec3 f = clamp(p - dvec3(cell), dvec3(0.0lf), dvec3(1.0lf));
+    for (int c = 0; c < 8; ++c) {
+        const ivec3 q = cell + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        precise double w = ((c & 1) != 0 ? f.x : 1.0lf - f.x) * (((c >> 1) & 1) != 0 ? f.y : 1.0lf - f.y) *
+                           (((c >> 2) & 1) != 0 ? f.z : 1.0lf - f.z);
+        for (int a = 0; a < 3; ++a) {
+            ivec3 e = ivec3(0);
+            e[a] = 1;
+            g[a] -= w * 0.5lf * (double(blockValue(cell, q + e)) - double(blockValue(cell, q - e))) / uSpacing[a];
+        }
+    }
+    const double len = length3(g);
+    return len > 0.0lf && !isinf(len) && !isnan(len) ? vec3(g / len) : vec3(0.0);
+}
+
+vec3 worldPosition(dvec3 p)
+{
+    precise dvec3 w = uOrigin + uSpacing * p;
+    return vec3(w);
+}
+
+/// Whether no tet of the cell of `tet` (in slot `slot`) was flagged: the
+/// draw's slots hold whole cells (the host's batches are whole cells).
+bool cellComplete(uint slot, uint tet)
+{
+    const uint first = slot - tet % 5u;
+    for (uint s = first; s < first + 5u; ++s)
+        if (sI[s * kScratchI + kOffStateI + 1u] != 0) return false;
+    return true;
+}
+
+/// The tet's triangles (gRC(4) of them, in the record from gRC(6)) into the draw buffers.
+void emitTriangles(uint tet)
+{
+    const KernelCell kc = kCells[gCell];
+    const ivec3 cell = ivec3(kc.x, kc.y, kc.z);
+    for (int t = 0; t < gRC(4); ++t) {
+        const uint64_t w = outRecord[uint(gRC(6) + t)];
+        const int n[3] = int[3](int(w & 0x1ffffful), int((w >> 21) & 0x1ffffful), int((w >> 42) & 0x1ffffful));
+        const int v[3] = int[3](gNodeVert(n[0]), gNodeVert(n[1]), gNodeVert(n[2]));
+        vec3 pos[3];
+        for (int k = 0; k < 3; ++k) pos[k] = worldPosition(gVPos(v[k]));
+        const bool cap = isCapTriangle(v[0], v[1], v[2]);
+        const vec3 c = cross(pos[1] - pos[0], pos[2] - pos[0]);
+        const float cl = length(c);
+        const vec3 faceNormal = cl > 0.0 ? c / cl : vec3(0.0, 0.0, 1.0);
+        const uint slot = atomicAdd(dWanted, 1u);
+        if (slot >= uDrawCapacity) continue;
+        for (int k = 0; k < 3; ++k) {
+            vec3 nrm = vec3(0.0);
+            const int x = v[k];
+            if (!cap && vDim(x) == 1u && vPlaneCount(x) == 1 && gVPlanes(8 * x) == kIso && gNodeTagCount(n[k]) == 0)
+                nrm = edgeGradientNormal(cell, gridVertexCoord(gVFeature(3 * x)), gridVertexCoord(gVFeature(3 * x + 1)));
+            else if (!cap)
+                nrm = trilinearGradientNormal(cell, gVPos(x));
+            if (nrm == vec3(0.0)) nrm = faceNormal; // (the CPU: area-weighted, the same plane)
+            const uint b = 18u * slot + 6u * uint(k);
+            dVertex[b] = pos[k].x;
+            dVertex[b + 1u] = pos[k].y;
+            dVertex[b + 2u] = pos[k].z;
+            dVertex[b + 3u] = nrm.x;
+            dVertex[b + 4u] = nrm.y;
+            dVertex[b + 5u] = nrm.z;
+        }
+        // TriangleInfo: fragment id 1 (the host sets the fragments' once
+        // recovered), cap bit 30, cut-geometry bit 31.
+        dTriangle[slot] = ivec4(cell, int(1u | (cap ? 0x40000000u : 0u) | 0x80000000u));
+        dKey[slot] = uvec2(tet, uint(t));
+        atomicAdd(dCount, 3u);
     }
 }

@@ -10,7 +10,12 @@
 #include "cutter/CutMask.h"
 #include "cutter/KernelInput.h"
 #include "cutter/RemeshKernel.h"
+#include "cutter/Isosurface.h"
+#include "cutter/Remesh.h"
+#include "render/CutGeometry.h"
 #include "render/CutKernelGpu.h"
+#include "render/MaskTiling.h"
+#include "render/SurfaceRenderer.h"
 #include "render/Shaders.h"
 #include "tests/TestUtil.h"
 #include "tests/test_render_util.h"
@@ -25,8 +30,11 @@
 #include <cstdio>
 #include <cstring>
 #include <initializer_list>
+#include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -368,6 +376,152 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
         EXPECT_LE(worst, 1e-5);
         EXPECT_GT(triangles, 20000u);
         EXPECT_GT(byGpu, 50 * byCpu); // the CPU takes under 2 % of the cells
+    }
+}
+
+namespace {
+
+/// The fragment id of each triangle of `draw` (as recoverCutCells filled
+/// it for `cells`), from `remesher`'s (which re-meshed the same cut on the
+/// CPU): `cutIds` per triangle of cutGeometryOf(remesher), cells ascending.
+/// A GPU triangle is the k-th of its cell before the CPU's finish; where
+/// the finish changed the cell's triangle count (float repairs), the k-th
+/// after it stands in (counted in `approximate`).
+std::vector<uint32_t> gpuTriangleFragmentIds(const render::GpuCutDraw& draw, const render::RecoveredCells& rec,
+                                             const std::vector<openvdb::Coord>& cells,
+                                             const cutter::CutRemesher& remesher, const std::vector<uint32_t>& cutIds,
+                                             size_t& approximate)
+{
+    std::map<openvdb::Coord, size_t> first;
+    size_t n = 0;
+    for (const auto& [c, g] : remesher.cells()) {
+        first[c] = n;
+        n += g.indices.size() / 3;
+    }
+    std::vector<std::pair<size_t, size_t>> byCpu; // (cell, triangle) in the order recoverCutCells appends them
+    for (size_t i = 0; i < cells.size(); ++i)
+        if (!rec.madeByGpu[i])
+            for (size_t j = 0; j < rec.cells[i].indices.size() / 3; ++j) byCpu.emplace_back(i, j);
+    const std::vector<std::array<uint32_t, 2>> keys = draw.keys();
+    std::vector<uint32_t> ids(keys.size(), 0);
+    size_t nextCpu = 0;
+    approximate = 0;
+    for (size_t s = 0; s < keys.size(); ++s) {
+        size_t cell = 0, k = 0;
+        if (keys[s][0] == ~0u) {
+            std::tie(cell, k) = byCpu.at(nextCpu++);
+        } else {
+            cell = keys[s][0] / 5;
+            size_t made = 0;
+            for (uint32_t t = 0; t < 5; ++t) {
+                if (t < keys[s][0] % 5) k += rec.tetTriangles[cell][t];
+                made += rec.tetTriangles[cell][t];
+            }
+            k += keys[s][1];
+            const size_t now = rec.cells[cell].indices.size() / 3;
+            if (made != now) {
+                ++approximate;
+                k = std::min(k, now - 1);
+            }
+        }
+        ids[s] = cutIds.at(first.at(cells[cell]) + k);
+    }
+    return ids;
+}
+
+} // namespace
+
+// Pass 3 drawn from the GPU's own output: the cut pass's triangles written
+// into its draw buffers and drawn with glDrawArraysIndirect over the
+// discard pass, on the sphere cut by the slanted stroke, against the CPU:
+// the fused mesh's frame (depth, fragment ids) and the frame of the discard
+// pass plus the CPU's cut geometry with the same shading normals (colour).
+// Tolerance, as the CPU oracle's (test_render_frame): under 1e-3 of the
+// covered pixels may differ in fragment id or by more than 2/255 in colour,
+// for the GPU draws its triangles as made, before the CPU's finish (float
+// repairs move a few vertices by float steps, and a pixel centre on such an
+// edge can fall either way), and cap normals are each triangle's plane's
+// rather than summed over the cap.
+TEST(CutKernelGpu, DiscardPlusGpuCutPassMatchesTheCpuFrames)
+{
+    MTCUT_REQUIRE_GL();
+    const render::GpuCutKernel gpu;
+    const vdb::Volume vol = test::sphereVolume();
+    const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
+    for (double kerf : {0.0, 0.5}) {
+        cutter::CutMask mask(cutter::frameOf(vol), kerf);
+        test::addStroke(mask, test::slantedStroke(45.0));
+        cutter::CutRemesher remesher(vol, 0.0f, uncut);
+        remesher.update(mask);
+        std::vector<uint32_t> source;
+        const cutter::Mesh fused = remesher.fusedMesh(&source);
+        const std::vector<uint32_t> fusedIds = render::fragmentIdsOf(fused);
+        std::vector<uint32_t> uncutIds, cutIds;
+        render::discardFragmentIds(remesher, fused, source, uncutIds, cutIds);
+        const render::CutGeometry shadedCut = render::cutGeometryOf(remesher, vol, 0.0f, render::CutNormals::Shading);
+        std::vector<openvdb::Coord> cells;
+        for (const auto& entry : remesher.cells()) cells.push_back(entry.first);
+
+        auto draw = std::make_shared<render::GpuCutDraw>(2 * shadedCut.mesh.triangleCount() + 1024);
+        const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, 0.0f, mask, cells, kLanesPerTet, draw.get());
+        ASSERT_EQ(draw->made(), draw->triangleCount());
+        size_t approximate = 0;
+        draw->setFragmentIds(gpuTriangleFragmentIds(*draw, rec, cells, remesher, cutIds, approximate));
+        std::printf("sphere, kerf %.1f: %zu cut cells (%zu by the GPU, %zu by the CPU), the GPU drew %zu triangles, the "
+                    "CPU's cut geometry has %zu; %zu GPU triangles in cells the finish changed\n",
+                    kerf, cells.size(), rec.byGpu, rec.byCpu, draw->triangleCount(), shadedCut.mesh.triangleCount(),
+                    approximate);
+        EXPECT_GT(rec.byGpu, 0u);
+
+        const int size = 192;
+        render::SurfaceRenderer gpuFrame(size, size), cpuFrame(size, size), fusedFrame(size, size);
+        const render::MaskTiling tiles = render::tileMask(render::remeshedCellGrid(remesher)->tree());
+        gpuFrame.setSurface(uncut, uncutIds);
+        gpuFrame.setCutCells(tiles);
+        gpuFrame.setGpuCutGeometry(draw);
+        cpuFrame.setSurface(uncut, uncutIds);
+        cpuFrame.setCutCells(tiles);
+        cpuFrame.setCutGeometry(shadedCut.mesh, cutIds, shadedCut.triangleIsCap);
+        fusedFrame.setSurface(fused, fusedIds);
+        for (const std::string view : {"front", "side", "top", "iso", "-30,-35,10:0,0,0:0,0,1:40"}) {
+            const render::Camera camera = render::cameraFor(view, cpuFrame.bounds(), 1.0);
+            for (bool highlight : {false, true}) {
+                render::RenderStyle style;
+                style.highlight = highlight;
+                gpuFrame.render(camera, style);
+                cpuFrame.render(camera, style);
+                fusedFrame.render(camera, style);
+                const render::Frame g = gpuFrame.readFrame(), c = cpuFrame.readFrame(), f = fusedFrame.readFrame();
+                size_t covered = 0, colour = 0, fragment = 0, depth = 0, cutPixels = 0;
+                for (size_t p = 0; p < g.pixelCount(); ++p) {
+                    if (g.fragments[p] == 0 && f.fragments[p] == 0) continue;
+                    ++covered;
+                    int d = 0;
+                    for (size_t ch = 0; ch < 4; ++ch) d = std::max(d, std::abs(int(g.rgba[4 * p + ch]) - int(c.rgba[4 * p + ch])));
+                    colour += d > 2;
+                    fragment += g.fragments[p] != f.fragments[p];
+                    depth += !(std::abs(g.depth[p] - f.depth[p]) <= 1e-3f);
+                    cutPixels += !std::equal(&g.rgba[4 * p], &g.rgba[4 * p + 4], &c.rgba[4 * p]) || g.depth[p] != f.depth[p];
+                }
+                if (!highlight)
+                    std::printf("  view %s: %zu covered pixels; against the CPU: %zu differ in colour by > 2/255, %zu in "
+                                "fragment id, %zu in depth by > 1 um; %zu differ at all\n",
+                                view.c_str(), covered, colour, fragment, depth, cutPixels);
+                EXPECT_GT(covered, g.pixelCount() / 10) << view;
+                EXPECT_LT(double(colour), 1e-3 * double(covered)) << view << " highlight " << highlight;
+                EXPECT_LT(double(fragment), 1e-3 * double(covered)) << view;
+                EXPECT_LT(double(depth), 1e-3 * double(covered)) << view;
+            }
+        }
+        // The control: without the GPU's triangles the cut shows as holes.
+        draw->clear();
+        const render::Camera camera = render::cameraFor("side", cpuFrame.bounds(), 1.0);
+        gpuFrame.render(camera, {});
+        fusedFrame.render(camera, {});
+        const render::Frame g = gpuFrame.readFrame(), f = fusedFrame.readFrame();
+        size_t holes = 0;
+        for (size_t p = 0; p < g.pixelCount(); ++p) holes += g.fragments[p] != f.fragments[p];
+        EXPECT_GT(holes, 100u);
     }
 }
 

@@ -1,6 +1,7 @@
 // The GL foundation of render/: a headless GL 4.5 core context (EGL), the
 // embedded shaders, compile/link errors with the info log, move-only GL objects.
 #include "render/Context.h"
+#include "render/CutKernelGpu.h"
 #include "render/GlObjects.h"
 #include "render/Shaders.h"
 #include "tests/test_render_util.h"
@@ -36,12 +37,11 @@ TEST(RenderGl, EveryEmbeddedShaderCompiles)
         const std::string source = shaderSource(name);
         ASSERT_EQ(source.compare(0, 8, "#version"), 0) << name;
         // Every stage compiles with its libraries in front: the GPU cut
-        // pass's (cut_*: cut_kernel.glsl and cut_arrange.glsl), poly2_*'s
-        // (poly2.glsl), else the mask lookup.
-        const std::string library =
-            name.compare(0, 4, "cut_") == 0     ? shaderSource("cut_kernel.glsl") + shaderSource("cut_arrange.glsl")
-            : name.compare(0, 6, "poly2_") == 0 ? shaderSource("poly2.glsl")
-                                                : shaderSource("mask.glsl");
+        // pass's (cut_*: cutPassLibrary), poly2_*'s (poly2.glsl), else the
+        // mask lookup.
+        const std::string library = name.compare(0, 4, "cut_") == 0     ? cutPassLibrary(name)
+                                    : name.compare(0, 6, "poly2_") == 0 ? shaderSource("poly2.glsl")
+                                                                        : shaderSource("mask.glsl");
         EXPECT_NO_THROW(Shader(shaderStageOf(name), withDefines(source, library), name)) << name;
     }
 }
