@@ -40,7 +40,8 @@
 // the line says gpu_timed=0.
 //
 // Usage: bench_render [--quick] [--frames N] [--size WxH] [--egl-device]
-//                     [--cpu-passes] [--targets N,N,...] [--volumes a,b,...]
+//                     [--cpu-passes] [--targets N,N,...] [--gpu-cut [LANES]]
+//                     [--volumes a,b,...]
 //   --quick: the 64x64x22 and 256x256x40 crops, uncut and the 419-cell cut,
 //            3 frames (about 40 s on llvmpipe on a loaded 2-core machine).
 //   --egl-device: EGL_PLATFORM=device (the NVIDIA EGL device platform); the
@@ -51,6 +52,13 @@
 //            comparing with the timestamps (on llvmpipe a timestamp is taken
 //            when a rasterizer thread reaches it in its tile, so they are
 //            rough there).
+//   --gpu-cut [LANES]: also the GPU cut pass (render/CutKernelGpu.h) per
+//            cut: gen_ms, the whole cut made by it (its staged draws and the
+//            records read back), recover_ms, that and pass 4 (each cell
+//            finished on the CPU, the flagged ones re-meshed there), and
+//            frames that draw its own output (glDrawArraysIndirect):
+//            "case=gpucut" lines. One tet per LANES vertex-shader
+//            invocations (default 8 on llvmpipe, its SIMD width, 1 else).
 //   --volumes: names among 64x64x22, 256x256x40, 512x512x40, 512x512x100,
 //            256x256x196, head.
 // One parseable line per case ("case=render ..."), then a Markdown table.
@@ -58,10 +66,12 @@
 #include "benchmarks/BenchUtil.h"
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
+#include "cutter/KernelInput.h"
 #include "cutter/Remesh.h"
 #include "render/Camera.h"
 #include "render/Context.h"
 #include "render/CutGeometry.h"
+#include "render/CutKernelGpu.h"
 #include "render/GpuTimer.h"
 #include "render/MaskTiling.h"
 #include "render/SurfaceRenderer.h"
@@ -71,6 +81,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -99,6 +110,10 @@ struct Options
     bool cpuPasses = false;
     int width = 1024, height = 768;
     std::vector<size_t> targets{419, 3638, 11716};
+    /// --gpu-cut: the GPU cut pass (pass 3) too, one tet per `lanes`
+    /// vertex-shader invocations.
+    const render::GpuCutKernel* gpuCut = nullptr;
+    size_t lanes = 1;
 };
 
 /// Per-pass medians over the frames of one loop, and the frame wall time.
@@ -153,6 +168,11 @@ struct Row
     double remeshMs = 0, cutgeomMs = 0, tilingMs = 0, fusedMs = 0;
     double maskMs = 0, uploadMs = 0, drawMs = 0, discardMs = 0, frameMs = 0;
     double baseUploadMs = 0, baseDrawMs = 0, baseFrameMs = 0;
+    // --gpu-cut: the whole cut made by the GPU cut pass (its staged draws,
+    // records read back), then recovered (+ the CPU's finish, flagged
+    // cells by the CPU kernel); frames drawing its own output.
+    double gpuGenMs = -1, gpuRecoverMs = 0, gpuDrawMs = 0, gpuFrameMs = 0;
+    size_t gpuTris = 0, gpuCpuCells = 0;
     bool gpuTimed = true, ok = true;
     std::string note;
     double fps() const { return 1e3 / frameMs; }
@@ -177,6 +197,11 @@ void printRow(const Row& r, const Options& o)
                 r.fusedTris, r.variant, r.refused, r.remeshMs, r.cutgeomMs, r.tilingMs, r.fusedMs, r.maskMs, r.uploadMs,
                 r.drawMs, r.discardMs, r.drawMs - r.discardMs, r.frameMs, r.fps(), r.fpsRemesh(), r.baseUploadMs,
                 r.baseDrawMs, r.baseFrameMs, r.baseFps(), r.baseFrameMs / r.frameMs, r.gpuTimed ? 1 : 0, o.frames);
+    if (r.gpuGenMs >= 0)
+        std::printf("case=gpucut volume=%s dims=%s target=%zu cut_cells=%zu lanes=%zu gen_ms=%.1f recover_ms=%.1f "
+                    "gpu_tris=%zu cpu_tris=%zu cells_by_cpu=%zu draw_ms=%.2f frame_ms=%.2f fps=%.2f\n",
+                    r.volume.c_str(), r.dims.c_str(), r.target, r.cells, o.lanes, r.gpuGenMs, r.gpuRecoverMs, r.gpuTris,
+                    r.cutTris, r.gpuCpuCells, r.gpuDrawMs, r.gpuFrameMs, 1e3 / r.gpuFrameMs);
     std::fflush(stdout);
 }
 
@@ -339,6 +364,31 @@ void runVolume(const std::string& name, const vdb::Volume& vol, double planeInde
             ours.render(camera, style);
         });
         r.discardMs = split.pass("discard");
+        if (o.gpuCut) {
+            std::vector<Coord> cells;
+            for (const auto& entry : cut.remesher->cells()) cells.push_back(entry.first);
+            auto draw = std::make_shared<render::GpuCutDraw>(2 * r.cutTris + 4096);
+            const cutter::PackedKernelInput input = cutter::packKernelInput(vol, iso, *cut.mask, cells);
+            glFinish();
+            t0 = Clock::now();
+            o.gpuCut->cutCells(input, o.lanes, draw.get());
+            glFinish();
+            r.gpuGenMs = msSince(t0);
+            t0 = Clock::now();
+            const render::RecoveredCells rec = render::recoverCutCells(*o.gpuCut, vol, iso, *cut.mask, cells, o.lanes, draw.get());
+            glFinish();
+            r.gpuRecoverMs = msSince(t0);
+            r.gpuTris = draw->triangleCount();
+            r.gpuCpuCells = rec.byCpu;
+            ours.setCutCells(tiling, true);
+            ours.setGpuCutGeometry(draw);
+            const LoopTimes g = timeLoop(o, [&](render::GpuTimer& timer) {
+                auto s = timer.scope("draw");
+                ours.render(camera, style);
+            });
+            r.gpuDrawMs = g.pass("draw");
+            r.gpuFrameMs = g.frameMs;
+        }
         ours.clearCut();
         timeBaseline(fused, r);
         printRow(r, o);
@@ -386,7 +436,8 @@ std::vector<std::string> split(const std::string& s)
 int main(int argc, char** argv)
 {
     Options o;
-    bool quick = false, framesGiven = false, targetsGiven = false;
+    bool quick = false, framesGiven = false, targetsGiven = false, gpuCut = false;
+    size_t lanes = 0; // --gpu-cut's: 8 on llvmpipe (its SIMD width; cut_arrange.vert), else 1
     std::vector<std::string> names;
     for (int i = 1; i < argc; ++i) {
         if (!std::strcmp(argv[i], "--quick")) {
@@ -399,6 +450,10 @@ int main(int argc, char** argv)
                 std::fprintf(stderr, "bench_render: --size WxH, e.g. 1024x768\n");
                 return 2;
             }
+        } else if (!std::strcmp(argv[i], "--gpu-cut")) {
+            gpuCut = true;
+            if (i + 1 < argc && std::isdigit(static_cast<unsigned char>(argv[i + 1][0])))
+                lanes = size_t(std::max(1, std::atoi(argv[++i])));
         } else if (!std::strcmp(argv[i], "--cpu-passes")) {
             o.cpuPasses = true;
         } else if (!std::strcmp(argv[i], "--egl-device")) {
@@ -411,7 +466,7 @@ int main(int argc, char** argv)
             names = split(argv[++i]);
         } else {
             std::fprintf(stderr, "usage: bench_render [--quick] [--frames N] [--size WxH] [--egl-device] [--cpu-passes] "
-                                 "[--targets N,N,...] [--volumes 64x64x22,256x256x40,512x512x40,512x512x100,256x256x196,head]\n");
+                                 "[--targets N,N,...] [--gpu-cut [LANES]] [--volumes 64x64x22,256x256x40,512x512x40,512x512x100,256x256x196,head]\n");
             return 2;
         }
     }
@@ -431,6 +486,16 @@ int main(int argc, char** argv)
         const std::unique_ptr<render::GlContext> context = render::createHeadlessContext();
         std::printf("device=\"%s\" size=%dx%d frames=%d\n", context->description().c_str(), o.width, o.height, o.frames);
         std::fflush(stdout);
+        std::unique_ptr<render::GpuCutKernel> gpuKernel;
+        if (gpuCut) {
+            const auto t0 = Clock::now();
+            gpuKernel = std::make_unique<render::GpuCutKernel>();
+            const bool llvmpipe = context->description().find("llvmpipe") != std::string::npos;
+            o.lanes = lanes ? lanes : llvmpipe ? 8 : 1;
+            o.gpuCut = gpuKernel.get();
+            std::printf("gpu_cut: shaders built in %.0f ms, one tet per %zu lanes\n", msSince(t0), o.lanes);
+            std::fflush(stdout);
+        }
         std::map<int, vdb::DenseScan> phantoms; // by in-plane size
         const vdb::PhantomLandmarks marks = vdb::phantomLandmarks();
         for (const std::string& name : names) {

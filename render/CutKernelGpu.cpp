@@ -8,8 +8,10 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 
@@ -568,5 +570,48 @@ RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volum
     }
     return r;
 }
+
+std::vector<uint32_t> gpuCutFragmentIds(const GpuCutDraw& draw, const RecoveredCells& rec,
+                                        const std::vector<openvdb::Coord>& cells, const cutter::CutRemesher& remesher,
+                                        const std::vector<uint32_t>& cutIds, size_t* approximate)
+{
+    std::map<openvdb::Coord, size_t> first;
+    size_t n = 0;
+    for (const auto& [c, g] : remesher.cells()) {
+        first[c] = n;
+        n += g.indices.size() / 3;
+    }
+    std::vector<std::pair<size_t, size_t>> byCpu; // (cell, triangle) in the order recoverCutCells appends them
+    for (size_t i = 0; i < cells.size(); ++i)
+        if (!rec.madeByGpu[i])
+            for (size_t j = 0; j < rec.cells[i].indices.size() / 3; ++j) byCpu.emplace_back(i, j);
+    const std::vector<std::array<uint32_t, 2>> keys = draw.keys();
+    std::vector<uint32_t> ids(keys.size(), 0);
+    size_t nextCpu = 0;
+    size_t approx = 0;
+    for (size_t s = 0; s < keys.size(); ++s) {
+        size_t cell = 0, k = 0;
+        if (keys[s][0] == ~0u) {
+            std::tie(cell, k) = byCpu.at(nextCpu++);
+        } else {
+            cell = keys[s][0] / 5;
+            size_t made = 0;
+            for (uint32_t t = 0; t < 5; ++t) {
+                if (t < keys[s][0] % 5) k += rec.tetTriangles[cell][t];
+                made += rec.tetTriangles[cell][t];
+            }
+            k += keys[s][1];
+            const size_t now = rec.cells[cell].indices.size() / 3;
+            if (made != now) {
+                ++approx;
+                k = std::min(k, now - 1);
+            }
+        }
+        ids[s] = cutIds.at(first.at(cells.at(cell)) + k);
+    }
+    if (approximate) *approximate = approx;
+    return ids;
+}
+
 
 } // namespace mtcut::render

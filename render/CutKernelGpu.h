@@ -252,4 +252,17 @@ RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volum
                                const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells,
                                size_t lanesPerTet = 1, GpuCutDraw* draw = nullptr);
 
+/// The fragment id of each triangle in `draw` (as recoverCutCells filled
+/// it for `cells`, giving `rec`), from `remesher` (the same cut re-meshed by
+/// the CPU, e.g. its CutRemesher) and `cutIds`, the fragment id of each
+/// triangle of cutGeometryOf(remesher) (discardFragmentIds). A GPU triangle
+/// is the k-th of its cell before the CPU's finish; where the finish
+/// changed the cell's triangle count (float repairs), the k-th after it
+/// stands in (counted in `approximate` when given). For
+/// GpuCutDraw::setFragmentIds. Throws std::out_of_range when the remesher's
+/// cells are not those recovered.
+std::vector<uint32_t> gpuCutFragmentIds(const GpuCutDraw& draw, const RecoveredCells& rec,
+                                        const std::vector<openvdb::Coord>& cells, const cutter::CutRemesher& remesher,
+                                        const std::vector<uint32_t>& cutIds, size_t* approximate = nullptr);
+
 } // namespace mtcut::render

@@ -326,7 +326,10 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
 // re-meshed by the CPU, equals the CPU kernel's remesh(): the same vertices
 // (names and side tags), the same triangles in the same order, positions
 // within 1e-5 of a voxel (measured: bit for bit). Seeds other than the
-// arrangement test's.
+// arrangement test's, 100 strokes at each kerf; one tet per invocation,
+// as on a GPU (4 to 5 times faster on llvmpipe than 8 lanes a tet, and the
+// tets that then meet llvmpipe's loop limit are flagged and go to the CPU:
+// the recovered cells stay equal).
 TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
 {
     MTCUT_REQUIRE_GL();
@@ -337,10 +340,10 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
         double worst = 0.0;
         std::string first;
         CellKernel cpu(vol, 400.0f);
-        for (uint32_t seed = 7; seed <= 12; ++seed) {
+        for (uint32_t seed = 7; seed < 57; ++seed) {
             const RandomCut cut(vol, 400.0f, kerf, seed);
             strokes += cut.strokes;
-            const render::RecoveredCells got = render::recoverCutCells(gpu, vol, 400.0f, cut.mask, cut.cells, kLanesPerTet);
+            const render::RecoveredCells got = render::recoverCutCells(gpu, vol, 400.0f, cut.mask, cut.cells, 1);
             ASSERT_EQ(got.cells.size(), cut.cells.size());
             byGpu += got.byGpu;
             byCpu += got.byCpu;
@@ -374,62 +377,12 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
                     kerf, strokes, cells, byGpu, byCpu, triangles, differ, bitEqual, vertices, worst);
         EXPECT_EQ(differ, 0u) << first;
         EXPECT_LE(worst, 1e-5);
-        EXPECT_GT(triangles, 20000u);
-        EXPECT_GT(byGpu, 50 * byCpu); // the CPU takes under 2 % of the cells
+        EXPECT_GE(strokes, 100u);
+        EXPECT_GT(triangles, 200000u);
+        EXPECT_GT(byGpu, 20 * byCpu); // the CPU takes under 5 % of the cells
     }
 }
 
-namespace {
-
-/// The fragment id of each triangle of `draw` (as recoverCutCells filled
-/// it for `cells`), from `remesher`'s (which re-meshed the same cut on the
-/// CPU): `cutIds` per triangle of cutGeometryOf(remesher), cells ascending.
-/// A GPU triangle is the k-th of its cell before the CPU's finish; where
-/// the finish changed the cell's triangle count (float repairs), the k-th
-/// after it stands in (counted in `approximate`).
-std::vector<uint32_t> gpuTriangleFragmentIds(const render::GpuCutDraw& draw, const render::RecoveredCells& rec,
-                                             const std::vector<openvdb::Coord>& cells,
-                                             const cutter::CutRemesher& remesher, const std::vector<uint32_t>& cutIds,
-                                             size_t& approximate)
-{
-    std::map<openvdb::Coord, size_t> first;
-    size_t n = 0;
-    for (const auto& [c, g] : remesher.cells()) {
-        first[c] = n;
-        n += g.indices.size() / 3;
-    }
-    std::vector<std::pair<size_t, size_t>> byCpu; // (cell, triangle) in the order recoverCutCells appends them
-    for (size_t i = 0; i < cells.size(); ++i)
-        if (!rec.madeByGpu[i])
-            for (size_t j = 0; j < rec.cells[i].indices.size() / 3; ++j) byCpu.emplace_back(i, j);
-    const std::vector<std::array<uint32_t, 2>> keys = draw.keys();
-    std::vector<uint32_t> ids(keys.size(), 0);
-    size_t nextCpu = 0;
-    approximate = 0;
-    for (size_t s = 0; s < keys.size(); ++s) {
-        size_t cell = 0, k = 0;
-        if (keys[s][0] == ~0u) {
-            std::tie(cell, k) = byCpu.at(nextCpu++);
-        } else {
-            cell = keys[s][0] / 5;
-            size_t made = 0;
-            for (uint32_t t = 0; t < 5; ++t) {
-                if (t < keys[s][0] % 5) k += rec.tetTriangles[cell][t];
-                made += rec.tetTriangles[cell][t];
-            }
-            k += keys[s][1];
-            const size_t now = rec.cells[cell].indices.size() / 3;
-            if (made != now) {
-                ++approximate;
-                k = std::min(k, now - 1);
-            }
-        }
-        ids[s] = cutIds.at(first.at(cells[cell]) + k);
-    }
-    return ids;
-}
-
-} // namespace
 
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
 // into its draw buffers and drawn with glDrawArraysIndirect over the
@@ -466,7 +419,7 @@ TEST(CutKernelGpu, DiscardPlusGpuCutPassMatchesTheCpuFrames)
         const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, 0.0f, mask, cells, kLanesPerTet, draw.get());
         ASSERT_EQ(draw->made(), draw->triangleCount());
         size_t approximate = 0;
-        draw->setFragmentIds(gpuTriangleFragmentIds(*draw, rec, cells, remesher, cutIds, approximate));
+        draw->setFragmentIds(render::gpuCutFragmentIds(*draw, rec, cells, remesher, cutIds, &approximate));
         std::printf("sphere, kerf %.1f: %zu cut cells (%zu by the GPU, %zu by the CPU), the GPU drew %zu triangles, the "
                     "CPU's cut geometry has %zu; %zu GPU triangles in cells the finish changed\n",
                     kerf, cells.size(), rec.byGpu, rec.byCpu, draw->triangleCount(), shadedCut.mesh.triangleCount(),

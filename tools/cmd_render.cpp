@@ -10,6 +10,7 @@
 #include "render/Camera.h"
 #include "render/Context.h"
 #include "render/CutGeometry.h"
+#include "render/CutKernelGpu.h"
 #include "render/MaskTiling.h"
 #include "render/SurfaceRenderer.h"
 #include "tools/Cli.h"
@@ -99,6 +100,7 @@ int runRender(const Args& args)
     render::SurfaceRenderer renderer(width, height);
     size_t cutCells = 0, fragments = 0, cutTriangles = 0;
     std::vector<RefusedStroke> refused; // --keep-going
+    std::string gpuCutLine;             // --gpu-cut
     if (strokes.empty()) {
         const std::vector<uint32_t> ids = render::fragmentIdsOf(uncut);
         fragments = ids.empty() ? 0 : *std::max_element(ids.begin(), ids.end());
@@ -127,6 +129,34 @@ int runRender(const Args& args)
             renderer.setCutGeometry(cut.mesh, cutIds, cut.triangleIsCap);
             cutCells = mask.cutCellCount();
             cutTriangles = cut.mesh.triangleCount();
+            if (args.has("gpu-cut")) {
+                // The GPU cut pass makes the cut geometry again and draws its
+                // own output; recovered, each cell is checked against the CPU's.
+                std::vector<openvdb::Coord> cells;
+                for (const auto& entry : remesher.cells()) cells.push_back(entry.first);
+                const auto g0 = Clock::now();
+                const render::GpuCutKernel gpu;
+                auto draw = std::make_shared<render::GpuCutDraw>(2 * cutTriangles + 4096);
+                const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, iso, mask, cells, 1, draw.get());
+                size_t differ = 0;
+                for (size_t i = 0; i < cells.size(); ++i) {
+                    const cutter::CutCellGeometry& want = remesher.cells().at(cells[i]);
+                    differ += rec.cells[i].vertexIds != want.vertexIds || rec.cells[i].indices != want.indices ||
+                              rec.cells[i].indexPositions != want.indexPositions;
+                }
+                draw->setFragmentIds(render::gpuCutFragmentIds(*draw, rec, cells, remesher, cutIds));
+                renderer.setGpuCutGeometry(draw);
+                char line[256];
+                std::snprintf(line, sizeof line,
+                              "%zu triangles drawn from the GPU's output; %zu cells made by the GPU, %zu by the CPU; "
+                              "recovered geometry %s; %.2f s",
+                              draw->triangleCount(), rec.byGpu, rec.byCpu,
+                              differ ? ("differs from the CPU's in " + std::to_string(differ) + " cells").c_str()
+                                     : "equal to the CPU's in every cell",
+                              secondsSince(g0));
+                gpuCutLine = line;
+                if (differ) throw std::logic_error("mtcut render --gpu-cut: " + gpuCutLine);
+            }
         } catch (const InputError&) {
             throw;
         } catch (const Cancelled&) {
@@ -155,6 +185,7 @@ int runRender(const Args& args)
     if (!strokes.empty()) {
         std::printf("cut:        %s, %zu cut cells, %zu cut-geometry triangles\n", pathFile.c_str(), cutCells,
                     cutTriangles);
+        if (!gpuCutLine.empty()) std::printf("gpu cut:    %s\n", gpuCutLine.c_str());
         for (const RefusedStroke& r : refused)
             std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
                         "rest dropped: %s\n",
@@ -183,12 +214,13 @@ std::vector<std::string> renderOptions()
 const CommandRegistrar renderCommand(
     {"render",
      "render INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUT.{png,exr} [--width W --height H] "
-     "[--view front|side|top|iso|EX,EY,EZ:TX,TY,TZ[:UX,UY,UZ[:FOV]]] [--highlight] [--keep-going]",
+     "[--view front|side|top|iso|EX,EY,EZ:TX,TY,TZ[:UX,UY,UZ[:FOV]]] [--highlight] [--keep-going] [--gpu-cut]",
      "draw the isosurface (cut along PATH.csv when given) headless on the GPU into a PNG, or an EXR with RGBA, Z "
      "(depth, mm), N.X/N.Y/N.Z (world normal) and fragment (uint id) channels; default 1024x1024, front view; "
      "--highlight colours the cut geometry; --keep-going: a stroke the re-mesher refuses is cut up to where it is "
-     "refused, as mtcut cut --keep-going",
-     renderOptions(), {"highlight", "keep-going"}, 1, 1, runRender});
+     "refused, as mtcut cut --keep-going; --gpu-cut: the cut geometry is made again by the GPU cut pass and drawn from "
+     "its own output, and the recovered geometry is checked against the CPU re-mesher's",
+     renderOptions(), {"highlight", "keep-going", "gpu-cut"}, 1, 1, runRender});
 
 } // namespace
 
