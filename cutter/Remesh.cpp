@@ -999,7 +999,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         mCells.erase(dirty[i]);
         mRecords.erase(it);
     }
-    size_t count = 0, keptCells = 0;
+    size_t count = 0, keptCells = 0, sourcedCells = 0;
     std::vector<QuadGeom> quads; // the cell's quads (storage reused)
     struct CellJob
     {
@@ -1058,14 +1058,17 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         // with the share of cells done; once it asks to stop, the remaining
         // cells are skipped and Cancelled is thrown below.
         InterrupterScope scope(interrupter, "re-meshing the cut cells");
-        std::atomic<size_t> done{0};
+        std::atomic<size_t> done{0}, sourced{0};
         std::atomic<bool> cancelled{false};
         tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
             CellKernel& kernel = mKernels->local();
             for (size_t j = range.begin(); j != range.end(); ++j) {
                 if (cancelled.load(std::memory_order_relaxed)) return;
                 try {
-                    kernel.remesh(jobs[j].cell, jobs[j].quads, prism, *jobs[j].out);
+                    if (mCellSource && mCellSource(jobs[j].cell, *jobs[j].out))
+                        sourced.fetch_add(1, std::memory_order_relaxed);
+                    else
+                        kernel.remesh(jobs[j].cell, jobs[j].quads, prism, *jobs[j].out);
                 } catch (...) {
                     jobs[j].error = std::current_exception();
                 }
@@ -1075,6 +1078,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             }
         });
         if (cancelled) throw Cancelled();
+        sourcedCells = sourced.load();
         for (CellJob& job : jobs) {
             if (job.error) std::rethrow_exception(job.error);
             if (mCellHook) mCellHook(job.cell, *job.out);
@@ -1109,6 +1113,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     }
     mLastChanged = std::move(changedCells);
     mLastKept = keptCells;
+    mLastSourced = sourcedCells;
     return count;
 }
 

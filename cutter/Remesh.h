@@ -210,6 +210,19 @@ public:
     /// is checked in chunks of 1,024).
     size_t lastCheckChunks() const { return mLastCheckChunks; }
 
+    /// Where update() takes a cell's new geometry from before it runs the
+    /// kernel: e.g. the GPU cut pass's recovered cells
+    /// (render/CutKernelGpu.h recoverCutCells). Called from update()'s worker
+    /// threads (so it must be safe to call concurrently) for each cell to
+    /// re-mesh; returning true, `out` holds that cell's geometry as
+    /// CellKernel::remesh makes it from the mask's quads, and the kernel is
+    /// not run; false: the kernel makes it. The fusion and the local check
+    /// are the same either way. Empty (the default): always the kernel.
+    using CellSource = std::function<bool(const openvdb::Coord&, CutCellGeometry&)>;
+    void setCellSource(CellSource source) { mCellSource = std::move(source); }
+    /// The cells of the last successful update() that the cell source gave.
+    size_t lastSourcedCells() const { return mLastSourced; }
+
     /// For tests only: re-mesh every kept cell anyway and throw
     /// std::logic_error when the result differs from the kept geometry.
     void setVerifyKeptCellsForTesting(bool on) { mVerifyKept = on; }
@@ -296,6 +309,8 @@ private:
     /// fusedMesh()'s snap rounding can change, besides those next to cut cells.
     std::vector<uint32_t> mSnapTriangles;
     std::function<void(const openvdb::Coord&, CutCellGeometry&)> mCellHook;
+    CellSource mCellSource;
+    size_t mLastSourced = 0;
 
     /// The grid edge (lower, higher gridVertexId) of each corner of the
     /// uncut triangles of `cell` (`run`: uncutRun's), 3 per triangle in mesh

@@ -683,6 +683,62 @@ TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
     }
 }
 
+// A cell source (the GPU cut pass's recovered cells): update() takes its
+// geometry instead of running the kernel, and fuses and checks it the same:
+// the CPU's own cells given back make the same fused mesh; a cell given
+// with a triangle missing is refused by the local check, as the kernel's
+// would be; cells it does not give are the kernel's.
+TEST(Remesh, ACellSourceIsFusedAndCheckedAsTheKernelsCells)
+{
+    const BallAndTwoStrokes ball;
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(ball.vol), kerf);
+        addStroke(mask, ball.first);
+        addStroke(mask, ball.second);
+        CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
+        cpu.update(mask);
+        const Mesh want = cpu.fusedMesh();
+        const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
+        for (int mode : {0, 1, 2}) { // all given; every other cell given; one given broken
+            CutRemesher sourced(ball.vol, 0.0f, ball.uncut);
+            size_t asked = 0;
+            std::mutex m;
+            Coord broken(0);
+            bool isBroken = false;
+            sourced.setCellSource([&](const Coord& c, CutCellGeometry& out) {
+                std::lock_guard<std::mutex> lock(m);
+                if (mode == 1 && asked++ % 2) return false;
+                if (mode != 1) ++asked;
+                out = cells.at(c);
+                if (mode == 2 && !isBroken && out.indices.size() >= 3) {
+                    isBroken = true;
+                    broken = c;
+                    out.indices.resize(out.indices.size() - 3);
+                }
+                return true;
+            });
+            if (mode == 2) {
+                std::string message;
+                try {
+                    sourced.update(mask);
+                } catch (const std::runtime_error& e) {
+                    message = e.what();
+                }
+                ASSERT_TRUE(isBroken);
+                const std::string where = "cell (" + std::to_string(broken.x()) + ", " + std::to_string(broken.y()) +
+                                          ", " + std::to_string(broken.z()) + ")";
+                EXPECT_NE(message.find("remesh: "), std::string::npos) << "a broken cell was fused";
+                EXPECT_NE(message.find(where), std::string::npos) << message << " (expected " << where << ")";
+                continue;
+            }
+            sourced.update(mask);
+            EXPECT_EQ(asked, cells.size());
+            EXPECT_EQ(sourced.lastSourcedCells(), mode == 0 ? cells.size() : (cells.size() + 1) / 2);
+            EXPECT_TRUE(sameMesh(sourced.fusedMesh(), want)) << "kerf " << kerf << " mode " << mode;
+        }
+    }
+}
+
 // With a kerf the surface may not cross or touch itself (DESIGN invariant
 // 7), and no other check sees a crossing whose every edge is used once each
 // way: a small closed tetrahedron added to a cut cell's geometry, poking

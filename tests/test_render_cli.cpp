@@ -229,6 +229,7 @@ TEST_F(RenderCli, GpuCutPassDrawsTheSameFrame)
         const test::RunResult b = test::runMtcut("render " + sPhantom + args + " -o " + gpu + " --gpu-cut");
         ASSERT_EQ(b.exitCode, 0) << b.output;
         EXPECT_NE(b.output.find("recovered geometry equal to the CPU's in every cell"), std::string::npos) << b.output;
+        EXPECT_NE(b.output.find("the CPU's mesh;"), std::string::npos) << b.output; // the recovered cells fused
         std::ifstream fa(cpu, std::ios::binary), fb(gpu, std::ios::binary);
         const std::string da((std::istreambuf_iterator<char>(fa)), {}), db((std::istreambuf_iterator<char>(fb)), {});
         EXPECT_FALSE(da.empty());

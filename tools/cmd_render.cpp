@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 
 #include <unistd.h>
 
@@ -146,16 +147,31 @@ int runRender(const Args& args)
                 }
                 draw->setFragmentIds(render::gpuCutFragmentIds(*draw, rec, cells, remesher, cutIds));
                 renderer.setGpuCutGeometry(draw);
-                char line[256];
+                // Pass 4: the recovered cells fused as the CPU's are (the
+                // re-mesher taking them instead of running its kernel).
+                std::map<openvdb::Coord, const cutter::CutCellGeometry*> recovered;
+                for (size_t i = 0; i < cells.size(); ++i) recovered[cells[i]] = &rec.cells[i];
+                cutter::CutRemesher fromGpu(vol, iso, uncut);
+                fromGpu.setCellSource([&](const openvdb::Coord& c, cutter::CutCellGeometry& out) {
+                    const auto it = recovered.find(c);
+                    if (it == recovered.end()) return false;
+                    out = *it->second;
+                    return true;
+                });
+                fromGpu.update(mask);
+                const cutter::Mesh fusedGpu = fromGpu.fusedMesh();
+                const bool sameFused = fusedGpu.positions == fused.positions && fusedGpu.indices == fused.indices;
+                char line[384];
                 std::snprintf(line, sizeof line,
                               "%zu triangles drawn from the GPU's output; %zu cells made by the GPU, %zu by the CPU; "
-                              "recovered geometry %s; %.2f s",
+                              "recovered geometry %s; fused: %zu triangles, %s; %.2f s",
                               draw->triangleCount(), rec.byGpu, rec.byCpu,
                               differ ? ("differs from the CPU's in " + std::to_string(differ) + " cells").c_str()
                                      : "equal to the CPU's in every cell",
+                              fusedGpu.triangleCount(), sameFused ? "the CPU's mesh" : "NOT the CPU's mesh",
                               secondsSince(g0));
                 gpuCutLine = line;
-                if (differ) throw std::logic_error("mtcut render --gpu-cut: " + gpuCutLine);
+                if (differ || !sameFused) throw std::logic_error("mtcut render --gpu-cut: " + gpuCutLine);
             }
         } catch (const InputError&) {
             throw;
