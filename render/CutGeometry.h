@@ -1,6 +1,6 @@
-// The CPU-made cut geometry in the form the GPU passes draw it, until the
-// GPU cut pass (pass 3) makes it itself: the re-meshed cells of a
-// CutRemesher as one world-space mesh, plus per-triangle data (fragment ids,
+// The CPU-made cut geometry in the form the GPU passes draw it (the GPU cut
+// pass, render/CutKernelGpu.h, writes the same with the same normals): the
+// re-meshed cells of a CutRemesher as one world-space mesh, plus per-triangle data (fragment ids,
 // cap flags). No GL here.
 #pragma once
 

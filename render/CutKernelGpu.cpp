@@ -542,6 +542,9 @@ RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volum
     const cutter::PackedKernelInput input = cutter::packKernelInput(volume, isovalue, mask, cells);
     if (draw) draw->clear();
     std::vector<GpuCutCell> gpuCells = gpu.cutCells(input, lanesPerTet, draw);
+    if (draw && draw->made() > draw->triangleCount())
+        throw std::length_error("recoverCutCells: the GPU made " + std::to_string(draw->made()) +
+                                " triangles, the draw buffers hold " + std::to_string(draw->capacity()));
     RecoveredCells r;
     r.cells.resize(cells.size());
     r.madeByGpu.resize(cells.size());

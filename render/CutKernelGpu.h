@@ -3,10 +3,10 @@
 // cut_regions.glsl), bit for bit the CPU kernel's, run over the tets of a
 // batch of cut cells; and pass 4, recovery: its triangles read back into
 // each cell's CutCellGeometry and finished as the CPU kernel finishes a
-// cell (recoverCutCells). Its pieces are also exposed for the tests that
-// hold each phase equal to the CPU's (phaseOne, vertexPositions, names,
-// arrangement). The draw still takes the CPU's cut geometry
-// (CutGeometry.h) until the triangles are drawn from the GPU's own output.
+// cell (recoverCutCells). Its triangles are also written into draw
+// buffers (GpuCutDraw) that SurfaceRenderer draws indirectly, with no trip
+// through the CPU. Its pieces are exposed for the tests that hold each
+// phase equal to the CPU's (phaseOne, vertexPositions, names, arrangement).
 #pragma once
 
 #include "cutter/KernelInput.h"
@@ -247,7 +247,7 @@ struct RecoveredCells
 };
 /// With `draw` (cleared first), the GPU's triangles also go into it (pass
 /// 3), and then those of the cells the CPU took (its shading normals:
-/// CutGeometry.h).
+/// CutGeometry.h); std::length_error when they do not fit.
 RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volume, float isovalue,
                                const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells,
                                size_t lanesPerTet = 1, GpuCutDraw* draw = nullptr);

@@ -2,8 +2,8 @@
 // vertex buffer, uploaded once and never modified, drawn with the discard
 // pass (triangles whose cell is in the GPU-coded cut mask are discarded by
 // their gl_PrimitiveID's cell, not by position), then the cut geometry as a
-// second buffer (for now the CPU re-mesher's, render/CutGeometry.h; the GPU
-// cut pass comes later). Phong shading with the meshes' normals (gradient
+// second buffer: the CPU re-mesher's (render/CutGeometry.h), or the GPU cut
+// pass's own output drawn indirectly (render/CutKernelGpu.h). Phong shading with the meshes' normals (gradient
 // normals on the isosurface, the blade's plane on caps); optional highlight
 // colour for the caps. Renders off-screen into a framebuffer object with
 // colour, world normal, view depth and fragment-id targets; readFrame()

@@ -1,7 +1,8 @@
 // mtcut render: a frame of a scan's isosurface, optionally cut along a blade
 // path, drawn headless on the GPU (EGL; Mesa llvmpipe without one): the uncut
 // surface with the cut cells discarded by the GPU-coded mask, plus the cut
-// cells' geometry (from the CPU re-mesher until the GPU cut pass lands).
+// cells' geometry (the CPU re-mesher's; with --gpu-cut, the GPU cut pass's
+// own output, recovered and checked against the CPU's).
 // PNG for people; EXR with RGBA, Z, N.X/N.Y/N.Z and fragment channels.
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
