@@ -29,8 +29,9 @@ constexpr size_t kArrVerts = 256, kArrPlanes = 96, kArrSurfaces = 24, kArrPieces
 // The regions' (cut_regions.glsl): nodes (corners with their side tags),
 // regions, loops and loop corners of a tet.
 constexpr size_t kArrNodes = 256, kArrRegions = 48, kArrLoops = 64, kArrLoopCorners = 768;
-// Scratch words per tet (cut_arrange.glsl's kScratchI/L/D, which
-// cut_regions.glsl checks against its layout when it compiles).
+// Scratch words per tet: cut_arrange.glsl's kScratchI/L/D, which it checks
+// against these (ARR_SCRATCH_*) when it compiles, as cut_regions.glsl
+// checks its layout against them.
 constexpr size_t kScratchI = kArrVerts + 3 * kArrPool + 6 * kArrPieces + 2 * kArrPlanes + 16 + 12 * kArrSurfaces +
                              4 * kArrPieces + 8 + 5 * kArrNodes + 2 * kArrVerts + 5 * kArrRegions + 2 * kArrLoops +
                              kArrLoopCorners + 11 * kArrPool;
@@ -44,7 +45,8 @@ std::string arrangeDefines()
     const std::pair<const char*, size_t> defines[] = {
         {"ARR_MAX_VERTS", kArrVerts},     {"ARR_MAX_PLANES", kArrPlanes},   {"ARR_MAX_SURFACES", kArrSurfaces},
         {"ARR_MAX_PIECES", kArrPieces},   {"ARR_MAX_POOL", kArrPool},       {"ARR_MAX_NODES", kArrNodes},
-        {"ARR_MAX_REGIONS", kArrRegions}, {"ARR_MAX_LOOPS", kArrLoops},     {"ARR_MAX_LOOP_CORNERS", kArrLoopCorners}};
+        {"ARR_MAX_REGIONS", kArrRegions}, {"ARR_MAX_LOOPS", kArrLoops},     {"ARR_MAX_LOOP_CORNERS", kArrLoopCorners},
+        {"ARR_SCRATCH_I", kScratchI},     {"ARR_SCRATCH_L", kScratchL},     {"ARR_SCRATCH_D", kScratchD}};
     for (const auto& [name, value] : defines) d += "#define " + std::string(name) + " " + std::to_string(value) + "\n";
     return d;
 }

@@ -107,6 +107,11 @@ const uint kOffVFeature = 0u, kOffVPlanes = kOffVFeature + 3 * ARR_MAX_VERTS, kO
            kScratchL = kOffRegionsL + 4 * ARR_MAX_NODES + ARR_MAX_LOOP_CORNERS + ARR_MAX_POOL;
 const uint kOffVPos = 0u, kOffStateD = kOffVPos + 3 * ARR_MAX_VERTS, kOffRegionsD = kOffStateD + 3 * ARR_MAX_SURFACES,
            kScratchD = kOffRegionsD + 3 * ARR_MAX_REGIONS;
+#ifdef ARR_SCRATCH_I
+// The host's scratch sizes (render/CutKernelGpu.cpp, which allocates by
+// them) must be these: an array of size -1 does not compile.
+int gHostScratchCheck[kScratchI == ARR_SCRATCH_I && kScratchL == ARR_SCRATCH_L && kScratchD == ARR_SCRATCH_D ? 1 : -1];
+#endif
 uint gBaseI, gBaseL, gBaseD; // this invocation's slices
 #define gVMeta(v) uint(sI[gBaseI + kOffVMeta + uint(v)])
 #define gVMetaRef(v) sI[gBaseI + kOffVMeta + uint(v)]

@@ -74,6 +74,21 @@ TEST(RenderGl, BrokenShaderReportsItsInfoLog)
     EXPECT_THROW(shaderStageOf("x.txt"), std::runtime_error);
 }
 
+// The GPU cut pass checks its storage layouts when it compiles (the host's
+// scratch sizes against cut_arrange.glsl's, cut_regions.glsl's layout
+// against both) with an array whose size is -1 when they differ: this
+// driver must refuse such an array, or those checks check nothing.
+TEST(RenderGl, AnArrayOfSizeMinusOneDoesNotCompile)
+{
+    MTCUT_REQUIRE_GL();
+    const std::string source = "#version 450 core\nconst uint kA = 3u, kB = 4u;\nint gCheck[kA == kB ? 1 : -1];\n"
+                               "out vec4 c;\nvoid main() { c = vec4(0.0); }\n";
+    EXPECT_THROW(Shader(GL_FRAGMENT_SHADER, source, "check.frag"), std::runtime_error);
+    const std::string same = "#version 450 core\nconst uint kA = 4u, kB = 4u;\nint gCheck[kA == kB ? 1 : -1];\n"
+                             "out vec4 c;\nvoid main() { c = vec4(0.0); }\n";
+    EXPECT_NO_THROW(Shader(GL_FRAGMENT_SHADER, same, "check.frag"));
+}
+
 TEST(RenderGl, DefinesGoAfterTheVersionLineAndKeepLineNumbers)
 {
     MTCUT_REQUIRE_GL();
