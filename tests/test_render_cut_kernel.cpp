@@ -29,6 +29,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <initializer_list>
 #include <map>
 #include <memory>
@@ -84,11 +85,27 @@ struct RandomCut
     RandomCut(const vdb::Volume& vol, float iso, double kerf, uint32_t seed) : mask(cutter::frameOf(vol), kerf)
     {
         for (const auto& poses : cutter::makeRandomStrokes(mask.frame(), seed, 2, 150, 0.4 + 0.2 * (seed % 4),
-                                                           20.0 + 10.0 * (seed % 4))) {
-            mask.beginStroke();
-            for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
-            ++strokes;
-        }
+                                                           20.0 + 10.0 * (seed % 4)))
+            add(poses);
+        finish(vol, iso);
+    }
+    /// The cut of the strokes given.
+    RandomCut(const vdb::Volume& vol, float iso, double kerf, const std::vector<std::vector<cutter::Pose>>& strokes)
+        : mask(cutter::frameOf(vol), kerf)
+    {
+        for (const auto& poses : strokes) add(poses);
+        finish(vol, iso);
+    }
+
+private:
+    void add(const std::vector<cutter::Pose>& poses)
+    {
+        mask.beginStroke();
+        for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
+        ++strokes;
+    }
+    void finish(const vdb::Volume& vol, float iso)
+    {
         mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) { cells.push_back(c); });
         std::sort(cells.begin(), cells.end());
         input = cutter::packKernelInput(vol, iso, mask, cells);
@@ -199,7 +216,7 @@ struct ArrangeTally
 {
     size_t strokes = 0, cells = 0, tets = 0, refusedCells = 0, overCapacity = 0, loopLimit = 0, refusedBoth = 0, differ = 0;
     uint32_t capacityBits = 0; ///< which capacities (cut_arrange.glsl kFail*) were met
-    size_t vertices = 0, pieces = 0, kept = 0, steiner = 0, caps = 0, triangles = 0, tagged = 0;
+    size_t vertices = 0, pieces = 0, kept = 0, steiner = 0, midpoints = 0, caps = 0, triangles = 0, tagged = 0;
     std::string first;
 };
 
@@ -209,15 +226,17 @@ struct ArrangeTally
 /// tet per invocation, 40 of 2,857 tets of seed 3 at kerf 0.5 met it).
 constexpr size_t kLanesPerTet = 8;
 
-/// Every tet with solid of the cut cells of seeds [first, first + seeds)
-/// on `vol` at `iso` with `kerf`, arranged by both kernels.
+/// Every tet with solid of the cut cells of cuts [first, first + count)
+/// (makeCut(i) on `vol` at `iso` with `kerf`), arranged by both kernels.
 ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Volume& vol, float iso, double kerf,
-                                 uint32_t first, uint32_t seeds)
+                                 uint32_t first, uint32_t count,
+                                 const std::function<std::unique_ptr<RandomCut>(uint32_t)>& makeCut)
 {
     ArrangeTally t;
     CellKernel cpu(vol, iso);
-    for (uint32_t seed = first; seed < first + seeds; ++seed) {
-        const RandomCut cut(vol, iso, kerf, seed);
+    for (uint32_t seed = first; seed < first + count; ++seed) {
+        const std::unique_ptr<RandomCut> cutPtr = makeCut(seed);
+        const RandomCut& cut = *cutPtr;
         t.strokes += cut.strokes;
         t.cells += cut.cells.size();
         const size_t tets = 5 * cut.cells.size();
@@ -260,7 +279,11 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
                     t.triangles += c.triangles.size();
                     for (const auto& tri : c.triangles)
                         t.tagged += !tri[0].tags.empty() || !tri[1].tags.empty() || !tri[2].tags.empty();
-                    for (const auto& v : c.verts) t.steiner += v.steiner;
+                    for (const auto& v : c.verts) {
+                        t.steiner += v.steiner;
+                        t.midpoints += v.steiner && std::find(v.key.planes.begin(), v.key.planes.begin() + v.key.planeCount,
+                                                              uint64_t(4)) != v.key.planes.begin() + v.key.planeCount;
+                    }
                     for (const auto& s : c.surfaces) {
                         t.caps += s.plane > 5;
                         t.pieces += s.pieces.size();
@@ -280,10 +303,10 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
 
 void report(const char* what, const ArrangeTally& t)
 {
-    std::printf("%s: %zu strokes, %zu cut cells, %zu tets with solid, %zu vertices (%zu Steiner), %zu caps, %zu pieces "
+    std::printf("%s: %zu strokes, %zu cut cells, %zu tets with solid, %zu vertices (%zu Steiner, %zu slit midpoints), %zu caps, %zu pieces "
                 "(%zu kept), %zu triangles (%zu with a tagged corner), %zu differ, %zu over the shader's capacity (fail bits %#x), %zu past llvmpipe's loop limit, %zu cells "
                 "refused by the CPU (%zu tets seen refused by the GPU)\n",
-                what, t.strokes, t.cells, t.tets, t.vertices, t.steiner, t.caps, t.pieces, t.kept, t.triangles, t.tagged,
+                what, t.strokes, t.cells, t.tets, t.vertices, t.steiner, t.midpoints, t.caps, t.pieces, t.kept, t.triangles, t.tagged,
                 t.differ,
                 t.overCapacity, t.capacityBits, t.loopLimit, t.refusedCells, t.refusedBoth);
 }
@@ -302,7 +325,9 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
     const render::GpuCutKernel gpu;
     const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
-        const ArrangeTally t = compareArrangements(gpu, vol, 400.0f, kerf, 1, 6);
+        const ArrangeTally t = compareArrangements(gpu, vol, 400.0f, kerf, 1, 6, [&](uint32_t seed) {
+            return std::make_unique<RandomCut>(vol, 400.0f, kerf, seed);
+        });
         report(kerf > 0 ? "phantom, kerf 0.5" : "phantom, kerf 0", t);
         EXPECT_EQ(t.differ, 0u) << t.first;
         EXPECT_GT(t.tets, 5000u);
@@ -310,6 +335,25 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
         // llvmpipe's loop limit met in a stage): measured 0 at kerf 0 and
         // 16 of 7,520 at kerf 0.5 (all at the loop limit); at most 1 %.
         EXPECT_LE(t.overCapacity + t.loopLimit, t.tets / 100);
+    }
+    // Blades that stop inside the solid, tip and end (a sphere; zero kerf):
+    // the slits end in the tets round the blade's corner, and the chords
+    // between its two rim lines get Steiner midpoints (insertSlitMidpoints),
+    // which the random strokes above never make.
+    {
+        const vdb::Volume sphere = test::sphereVolume();
+        const ArrangeTally t = compareArrangements(gpu, sphere, 0.0f, 0.0, 0, 3, [&](uint32_t i) {
+            const double endX[3] = {0.3, -4.6, 5.2}, blade[3] = {30.0, 33.5, 28.0};
+            return std::make_unique<RandomCut>(
+                sphere, 0.0f, 0.0,
+                std::vector<std::vector<cutter::Pose>>{test::straightStroke(
+                    {-25, 0.37 + 1.3 * i, 22}, {endX[i], 0.37 + 1.3 * i, 22},
+                    glm::normalize(glm::dvec3(0.1 * i, 0.2, -1)), blade[i], 100)});
+        });
+        report("sphere, blades stopping inside", t);
+        EXPECT_EQ(t.differ, 0u) << t.first;
+        EXPECT_GT(t.midpoints, 0u);
+        EXPECT_GT(t.tets, 500u);
     }
     // Bad calls are errors, not reads past the input.
     const RandomCut cut(vol, 400.0f, 0.0, 1);
