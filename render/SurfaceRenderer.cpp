@@ -52,6 +52,18 @@ std::vector<TriangleInfo> triangleInfos(const cutter::Mesh& mesh, const std::vec
     return tri;
 }
 
+/// surface.vert's inputs from `vertices` (6 floats a vertex: position, normal) in `vao`.
+void setVertexFormat(const VertexArray& vao, const Buffer& vertices)
+{
+    const GLuint id = vao.id();
+    glVertexArrayVertexBuffer(id, 0, vertices.id(), 0, GLsizei(6 * sizeof(float)));
+    for (GLuint a = 0; a < 2; ++a) {
+        glEnableVertexArrayAttrib(id, a);
+        glVertexArrayAttribFormat(id, a, 3, GL_FLOAT, GL_FALSE, GLuint(3 * a * sizeof(float)));
+        glVertexArrayAttribBinding(id, a, 0);
+    }
+}
+
 void makeTarget(Texture& t, GLenum format, int w, int h)
 {
     glTextureStorage2D(t.id(), 1, format, w, h);
@@ -125,15 +137,8 @@ std::unique_ptr<SurfaceRenderer::DrawMesh> SurfaceRenderer::upload(const cutter:
     m->indices = Buffer(mesh.indices.size() * sizeof(uint32_t), mesh.indices.data());
     // The surface's triangle infos can be rewritten in place (setSurfaceFragmentIds).
     m->triangles = Buffer(tri.size() * sizeof(TriangleInfo), tri.data(), cutGeometry ? 0 : GL_DYNAMIC_STORAGE_BIT);
-    const GLuint vao = m->vao.id();
-    glVertexArrayVertexBuffer(vao, 0, m->vertices.id(), 0, GLsizei(6 * sizeof(float)));
-    glVertexArrayElementBuffer(vao, m->indices.id());
-    glEnableVertexArrayAttrib(vao, 0);
-    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
-    glVertexArrayAttribBinding(vao, 0, 0);
-    glEnableVertexArrayAttrib(vao, 1);
-    glVertexArrayAttribFormat(vao, 1, 3, GL_FLOAT, GL_FALSE, GLuint(3 * sizeof(float)));
-    glVertexArrayAttribBinding(vao, 1, 0);
+    setVertexFormat(m->vao, m->vertices);
+    glVertexArrayElementBuffer(m->vao.id(), m->indices.id());
     m->indexCount = GLsizei(mesh.indices.size());
     m->triangleCount = nt;
     m->empty = nt == 0;
@@ -167,14 +172,7 @@ void SurfaceRenderer::setGpuCutGeometry(std::shared_ptr<const GpuCutDraw> draw)
     mCut.reset();
     mGpuCut = std::move(draw);
     if (!mGpuCut) return;
-    const GLuint vao = mGpuCutVao.id();
-    glVertexArrayVertexBuffer(vao, 0, mGpuCut->vertices().id(), 0, GLsizei(6 * sizeof(float)));
-    glEnableVertexArrayAttrib(vao, 0);
-    glVertexArrayAttribFormat(vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
-    glVertexArrayAttribBinding(vao, 0, 0);
-    glEnableVertexArrayAttrib(vao, 1);
-    glVertexArrayAttribFormat(vao, 1, 3, GL_FLOAT, GL_FALSE, GLuint(3 * sizeof(float)));
-    glVertexArrayAttribBinding(vao, 1, 0);
+    setVertexFormat(mGpuCutVao, mGpuCut->vertices());
     checkGlError("SurfaceRenderer::setGpuCutGeometry");
 }
 
