@@ -748,3 +748,85 @@ TEST(CutKernelGpu, AnInputOneFloatStepOffIsSeen)
     report("phantom, isovalue one float step off on the GPU", t);
     EXPECT_GT(t.differ, 0u);
 }
+
+// Bad input to the cut pass's draw and recovery is refused with the
+// documented exception, and a refused call leaves the draw as it was.
+TEST(CutKernelGpu, BadDrawInputIsRefusedAndLeavesTheDrawAsItWas)
+{
+    MTCUT_REQUIRE_GL();
+    const render::GpuCutKernel gpu;
+    const vdb::Volume vol = test::sphereVolume();
+    const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
+    cutter::CutMask mask(cutter::frameOf(vol), 0.0);
+    test::addStroke(mask, test::slantedStroke(45.0));
+    cutter::CutRemesher remesher(vol, 0.0f, uncut);
+    remesher.update(mask);
+    std::vector<openvdb::Coord> cells;
+    for (const auto& entry : remesher.cells()) cells.push_back(entry.first);
+    ASSERT_GT(cells.size(), 10u);
+    const render::CutGeometry shaded = render::cutGeometryOf(remesher, vol, 0.0f, render::CutNormals::Shading);
+    const size_t cutTriangles = shaded.mesh.triangleCount();
+    ASSERT_GT(cutTriangles, 100u);
+
+    // A draw too small for the cut: recovery says so.
+    render::GpuCutDraw small(cutTriangles / 2);
+    EXPECT_THROW(render::recoverCutCells(gpu, vol, 0.0f, mask, cells, kLanesPerTet, &small), std::length_error);
+    EXPECT_EQ(render::GpuCutDraw(0).capacity(), 1u);
+
+    render::GpuCutDraw draw(2 * cutTriangles + 1024);
+    const cutter::PackedKernelInput input = cutter::packKernelInput(vol, 0.0f, mask, cells);
+    EXPECT_THROW(gpu.arrangement(input, 0, 5, 0), std::invalid_argument);
+    EXPECT_THROW(gpu.arrangement(input, 5 * cells.size(), 1), std::out_of_range);
+    EXPECT_THROW(gpu.arrangement(input, 3, 5, kLanesPerTet, &draw), std::invalid_argument);  // not whole cells
+    EXPECT_THROW(gpu.arrangement(input, 0, 7, kLanesPerTet, &draw), std::invalid_argument);
+    cutter::PackedKernelInput noBlocks = input;
+    noBlocks.blocks.clear();
+    EXPECT_THROW(gpu.arrangement(noBlocks, 0, 5, kLanesPerTet, &draw), std::invalid_argument);
+    EXPECT_EQ(draw.triangleCount(), 0u);
+    EXPECT_TRUE(gpu.arrangement(input, 0, 0, kLanesPerTet, &draw).empty());
+
+    const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, 0.0f, mask, cells, kLanesPerTet, &draw);
+    const size_t n = draw.triangleCount();
+    ASSERT_GT(n, 0u);
+    ASSERT_EQ(draw.made(), n);
+    EXPECT_GT(rec.byGpu, 0u);
+    auto keysBefore = draw.keys();
+
+    // Fragment ids: one per triangle, each under 2^30.
+    EXPECT_THROW(draw.setFragmentIds(std::vector<uint32_t>(n - 1, 1)), std::invalid_argument);
+    EXPECT_THROW(draw.setFragmentIds(std::vector<uint32_t>(n + 1, 1)), std::invalid_argument);
+    std::vector<uint32_t> ids(n, 1);
+    ids[n / 2] = 1u << 30;
+    EXPECT_THROW(draw.setFragmentIds(ids), std::invalid_argument);
+    ids[n / 2] = (1u << 30) - 1;
+    EXPECT_NO_THROW(draw.setFragmentIds(ids));
+
+    // Appending: arrays that do not match, and past the capacity.
+    cutter::Mesh one;
+    one.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    one.normals = one.positions;
+    one.indices = {0, 1, 2};
+    one.triangleVoxels = {glm::ivec3(0, 0, 0)};
+    EXPECT_THROW(draw.append(one, {}), std::invalid_argument);
+    cutter::Mesh noNormals = one;
+    noNormals.normals.clear();
+    EXPECT_THROW(draw.append(noNormals, {0}), std::invalid_argument);
+    cutter::Mesh noVoxels = one;
+    noVoxels.triangleVoxels.clear();
+    EXPECT_THROW(draw.append(noVoxels, {0}), std::invalid_argument);
+    cutter::Mesh tooMany = one;
+    const size_t room = draw.capacity() - n;
+    for (size_t t = 0; t < room; ++t) {
+        tooMany.indices.insert(tooMany.indices.end(), {0, 1, 2});
+        tooMany.triangleVoxels.push_back(glm::ivec3(0, 0, 0));
+    }
+    EXPECT_THROW(draw.append(tooMany, std::vector<uint8_t>(room + 1, 0)), std::length_error);
+    EXPECT_EQ(draw.triangleCount(), n);
+    EXPECT_EQ(draw.keys(), keysBefore);
+    // What fits goes in, with no key (~0).
+    draw.append(one, {1});
+    EXPECT_EQ(draw.triangleCount(), n + 1);
+    const auto keysAfter = draw.keys();
+    EXPECT_EQ(keysAfter.back(), (std::array<uint32_t, 2>{~0u, ~0u}));
+    render::checkGlError("BadDrawInputIsRefusedAndLeavesTheDrawAsItWas");
+}
