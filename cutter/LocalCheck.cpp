@@ -124,7 +124,8 @@ struct RegionTriangle
 {
     uint32_t v[3];
     Coord cell;
-    bool cut; ///< a cut cell's (new geometry), else an uncut cell's
+    bool cut;     ///< a cut cell's (new geometry), else an uncut cell's
+    bool changed; ///< its cell is a changed cell
 };
 using Tri = RegionTriangle;
 
@@ -136,6 +137,7 @@ struct LocalRegion
 {
     const std::vector<Coord>* changed = nullptr; ///< sorted
     std::vector<Coord> cells;                    ///< the changed cells dilated by one, sorted
+    std::vector<char> cellChanged;               ///< per cell of `cells`: a changed cell
     std::vector<CutVertexId> ids;                ///< per name
     std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> names; ///< the names not by grid edge
     std::vector<Tri> tris;                       ///< in cell order, then each cell's order
@@ -143,7 +145,46 @@ struct LocalRegion
     std::vector<char> known;                     ///< world[name] is set
     bool debug = false;                          ///< MTCUT_REMESH_DEBUG
     bool kerf = false;                           ///< the cut has a width (pinches are split in fusion)
-    bool isChanged(const Coord& c) const { return std::binary_search(changed->begin(), changed->end(), c); }
+    /// The changed cells' box as a bitmap, when it is small next to the
+    /// region (a haptic step's, a straight cut's); else a binary search.
+    Coord lo, dim;
+    std::vector<uint64_t> bitmap;
+    void indexChanged()
+    {
+        const std::vector<Coord>& c = *changed;
+        lo = corner(c, false);
+        dim = corner(c, true) - lo + Coord(1);
+        const uint64_t box = uint64_t(dim.x()) * uint64_t(dim.y()) * uint64_t(dim.z());
+        if (box > 64 * uint64_t(cells.size()) + 4096) return;
+        bitmap.assign((box + 63) / 64, 0);
+        for (const Coord& x : c) {
+            const uint64_t i = bit(x);
+            bitmap[i / 64] |= uint64_t(1) << (i % 64);
+        }
+    }
+    bool isChanged(const Coord& c) const
+    {
+        if (bitmap.empty()) return std::binary_search(changed->begin(), changed->end(), c);
+        const Coord d = c - lo;
+        if (d.x() < 0 || d.y() < 0 || d.z() < 0 || d.x() >= dim.x() || d.y() >= dim.y() || d.z() >= dim.z()) return false;
+        const uint64_t i = bit(c);
+        return (bitmap[i / 64] >> (i % 64) & 1) != 0;
+    }
+
+private:
+    static Coord corner(const std::vector<Coord>& c, bool max)
+    {
+        Coord r = c.front();
+        for (const Coord& x : c) max ? r.maxComponent(x) : r.minComponent(x);
+        return r;
+    }
+    uint64_t bit(const Coord& c) const
+    {
+        const Coord d = c - lo;
+        return (uint64_t(d.x()) * uint64_t(dim.y()) + uint64_t(d.y())) * uint64_t(dim.z()) + uint64_t(d.z());
+    }
+
+public:
     [[noreturn]] void fail(const std::string& what, const Coord& c) const
     {
         throw std::runtime_error("remesh: open or inconsistent surface (" + what + ") in cell " + cellText(c));
@@ -264,7 +305,6 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
         b.lo = glm::min(world[tr.v[0]], glm::min(world[tr.v[1]], world[tr.v[2]]));
         b.hi = glm::max(world[tr.v[0]], glm::max(world[tr.v[1]], world[tr.v[2]]));
     }
-    auto isChanged = [&](const Coord& c) { return reg.isChanged(c); };
     // A triangle lies in its cell's closed box, rounded to float as the
     // vertices are (rounding is monotone), so a neighbour's triangles can
     // meet it only where its box reaches the common face, edge or corner:
@@ -285,16 +325,21 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
     std::vector<Neighbour> around;
     for (size_t r = 0; r < region.size(); ++r) {
         const Coord& c = region[r];
-        if (!isChanged(c) || start[r] == start[r + 1]) continue;
+        if (!reg.cellChanged[r] || start[r] == start[r + 1]) continue;
         around.clear();
+        // (The region is sorted by x, then y, then z: the three cells of a
+        // column (dx, dy) are consecutive when present.)
         for (int dx = -1; dx <= 1; ++dx)
-            for (int dy = -1; dy <= 1; ++dy)
-                for (int dz = -1; dz <= 1; ++dz) {
+            for (int dy = -1; dy <= 1; ++dy) {
+                auto it = std::lower_bound(region.begin(), region.end(), c + Coord(dx, dy, -1));
+                for (int dz = -1; dz <= 1 && it != region.end(); ++dz) {
                     const Coord n = c + Coord(dx, dy, dz);
-                    auto it = std::lower_bound(region.begin(), region.end(), n);
-                    if (it != region.end() && *it == n)
-                        around.push_back({size_t(it - region.begin()), Coord(dx, dy, dz), isChanged(n)});
+                    if (*it != n) continue;
+                    const size_t at = size_t(it - region.begin());
+                    around.push_back({at, Coord(dx, dy, dz), reg.cellChanged[at] != 0});
+                    ++it;
                 }
+            }
         // The cell's faces, a few float steps inside.
         const glm::vec3 lo = worldPosition(volume, glm::dvec3(c.x(), c.y(), c.z()));
         const glm::vec3 hi = worldPosition(volume, glm::dvec3(c.x() + 1, c.y() + 1, c.z() + 1));
@@ -391,8 +436,8 @@ void checkEdgeUses(const LocalRegion& reg)
     const bool debug = reg.debug;
     // Directed edge uses; an edge matters when a changed cell's closed box holds it
     // (then every triangle that can use it is in the region).
-    auto matters = [&](uint32_t a, uint32_t b, const Coord& cell) {
-        if (isChanged(cell)) return true;
+    auto matters = [&](uint32_t a, uint32_t b, bool ofChangedCell) {
+        if (ofChangedCell) return true;
         Coord la, ha, lb, hb;
         cellsHolding(ids[a], la, ha);
         cellsHolding(ids[b], lb, hb);
@@ -429,7 +474,7 @@ void checkEdgeUses(const LocalRegion& reg)
         const Tri& tr = tris[t];
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
-            if (!matters(a, b, tr.cell)) continue;
+            if (!matters(a, b, tr.changed)) continue;
             const uint64_t edge = uint64_t(std::min(a, b)) << 32 | std::max(a, b);
             uses.push_back({edge, a < b ? 0u : 1u, uint32_t(t), uint32_t(uses.size())});
         }
@@ -508,7 +553,6 @@ void checkVertexLinks(const LocalRegion& reg)
     const std::vector<Tri>& tris = reg.tris;
     const std::vector<CutVertexId>& ids = reg.ids;
     const std::vector<Coord>& changed = *reg.changed;
-    auto isChanged = [&](const Coord& c) { return reg.isChanged(c); };
     auto fail = [&](const std::string& what, const Coord& c) { reg.fail(what, c); };
     auto desc = [&](uint32_t v) { describeVertex(reg, v); };
     const bool debug = reg.debug;
@@ -516,7 +560,7 @@ void checkVertexLinks(const LocalRegion& reg)
     // triangle order.
     std::vector<char> ofChanged(ids.size(), 0);
     for (const Tri& tr : tris)
-        if (isChanged(tr.cell))
+        if (tr.changed)
             for (uint32_t v : tr.v) ofChanged[v] = 1;
     // (A counting sort by vertex: names are dense, and it keeps triangle order.)
     std::vector<uint32_t> linkStart(ids.size() + 1, 0);
@@ -578,12 +622,11 @@ void checkFloatArea(const LocalRegion& reg)
     const std::vector<Tri>& tris = reg.tris;
     const std::vector<glm::vec3>& world = reg.world;
     const std::vector<char>& known = reg.known;
-    auto isChanged = [&](const Coord& c) { return reg.isChanged(c); };
     auto fail = [&](const std::string& what, const Coord& c) { reg.fail(what, c); };
     auto desc = [&](uint32_t v) { describeVertex(reg, v); };
     const bool debug = reg.debug;
     for (const Tri& tr : tris) {
-        if (!isChanged(tr.cell) || !tr.cut) continue;
+        if (!tr.changed || !tr.cut) continue;
         if (!known[tr.v[0]] || !known[tr.v[1]] || !known[tr.v[2]]) continue;
         const glm::dvec3 a(world[tr.v[0]]), b(world[tr.v[1]]), c(world[tr.v[2]]);
         const glm::dvec3 n = glm::cross(b - a, c - a);
@@ -645,6 +688,13 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     // vertex names (the fused mesh's identity: iso edge vertices by edge).
     reg.cells = dilatedCells(changed);
     const std::vector<Coord>& region = reg.cells;
+    reg.indexChanged();
+    // Which region cells are changed (both lists sorted: one merge).
+    reg.cellChanged.assign(region.size(), 0);
+    for (size_t i = 0, j = 0; i < region.size() && j < changed.size(); ++i) {
+        while (j < changed.size() && changed[j] < region[i]) ++j;
+        if (j < changed.size() && changed[j] == region[i]) reg.cellChanged[i] = 1;
+    }
     // Plain marching-tetrahedra vertices (most of them) by their grid edge,
     // the others by their whole name; one numbering, in order of first use.
     struct EdgeHash
@@ -702,16 +752,17 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
             for (const CutVertexId& id : g.vertexIds) localNames.push_back(nameOf(id));
             const uint32_t* local = localNames.data() + base;
             for (size_t k = 0; k + 2 < g.indices.size(); k += 3)
-                tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c, true});
+                tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c, true,
+                                reg.cellChanged[i] != 0});
         } else {
             for (size_t k = cornerStart[i]; k + 2 < cornerStart[i + 1]; k += 3)
-                tris.push_back({{edgeNameOf(corners[k]), edgeNameOf(corners[k + 1]), edgeNameOf(corners[k + 2])}, c, false});
+                tris.push_back({{edgeNameOf(corners[k]), edgeNameOf(corners[k + 1]), edgeNameOf(corners[k + 2])}, c,
+                                false, reg.cellChanged[i] != 0});
         }
         localStart[i + 1] = localNames.size();
     }
-    auto isChanged = [&](const Coord& c) { return reg.isChanged(c); };
     for (const Tri& tr : tris)
-        if (isChanged(tr.cell) && (tr.v[0] == tr.v[1] || tr.v[1] == tr.v[2] || tr.v[0] == tr.v[2]))
+        if (tr.changed && (tr.v[0] == tr.v[1] || tr.v[1] == tr.v[2] || tr.v[0] == tr.v[2]))
             reg.fail("a triangle repeats a vertex", tr.cell);
     // Float world positions as fusedMesh() gives them (iso edge vertices: the
     // uncut mesh's; a new vertex: from the first cell, ascending, that makes
