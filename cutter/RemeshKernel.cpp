@@ -2245,11 +2245,18 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     const size_t nv = out.indexPositions.size(), nt = out.indices.size() / 3;
     if (nt == 0) return 0;
     // Exact (double) and written (float) world positions, as fusedMesh.
-    std::vector<dvec3> exact(nv), written(nv);
+    // Held as float: GCC 12.2 at -O2 and above folded the round trip
+    // dvec3(double(float(x)), double(float(y)), ..) of the two lanes it
+    // vectorised away (x and y kept unrounded, z rounded), so a triangle
+    // degenerate once written looked sound here (1 mm head, kerf 0, a tip
+    // line 1.45e-5 mm above the grid plane y = 249: a cap fan thinner than
+    // a float step, refused by the local check). LocalCheck.cpp met the same.
+    std::vector<dvec3> exact(nv);
+    std::vector<glm::vec3> written(nv);
     for (size_t i = 0; i < nv; ++i) {
         const dvec3& p = out.indexPositions[i];
         exact[i] = exactWorldPosition(origin, spacing, p);
-        written[i] = dvec3(double(float(exact[i].x)), double(float(exact[i].y)), double(float(exact[i].z)));
+        written[i] = glm::vec3(float(exact[i].x), float(exact[i].y), float(exact[i].z));
     }
     std::vector<std::array<uint32_t, 3>> tris(nt);
     std::vector<dvec3> normal(nt); // exact orientation, from the exact corners as the kernel made them
@@ -2259,7 +2266,8 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     }
     // Folded once written: degenerate in float, or facing against its exact normal.
     auto folded = [&](const std::array<uint32_t, 3>& v, const dvec3& n) {
-        const dvec3 f = glm::cross(written[v[1]] - written[v[0]], written[v[2]] - written[v[0]]);
+        const dvec3 a(written[v[0]]), b(written[v[1]]), c(written[v[2]]);
+        const dvec3 f = glm::cross(b - a, c - a);
         return !(glm::dot(f, n) > 0.0);
     };
     // Shorter than a few float steps at the largest coordinate of the box

@@ -1697,8 +1697,8 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
 
 /// A level stroke across the 1 mm head at 400, cut with `kerf`: `poses`
 /// poses 1 ms apart, pose i's base at (xOf(i), 135, z) mm, the blade along
-/// +y, `length` mm. Asserts it is accepted and the fused mesh clean; gives
-/// the fused mesh and its self-contacts near the cut.
+/// +y tilted down by `tilt` rad, `length` mm. Asserts it is accepted and the
+/// fused mesh clean; gives the fused mesh and its self-contacts near the cut.
 struct LevelStrokeCut
 {
     size_t cutCells = 0, uncutVertices = 0;
@@ -1708,7 +1708,7 @@ struct LevelStrokeCut
 
 template <class F>
 void cutLevelStroke(const std::string& dir, double kerf, size_t poses, double z, double length, F xOf,
-                    LevelStrokeCut& out)
+                    LevelStrokeCut& out, double tilt = 0.0)
 {
     const vdb::Volume vol = vdb::readVolume(dir);
     const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
@@ -1717,7 +1717,7 @@ void cutLevelStroke(const std::string& dir, double kerf, size_t poses, double z,
     for (size_t i = 0; i < stroke.size(); ++i) {
         stroke[i].time = double(i) / 1000.0;
         stroke[i].base = glm::dvec3(xOf(i), 135.0, z);
-        stroke[i].direction = glm::dvec3(0.0, 1.0, 0.0);
+        stroke[i].direction = tilt == 0.0 ? glm::dvec3(0.0, 1.0, 0.0) : glm::dvec3(0.0, std::cos(tilt), -std::sin(tilt));
         stroke[i].length = length;
     }
     addStroke(mask, stroke);
@@ -1772,6 +1772,51 @@ TEST(CutPropsDefects, APointBeyondTheTipOnAMitreNamesNoPlaneOfIt)
     std::printf("1 mm head, level stroke at z = 1106 mm to y = 245 mm, kerf 1: %zu cut cells, %zu intersecting pairs\n",
                 cut.cutCells, cut.touches.pairs);
     EXPECT_EQ(cut.touches.pairs, 0u);
+}
+
+// A stroke at z = 1104 mm, kerf 0, its blade tilted 0.1 rad down and 114.5724
+// mm long, so that its tip line runs 1.45e-5 mm (about one float step) above
+// the grid plane y = 249. In cell (215, 249, 92) the cap between that plane
+// and the tip line is a strip thinner than a float step, fanned from Steiner
+// centres that round onto the plane: triangles of zero area once written.
+// repairFloatFolds collapses such centres, but it judged float positions
+// that GCC 12.2 (-O2) had left unrounded in x and y (it folds the
+// vectorised round trip double(float(x)) away), saw nothing folded, and the
+// local check refused the stroke ("a triangle of zero area in float mm").
+TEST(CutPropsDefects, ACapStripThinnerThanAFloatStepAtTheTipIsMended)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    LevelStrokeCut cut;
+    ASSERT_NO_FATAL_FAILURE(cutLevelStroke(dir, 0.0, 2001, 1104.0, 114.5724,
+                                           [](size_t i) { return 212.0 + 0.01 * double(i); }, cut, 0.1));
+    std::printf("1 mm head, stroke at z = 1104 mm tilted 0.1 rad, tip 1.45e-5 mm above y = 249: %zu cut cells\n",
+                cut.cutCells);
+    EXPECT_GT(cut.cutCells, 2000u);
+    for (size_t t = 0; t < cut.fused.triangleCount(); ++t) {
+        const glm::dvec3 a(cut.fused.positions[cut.fused.indices[3 * t]]);
+        const glm::dvec3 b(cut.fused.positions[cut.fused.indices[3 * t + 1]]);
+        const glm::dvec3 c(cut.fused.positions[cut.fused.indices[3 * t + 2]]);
+        if (glm::cross(b - a, c - a) == glm::dvec3(0.0)) { // as the local check judges it
+            ADD_FAILURE() << "a triangle of zero area in float, cell (" << cut.fused.triangleVoxels[t].x << ", "
+                          << cut.fused.triangleVoxels[t].y << ", " << cut.fused.triangleVoxels[t].z << ")";
+            break;
+        }
+    }
+}
+
+// Random strokes whose outcome changed when repairFloatFolds began to judge
+// truly rounded positions (ACapStripThinnerThanAFloatStepAtTheTipIsMended):
+// the tooth at kerf 0.5, seeds 1002 and 1011, were refused at their second
+// stroke ("the surface crosses or touches itself"), and are accepted now;
+// the 4 mm head's seed 1019 at kerf 0.5 is re-mended differently. All four
+// strokes of each: clean, and no intersecting pairs near the cut (CGAL).
+TEST(CutPropsDefects, StrokesMendedOnceFoldsAreJudgedInFloatAreClean)
+{
+    MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
+    expectCleanRandomCut(tooth, "tooth at 400", 1002, 4, 0.5);
+    expectCleanRandomCut(tooth, "tooth at 400", 1011, 4, 0.5);
+    MTCUT_REQUIRE_DATA(head, "vhm_head_4mm.nhdr");
+    expectCleanRandomCut(head, "4 mm head", 1019, 4, 0.5);
 }
 
 // A level stroke at z = 1103 mm, kerf 1: its bottom plane z = 1102.5 passes

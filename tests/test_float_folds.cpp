@@ -112,7 +112,12 @@ size_t foldedInFloat(const CutCellGeometry& g, const dvec3& origin, const dvec3&
 {
     size_t n = 0;
     auto world = [&](uint32_t v) { return origin + spacing * g.indexPositions[v]; };
-    auto rounded = [](const dvec3& p) { return dvec3(double(float(p.x)), double(float(p.y)), double(float(p.z))); };
+    // Through float storage: GCC 12.2 at -O2 folds dvec3(double(float(x)), ..)
+    // away for the lanes it vectorises (RemeshKernel.cpp, repairFloatFolds).
+    auto rounded = [](const dvec3& p) {
+        volatile float f[3] = {float(p.x), float(p.y), float(p.z)};
+        return dvec3(f[0], f[1], f[2]);
+    };
     for (size_t t = 0; t + 2 < g.indices.size(); t += 3) {
         const dvec3 a = world(g.indices[t]), b = world(g.indices[t + 1]), c = world(g.indices[t + 2]);
         const dvec3 exact = glm::cross(b - a, c - a);
@@ -157,6 +162,43 @@ TEST(FloatFolds, InnerVerticesAFloatStepApartBecomeOneAndTheBoundaryStays)
     EXPECT_EQ(foldedInFloat(g, origin, spacing), 0u);
     EXPECT_EQ(boundary(g), before); // the seam with the next cells is as it was
     for (uint32_t i : g.indices) EXPECT_LT(i, g.vertexIds.size());
+}
+
+// A fan whose centre lies 2e-5 mm off one of its edges in y, under half a
+// float step at 1000 mm (3.05e-5): no edge is short, but the triangle on
+// that edge has no area once written. The repair must judge the rounded
+// positions in every axis: with GCC 12.2 at -O2 it used to see x and y
+// unrounded (the vectorised round trip double(float(x)) folded away) and
+// kept the triangle, which the local check then refused (1 mm head, a tip
+// line a float step above y = 249: CutPropsDefects.ACapStripThinnerThanAFloatStepAtTheTipIsMended).
+TEST(FloatFolds, ACentreThatRoundsOntoAnEdgeOfItsFanIsCollapsedInEveryAxis)
+{
+    const Coord cell(0, 0, 0);
+    const dvec3 origin(1000.0), spacing(1.0);
+    for (int axis = 0; axis < 2; ++axis) { // the centre off its edge in y, then (the fan turned) in x
+        auto at = [&](double u, double v) { return axis == 0 ? dvec3(u, v, 0.5) : dvec3(v, u, 0.5); };
+        auto edge = [&](int u, int v) {
+            const Coord a = axis == 0 ? Coord(u, v, 0) : Coord(v, u, 0);
+            return edgeVertex(a, a + Coord(0, 0, 1), 1);
+        };
+        Builder b;
+        const uint32_t A = b.add(edge(0, 0), at(0, 0)), B = b.add(edge(1, 0), at(1, 0));
+        const uint32_t C = b.add(edge(1, 1), at(1, 1)), D = b.add(edge(0, 1), at(0, 1));
+        const uint32_t p = b.add(innerVertex(cell, 0, 100), at(0.5, 2e-5));
+        if (axis == 0) {
+            for (auto [u, v] : {std::pair{A, B}, {B, C}, {C, D}, {D, A}}) b.tri(u, v, p);
+        } else { // mirrored: the same fan, the other way round
+            for (auto [u, v] : {std::pair{B, A}, {C, B}, {D, C}, {A, D}}) b.tri(u, v, p);
+        }
+        CutCellGeometry g = b.g;
+        ASSERT_EQ(foldedInFloat(g, origin, spacing), 1u) << axis; // the premise: (A, B, p) has no area written
+        const auto before = boundary(g);
+        EXPECT_EQ(repairFloatFolds(cell, openvdb::Vec3d(1000.0), openvdb::Vec3d(1.0), g), 1u) << axis;
+        EXPECT_EQ(g.vertexIds.size(), 4u) << axis;
+        EXPECT_EQ(g.indices.size(), 6u) << axis;
+        EXPECT_EQ(foldedInFloat(g, origin, spacing), 0u) << axis;
+        EXPECT_EQ(boundary(g), before) << axis;
+    }
 }
 
 TEST(FloatFolds, WhatFloatHoldsApartIsLeftAlone)
