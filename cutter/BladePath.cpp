@@ -630,15 +630,20 @@ void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
     // Cell range from the bounding box, with the box axes' tolerance, clipped
     // to the cells a cut can reach. [c, c+1] meets [lo, hi] iff
     // ceil(lo) - 1 <= c <= floor(hi).
+    // (A box outside the reachable cells, or not a number for a quad far
+    // out of range, gives none; the int conversions see only clamped values.)
     glm::ivec3 lo, hi;
     for (int a = 0; a < 3; ++a) {
         const double t = 1e-12 * (std::max(std::abs(mLower[a]), std::abs(mUpper[a])) + 1.0);
-        const double l = std::max(mLower[a] - t, double(mCellLo[a]));
-        const double u = std::min(mUpper[a] + t, double(mCellHi[a]) + 1.0);
-        lo[a] = std::max(int(std::ceil(l)) - 1, mCellLo[a]);
-        hi[a] = std::min(int(std::floor(u)), mCellHi[a]);
+        const double l = mLower[a] - t, u = mUpper[a] + t;
+        const double first = double(mCellLo[a]), last = double(mCellHi[a]) + 1.0;
+        if (!(l <= u) || !(l <= last) || !(u >= first)) return;
+        lo[a] = std::max(int(std::ceil(std::max(l, first))) - 1, mCellLo[a]);
+        hi[a] = std::min(int(std::floor(std::min(u, last))), mCellHi[a]);
         if (hi[a] < lo[a]) return;
     }
+    for (const Axis& ax : mAxes)
+        if (!(ax.lo <= ax.hi)) return; // not a number: nothing is decided
     // Inner axis: the one the plane normal is most aligned with, so the slab
     // test gives a short interval per column.
     int inner = 2;

@@ -91,6 +91,15 @@ PathLine parsePathLine(std::string_view raw, size_t lineNumber, const std::strin
         fail(source, lineNumber,
              "expected 8 fields (t,x,y,z,dx,dy,dz,length), found " + std::to_string(field) +
                  " (truncated line?); field " + kFieldNames[field] + " missing");
+    // Positions and lengths past a kilometre are no pose of a saw in a scan,
+    // and squared they would overflow the voxeliser's doubles.
+    for (size_t i : {1, 2, 3, 7})
+        if (std::abs(v[i]) > kMaxPoseMm) {
+            std::ostringstream m;
+            m << "field " << kFieldNames[i] << ": " << v[i] << " mm is out of range (at most " << kMaxPoseMm
+              << (i == 7 ? " mm)" : " mm from the origin)");
+            fail(source, lineNumber, m.str());
+        }
     out.kind = PathLine::Kind::Pose;
     out.pose.time = v[0];
     out.pose.base = glm::dvec3(v[1], v[2], v[3]);

@@ -32,11 +32,15 @@ struct PathLine
     Pose pose;
 };
 
+/// The largest |x|, |y|, |z| and blade length a pose line may give, in mm.
+constexpr double kMaxPoseMm = 1e6;
+
 /// Parses one line (without its newline; a trailing '\r' is ignored).
 /// Throws InputError "SOURCE:LINE: field NAME: ..." on a malformed pose line:
 /// not exactly 8 comma-separated fields (a truncated line), a field that is
-/// not a number, or not finite (nan, inf). Semantic checks (direction, length,
-/// time order) are made by readPath / PathFilter.
+/// not a number, or not finite (nan, inf), or a position or length beyond
+/// kMaxPoseMm. Semantic checks (direction, length, time order) are made by
+/// readPath / PathFilter.
 PathLine parsePathLine(std::string_view line, size_t lineNumber, const std::string& source);
 
 /// Checks a parsed pose (used by readPath): length > 0, direction non-zero;

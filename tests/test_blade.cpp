@@ -408,6 +408,17 @@ TEST(Voxelize, OutsideAndHugeQuadsAreClipped)
                           dvec3(1e6, 1e6 + 5, 1e6)};
     voxelizeQuad(makeQuad(far, 4, 0), 0.0, f, cells);
     EXPECT_TRUE(cells.empty());
+    // Far past int's range, either way, and across it: no cells, and no
+    // conversion of such a bound to int (UBSan found one at 2e52 mm).
+    for (double d : {1e30, -1e30, 2.1e52}) {
+        for (double kerf : {0.0, 0.5}) {
+            const dvec3 q[4] = {dvec3(d, d, d), dvec3(d + 5, d, d), dvec3(d + 5, d + 5, d), dvec3(d, d + 5, d)};
+            voxelizeQuad(makeQuad(q, 4, 0), kerf, f, cells);
+            const dvec3 across[4] = {dvec3(-d, 3, 3), dvec3(d, 3, 3), dvec3(d, 4, 5), dvec3(-d, 4, 5)};
+            voxelizeCut(makeQuad(across, 4, 0), kerf, f, cells);
+        }
+        EXPECT_TRUE(cells.empty()) << d;
+    }
     // A huge quad through the whole volume: the plane z = index 5.5 cuts exactly one layer.
     const double z = f.toWorld(dvec3(0, 0, 5.5)).z;
     const dvec3 huge[4] = {dvec3(-1e12, -1e12, z), dvec3(1e12, -1e12, z), dvec3(1e12, 1e12, z),

@@ -12,7 +12,7 @@ cmake --build "$build" -j "${FUZZ_JOBS:-2}" >/dev/null
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 status=0
-for target in metaimage rawoptions; do
+for target in metaimage rawoptions path; do
   cp -r "$here/corpus/$target" "$work/$target"
   mkdir -p "$build/crashes/$target"
   echo "fuzz_$target: ${seconds} s from $(ls "$here/corpus/$target" | wc -l) seeds"
