@@ -153,10 +153,10 @@ int runRender(const Args& args)
                 std::map<openvdb::Coord, const cutter::CutCellGeometry*> recovered;
                 for (size_t i = 0; i < cells.size(); ++i) recovered[cells[i]] = &rec.cells[i];
                 cutter::CutRemesher fromGpu(vol, iso, uncut);
-                fromGpu.setCellSource([&](const openvdb::Coord& c, cutter::CutCellGeometry& out) {
+                fromGpu.setCellSource([&](const openvdb::Coord& c, cutter::CutCellGeometry& geometry) {
                     const auto it = recovered.find(c);
                     if (it == recovered.end()) return false;
-                    out = *it->second;
+                    geometry = *it->second;
                     return true;
                 });
                 fromGpu.update(mask);
