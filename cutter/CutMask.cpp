@@ -22,8 +22,8 @@ IndexFrame frameOf(const vdb::Volume& volume)
 
 CutMask::CutMask(const IndexFrame& frame, double kerfMm) : mFrame(frame), mKerf(kerfMm)
 {
-    if (!(kerfMm >= 0.0) || !std::isfinite(kerfMm))
-        throw InputError("kerf must be a finite width >= 0 mm");
+    if (!(kerfMm >= 0.0 && kerfMm <= kMaxKerfMm))
+        throw InputError("kerf must be a width from 0 to " + std::to_string(int(kMaxKerfMm)) + " mm");
     mGrid = openvdb::Int32Grid::create(0);
     mGrid->setName("cut_mask");
     mGrid->setGridClass(openvdb::GRID_UNKNOWN);

@@ -50,10 +50,15 @@ struct QuadRef
 ///
 /// Not thread-safe: one geometry thread owns it (PoseStream hands it the
 /// cutting information).
+/// The widest saw a CutMask takes, mm: surgical saws and burrs are 0.1-6 mm
+/// wide; a kerf near the scan's size would make every cell a cut cell.
+constexpr double kMaxKerfMm = 20.0;
+
 class CutMask
 {
 public:
-    /// kerfMm >= 0: full saw width, world mm (0 = the paper's zero-width blade).
+    /// kerfMm in [0, kMaxKerfMm]: full saw width, world mm (0 = the paper's
+    /// zero-width blade). Throws InputError otherwise.
     explicit CutMask(const IndexFrame& frame, double kerfMm = 0.0);
 
     const IndexFrame& frame() const { return mFrame; }

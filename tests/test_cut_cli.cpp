@@ -3,6 +3,7 @@
 // and summary.json; a saw of width > 0 removes its slab; a bad path file fails cleanly.
 #include "TestUtil.h"
 
+#include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/MeshIO.h"
@@ -546,6 +547,27 @@ TEST(CutCli, BadPathFileFailsNamingTheLine)
     EXPECT_NE(r.output.find("bad.csv:3:"), std::string::npos) << r.output;
     EXPECT_EQ(countOf(r.output, "\n"), 1u) << r.output;
     EXPECT_TRUE(filesIn(out).empty());
+}
+
+// A saw width that is not a width (negative, not a number) or wider than any
+// saw (past cutter::kMaxKerfMm, 20 mm: a 1e9 mm kerf made every cell a cut
+// cell and ran for minutes without a word) fails at once, writing nothing.
+TEST(CutCli, AKerfOutOfRangeFailsAtOnce)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string out = dir.file("out");
+    for (const char* kerf : {"-1", "nan", "20.5", "1e9"}) {
+        const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --kerf " + kerf + " -o " + out);
+        EXPECT_EQ(r.exitCode, 1) << r.output;
+        EXPECT_EQ(r.output, std::string("mtcut: error: --kerf ") + kerf + ": expected a saw width from 0 to 20 mm\n");
+        EXPECT_TRUE(filesIn(out).empty());
+    }
+    cutter::IndexFrame frame;
+    frame.dims = glm::ivec3(8);
+    EXPECT_THROW(cutter::CutMask(frame, 20.5), InputError);
+    EXPECT_NO_THROW(cutter::CutMask(frame, 20.0));
 }
 
 // The README demo's cut: the phantom's LeFort I plane, cut by tools/phantom_lefort.csv, must

@@ -84,7 +84,9 @@ int runCut(const Args& args)
     if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
     const float iso = float(isoArg);
     const double kerf = args.getDouble("kerf", 0.0);
-    if (!std::isfinite(kerf) || kerf < 0.0) throw InputError("--kerf " + args.get("kerf") + ": expected a number >= 0 (mm)");
+    if (!(kerf >= 0.0 && kerf <= cutter::kMaxKerfMm))
+        throw InputError("--kerf " + args.get("kerf") + ": expected a saw width from 0 to " +
+                         std::to_string(int(cutter::kMaxKerfMm)) + " mm");
     const std::string ext = args.get("format", "stl");
     checkMeshFormat(ext);
     const std::string outDir = args.get("output");
@@ -268,7 +270,7 @@ const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf 
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
                             "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
-                            "going back into the cut adds nothing there. --kerf: saw width in mm (0: a zero-width blade, the "
+                            "going back into the cut adds nothing there. --kerf: saw width in mm, 0 to 20 (0: a zero-width blade, the "
                             "carved volume equals the input); --check: exit 1 on any mesh defect; --keep-going: when the re-mesher refuses a "
                             "stroke, cut it up to where it is refused, drop the rest, say so and go on (default: exit 1, "
                             "nothing written)",

@@ -423,7 +423,8 @@ void CutSession::setKerf(double kerfMm)
 {
     post({"kerf", false, [this, kerfMm] {
               State& s = *mState;
-              if (!(kerfMm >= 0.0) || !std::isfinite(kerfMm)) throw InputError("kerf: expected a width >= 0 mm");
+              if (!(kerfMm >= 0.0 && kerfMm <= cutter::kMaxKerfMm))
+                  throw InputError("kerf: expected a width from 0 to " + std::to_string(int(cutter::kMaxKerfMm)) + " mm");
               if (kerfMm == s.kerf) return;
               if (!s.volume) {
                   s.kerf = kerfMm;
