@@ -145,46 +145,41 @@ struct LocalRegion
     std::vector<char> known;                     ///< world[name] is set
     bool debug = false;                          ///< MTCUT_REMESH_DEBUG
     bool kerf = false;                           ///< the cut has a width (pinches are split in fusion)
-    /// The changed cells' box as a bitmap, when it is small next to the
-    /// region (a haptic step's, a straight cut's); else a binary search.
+    /// The changed cells' box [lo, lo + dim) as a bitmap, when it is small
+    /// next to the region (a haptic step's, a straight cut's); else empty,
+    /// and isChanged() searches `changed`.
     Coord lo, dim;
     std::vector<uint64_t> bitmap;
+    /// Sets the bitmap and cellChanged; needs `changed` and `cells`.
     void indexChanged()
     {
-        const std::vector<Coord>& c = *changed;
-        lo = corner(c, false);
-        dim = corner(c, true) - lo + Coord(1);
-        const uint64_t box = uint64_t(dim.x()) * uint64_t(dim.y()) * uint64_t(dim.z());
-        if (box > 64 * uint64_t(cells.size()) + 4096) return;
-        bitmap.assign((box + 63) / 64, 0);
-        for (const Coord& x : c) {
-            const uint64_t i = bit(x);
-            bitmap[i / 64] |= uint64_t(1) << (i % 64);
+        lo = dim = changed->front();
+        for (const Coord& x : *changed) {
+            lo.minComponent(x);
+            dim.maxComponent(x);
         }
+        dim = dim - lo + Coord(1);
+        const uint64_t box = uint64_t(dim.x()) * uint64_t(dim.y()) * uint64_t(dim.z());
+        if (box <= 64 * uint64_t(cells.size()) + 4096) {
+            bitmap.assign((box + 63) / 64, 0);
+            for (const Coord& x : *changed) bitmap[bitOf(x) / 64] |= uint64_t(1) << (bitOf(x) % 64);
+        }
+        cellChanged.resize(cells.size());
+        for (size_t i = 0; i < cells.size(); ++i) cellChanged[i] = isChanged(cells[i]);
     }
     bool isChanged(const Coord& c) const
     {
         if (bitmap.empty()) return std::binary_search(changed->begin(), changed->end(), c);
         const Coord d = c - lo;
         if (d.x() < 0 || d.y() < 0 || d.z() < 0 || d.x() >= dim.x() || d.y() >= dim.y() || d.z() >= dim.z()) return false;
-        const uint64_t i = bit(c);
-        return (bitmap[i / 64] >> (i % 64) & 1) != 0;
+        return (bitmap[bitOf(c) / 64] >> (bitOf(c) % 64) & 1) != 0;
     }
-
-private:
-    static Coord corner(const std::vector<Coord>& c, bool max)
-    {
-        Coord r = c.front();
-        for (const Coord& x : c) max ? r.maxComponent(x) : r.minComponent(x);
-        return r;
-    }
-    uint64_t bit(const Coord& c) const
+    /// The bit of c, inside the box.
+    uint64_t bitOf(const Coord& c) const
     {
         const Coord d = c - lo;
         return (uint64_t(d.x()) * uint64_t(dim.y()) + uint64_t(d.y())) * uint64_t(dim.z()) + uint64_t(d.z());
     }
-
-public:
     [[noreturn]] void fail(const std::string& what, const Coord& c) const
     {
         throw std::runtime_error("remesh: open or inconsistent surface (" + what + ") in cell " + cellText(c));
@@ -689,12 +684,6 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     reg.cells = dilatedCells(changed);
     const std::vector<Coord>& region = reg.cells;
     reg.indexChanged();
-    // Which region cells are changed (both lists sorted: one merge).
-    reg.cellChanged.assign(region.size(), 0);
-    for (size_t i = 0, j = 0; i < region.size() && j < changed.size(); ++i) {
-        while (j < changed.size() && changed[j] < region[i]) ++j;
-        if (j < changed.size() && changed[j] == region[i]) reg.cellChanged[i] = 1;
-    }
     // Plain marching-tetrahedra vertices (most of them) by their grid edge,
     // the others by their whole name; one numbering, in order of first use.
     struct EdgeHash
