@@ -31,6 +31,10 @@ struct QuadRef
     bool operator==(const QuadRef& o) const { return stroke == o.stroke && quad == o.quad; }
 };
 
+/// The widest saw a CutMask takes, mm: surgical saws and burrs are 0.1-6 mm
+/// wide; a kerf near the scan's size would make every cell a cut cell.
+constexpr double kMaxKerfMm = 20.0;
+
 /// Cut cells of a volume.
 ///
 /// Cells are index-space marching-tetrahedra cells (see BladePath.h): cell
@@ -50,10 +54,6 @@ struct QuadRef
 ///
 /// Not thread-safe: one geometry thread owns it (PoseStream hands it the
 /// cutting information).
-/// The widest saw a CutMask takes, mm: surgical saws and burrs are 0.1-6 mm
-/// wide; a kerf near the scan's size would make every cell a cut cell.
-constexpr double kMaxKerfMm = 20.0;
-
 class CutMask
 {
 public:

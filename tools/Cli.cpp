@@ -1,5 +1,6 @@
 #include "tools/Cli.h"
 
+#include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
 #include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
@@ -45,6 +46,15 @@ double Args::getDouble(const std::string& name, double fallback) const
         throw InputError("--" + name + " " + it->second + ": expected a number");
     }
     return v;
+}
+
+double Args::kerfMm() const
+{
+    const double kerf = getDouble("kerf", 0.0);
+    if (!(kerf >= 0.0 && kerf <= cutter::kMaxKerfMm))
+        throw InputError("--kerf " + get("kerf") + ": expected a saw width from 0 to " +
+                         std::to_string(int(cutter::kMaxKerfMm)) + " mm");
+    return kerf;
 }
 
 long long Args::getInt(const std::string& name, long long fallback) const

@@ -33,6 +33,8 @@ struct Args
     bool has(const std::string& name) const { return options.count(name) || flags.count(name); }
     std::string get(const std::string& name, const std::string& fallback = {}) const;
     double getDouble(const std::string& name, double fallback) const;
+    /// --kerf in mm (default 0); InputError outside 0..cutter::kMaxKerfMm.
+    double kerfMm() const;
     long long getInt(const std::string& name, long long fallback) const;
 };
 

@@ -83,10 +83,7 @@ int runCut(const Args& args)
     const double isoArg = args.getDouble("iso", 0.0);
     if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
     const float iso = float(isoArg);
-    const double kerf = args.getDouble("kerf", 0.0);
-    if (!(kerf >= 0.0 && kerf <= cutter::kMaxKerfMm))
-        throw InputError("--kerf " + args.get("kerf") + ": expected a saw width from 0 to " +
-                         std::to_string(int(cutter::kMaxKerfMm)) + " mm");
+    const double kerf = args.kerfMm();
     const std::string ext = args.get("format", "stl");
     checkMeshFormat(ext);
     const std::string outDir = args.get("output");

@@ -66,10 +66,7 @@ int runRender(const Args& args)
     if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
     const float iso = float(isoArg);
     const std::string pathFile = args.get("path");
-    const double kerf = args.getDouble("kerf", 0.0);
-    if (!(kerf >= 0.0 && kerf <= cutter::kMaxKerfMm))
-        throw InputError("--kerf " + args.get("kerf") + ": expected a saw width from 0 to " +
-                         std::to_string(int(cutter::kMaxKerfMm)) + " mm");
+    const double kerf = args.kerfMm();
     if (args.has("kerf") && pathFile.empty()) throw InputError("--kerf needs --path (there is no cut without a path)");
     const int width = imageSide(args, "width", 1024);
     const int height = imageSide(args, "height", 1024);
