@@ -90,10 +90,10 @@ struct RandomCut
         finish(vol, iso);
     }
     /// The cut of the strokes given.
-    RandomCut(const vdb::Volume& vol, float iso, double kerf, const std::vector<std::vector<cutter::Pose>>& strokes)
+    RandomCut(const vdb::Volume& vol, float iso, double kerf, const std::vector<std::vector<cutter::Pose>>& strokesGiven)
         : mask(cutter::frameOf(vol), kerf)
     {
-        for (const auto& poses : strokes) add(poses);
+        for (const auto& poses : strokesGiven) add(poses);
         finish(vol, iso);
     }
 
