@@ -151,6 +151,10 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
     if (!finite3(pose.direction)) fail("direction (dx,dy,dz) is not finite");
     if (!std::isfinite(pose.length)) fail("length is not a finite number");
     if (!(pose.length > 0.0)) fail("blade length must be > 0 mm");
+    if (pose.length > kMaxPoseMm) fail("blade length is beyond 1e6 mm");
+    if (std::abs(pose.base.x) > kMaxPoseMm || std::abs(pose.base.y) > kMaxPoseMm ||
+        std::abs(pose.base.z) > kMaxPoseMm)
+        fail("base point (x,y,z) is beyond 1e6 mm");
     const double dirLen = glm::length(pose.direction);
     if (!(dirLen >= 1e-9) || !std::isfinite(dirLen)) fail("direction (dx,dy,dz) is zero");
     if (mHaveTime && pose.time < mLastTime) {
@@ -549,6 +553,20 @@ std::vector<int> convexHullOrder(const glm::dvec3* points, uint32_t count, const
 // ---------------------------------------------------------------------------
 // Voxelisation
 
+namespace {
+
+/// `v` clamped to [lo, hi] as an int; `ifNaN` when v is not a number (a
+/// product of values near the double range can be), so the conversion is
+/// always defined. Callers pass the bound that keeps the widest range: the
+/// exact cell test decides.
+int cellBound(double v, int lo, int hi, int ifNaN)
+{
+    if (std::isnan(v)) return ifNaN;
+    return int(std::clamp(v, double(lo), double(hi)));
+}
+
+} // namespace
+
 QuadRegion::QuadRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
     : mCellLo(frame.cutCellLo()), mCellHi(frame.cutCellHi())
 {
@@ -680,8 +698,8 @@ void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
             double x0 = (rowLo[r] - rest) / a[middle] - 0.5;
             double x1 = (rowHi[r] - rest) / a[middle] - 0.5;
             if (x0 > x1) std::swap(x0, x1);
-            mLo = std::max(mLo, int(std::clamp(std::floor(x0) - 1.0, double(lo[middle]), double(hi[middle]) + 1.0)));
-            mHi = std::min(mHi, int(std::clamp(std::ceil(x1) + 1.0, double(lo[middle]) - 1.0, double(hi[middle]))));
+            mLo = std::max(mLo, cellBound(std::floor(x0) - 1.0, lo[middle], hi[middle] + 1, lo[middle]));
+            mHi = std::min(mHi, cellBound(std::ceil(x1) + 1.0, lo[middle] - 1, hi[middle], hi[middle]));
         }
         for (c[middle] = mLo; c[middle] <= mHi; ++c[middle]) {
             int kLo = lo[inner], kHi = hi[inner];
@@ -694,9 +712,9 @@ void QuadRegion::appendCells(std::vector<glm::ivec3>& cells) const
                 if (x0 > x1) std::swap(x0, x1);
                 // Widen by one cell against rounding in the division; the
                 // full test below decides.
-                const double l0 = kLo, h0 = kHi;
-                kLo = int(std::clamp(std::floor(x0) - 1.0, l0, h0 + 1.0));
-                kHi = int(std::clamp(std::ceil(x1) + 1.0, l0 - 1.0, h0));
+                const int l0 = kLo, h0 = kHi;
+                kLo = cellBound(std::floor(x0) - 1.0, l0, h0 + 1, l0);
+                kHi = cellBound(std::ceil(x1) + 1.0, l0 - 1, h0, h0);
             }
             for (c[inner] = kLo; c[inner] <= kHi; ++c[inner])
                 if (touchesCell(c)) cells.push_back(c);

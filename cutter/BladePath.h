@@ -54,6 +54,12 @@ struct IndexFrame
 };
 
 /// One tool sample. World mm, seconds.
+/// The largest |x|, |y|, |z| of a base point and the longest blade a pose may
+/// give, in mm (a kilometre: far past any scanner, well inside the range where
+/// index-space arithmetic stays exact enough to decide cells). Path lines and
+/// PathFilter::push refuse poses beyond it.
+constexpr double kMaxPoseMm = 1e6;
+
 struct Pose
 {
     double time = 0.0;        ///< seconds; non-decreasing along a stroke
@@ -233,7 +239,9 @@ public:
 
     /// Feeds the next pose of the current stroke; appends the quads it makes
     /// (0, 1 or 2) to `quads`. Returns true when the pose was kept as a stick.
-    /// Throws InputError on a bad pose (the filter state is unchanged).
+    /// Throws InputError on a bad pose (the filter state is unchanged): a value
+    /// not finite, a zero direction, a length not > 0, or a length or base
+    /// coordinate beyond kMaxPoseMm, or a time before the last pose's.
     bool push(const Pose& pose, std::vector<Quad>& quads);
     /// Feeds a whole stroke (push for each pose, then endStroke) and returns
     /// its quads, endStroke's last. Throws InputError on a bad pose (the stroke is then ended).

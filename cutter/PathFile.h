@@ -32,9 +32,6 @@ struct PathLine
     Pose pose;
 };
 
-/// The largest |x|, |y|, |z| and blade length a pose line may give, in mm.
-constexpr double kMaxPoseMm = 1e6;
-
 /// Parses one line (without its newline; a trailing '\r' is ignored).
 /// Throws InputError "SOURCE:LINE: field NAME: ..." on a malformed pose line:
 /// not exactly 8 comma-separated fields (a truncated line), a field that is

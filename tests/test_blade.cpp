@@ -954,6 +954,18 @@ TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
     p = ok;
     p.time = std::nan("");
     expectThrow(p, "time");
+    // Beyond kMaxPoseMm (libFuzzer: a 1.8e307 mm blade made the voxeliser
+    // convert NaN to int); the limit itself is accepted.
+    p = ok;
+    p.length = 1.8e307;
+    expectThrow(p, "blade length is beyond 1e6 mm");
+    p = ok;
+    p.base.z = -1.0000001e6;
+    expectThrow(p, "base point (x,y,z) is beyond 1e6 mm");
+    p = ok;
+    p.time = 1.5;
+    p.length = mtcut::cutter::kMaxPoseMm;
+    EXPECT_NO_THROW(filter.push(p, quads));
     p = ok;
     p.time = 0.5;
     expectThrow(p, "time goes backwards");
@@ -961,7 +973,7 @@ TEST(PathFilter, BadPosesThrowAndLeaveStateUnchanged)
     // cells around it (where the isosurface closes).
     p = ok;
     p.time = 2.0;
-    p.base = dvec3(1e300, -1e300, 1e300);
+    p.base = dvec3(1e6, -1e6, 1e6);
     EXPECT_TRUE(filter.push(p, quads));
     for (const Quad& q : quads) {
         std::vector<ivec3> cells;

@@ -1,8 +1,9 @@
 // libFuzzer target: a path file (cutter/PATH_FORMAT.md) read, filtered into
 // quads and voxelised, and, when bit 1 of the first byte is set, raw poses
-// (8 doubles each, any finite magnitude) straight into the path filter and the
-// voxeliser, which must clip what lies outside the frame and never convert an
-// out-of-range bound to int (UBSan found one at 2e52 mm). Bit 0: kerf 0.5 mm.
+// (8 doubles each, any finite magnitude) straight into the path filter, which
+// must refuse what lies beyond kMaxPoseMm, and the voxeliser, which must clip
+// what lies outside the frame and never convert an out-of-range bound to int
+// (UBSan found one at 2e52 mm, and NaN from a 1.8e307 mm blade). Bit 0: kerf 0.5 mm.
 #include "cutter/BladePath.h"
 #include "cutter/PathFile.h"
 #include "vdb/Error.h"
