@@ -73,7 +73,7 @@ run_tests() {
   failed=$(sed -nE 's/.* tests passed, ([0-9]+) tests failed out of ([0-9]+).*/\1/p' "$log")
   rm -f "$log"
   if [ -f "$ROOT/tests/fuzz/run.sh" ]; then
-    if bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
+    if FUZZ_RUNS="${FUZZ_RUNS:-200000}" bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
   fi
   if [ -f "$ROOT/tests/tsan/run.sh" ]; then
     if bash "$ROOT/tests/tsan/run.sh" "$BUILD/tsan"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
