@@ -19,8 +19,8 @@
 //             "upload"  the cut geometry uploaded (setCutGeometry);
 //             "draw"    the uncut isosurface (uploaded once) with the discard
 //                       pass, then the cut geometry.
-//             There is no GPU cut-generation shader yet (DESIGN pass 3): the
-//             cut geometry comes from the CPU re-mesher, so the paper's step 3
+//             In these rows the cut geometry comes from the CPU re-mesher
+//             (the GPU cut pass is timed apart, --gpu-cut), so the paper's step 3
 //             is "CPU remesh + upload" here: remesh_ms (CutRemesher::update
 //             of the whole cut from scratch, one thread) + cutgeom_ms
 //             (cutGeometryOf) + the upload pass. frame_ms excludes the CPU

@@ -636,7 +636,9 @@ void Viewer::panel()
 {
     const std::shared_ptr<const SceneSnapshot>& s = mShown;
     ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
-    ImGui::SetNextWindowSize(ImVec2(360, float(std::max(mHeight - 16, 200))), ImGuiCond_FirstUseEver);
+    // At most 40 % of a small window's width (the view stays usable at 640x480).
+    ImGui::SetNextWindowSize(ImVec2(std::clamp(0.4f * float(mWidth), 240.0f, 360.0f), float(std::max(mHeight - 16, 200))),
+                             ImGuiCond_FirstUseEver);
     ImGui::Begin("MTCut");
     mPanelRight = ImGui::IsWindowCollapsed()
                       ? 0.0
