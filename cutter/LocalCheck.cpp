@@ -217,29 +217,6 @@ void describeVertex(const LocalRegion& reg, uint32_t v)
     std::fprintf(stderr, " world %.6f %.6f %.6f\n", world[v].x, world[v].y, world[v].z);
 }
 
-/// `contact` (of trianglesIntersect) unless the two share no vertex and
-/// meet only at one corner of each that rounded to the same float position
-/// (an iso point and a kerf plane's point on one grid edge 1e-6 mm apart at
-/// z = 1227 mm: 1 mm head, kerf 0.5, random strokes seed 2011): a surface
-/// touching itself at one point, as at a pinch (Remesh.h), not crossing.
-Contact unlessPointContact(const std::array<glm::vec3, 3>& pa, const std::array<uint32_t, 3>& ia,
-                           const std::array<glm::vec3, 3>& pb, std::array<uint32_t, 3> ib, Contact contact)
-{
-    int same = 0, ka = -1, kb = -1;
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-            if (ia[size_t(i)] == ib[size_t(j)]) return contact; // a vertex in common: judged as it is
-            if (pa[size_t(i)] == pb[size_t(j)]) {
-                ++same;
-                ka = i;
-                kb = j;
-            }
-        }
-    if (same != 1) return contact;
-    ib[size_t(kb)] = ia[size_t(ka)]; // as if one vertex: do they meet anywhere else?
-    return trianglesIntersect(pa, ia, pb, ib) == Contact::None ? Contact::None : contact;
-}
-
 /// The local check's last step when the cut has a width (DESIGN invariant
 /// 7): no triangle of a changed cell may cross or touch another triangle,
 /// in float world mm as written, decided exactly (TriangleIntersect.h) with
@@ -247,7 +224,7 @@ Contact unlessPointContact(const std::array<glm::vec3, 3>& pa, const std::array<
 /// the copies of a pinch vertex (Remesh.h, kerf > 0: the same name plus a
 /// pinch tag) count as one vertex, so the fans of a pinch may touch there,
 /// as the exact shape does, and two triangles may touch at one corner of
-/// each at one float position (unlessPointContact; the tests' CGAL check
+/// each at one float position (trianglesCross; the tests' CGAL check
 /// counts both as pinch contacts, not intersections). Pairs of uncut
 /// triangles are the isosurface's and are not asked. A triangle lies in its
 /// cell's closed box (up to rounding), so only the 27 cells around a
@@ -366,8 +343,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
                     const RegionTriangle& b = tris[u];
                     const std::array<glm::vec3, 3> pb{world[b.v[0]], world[b.v[1]], world[b.v[2]]};
                     const std::array<uint32_t, 3> ib{vertex[b.v[0]], vertex[b.v[1]], vertex[b.v[2]]};
-                    Contact contact = trianglesIntersect(pa, ia, pb, ib);
-                    if (contact != Contact::None) contact = unlessPointContact(pa, ia, pb, ib, contact);
+                    const Contact contact = trianglesCross(pa, ia, pb, ib);
                     if (contact == Contact::None) continue;
                     if (reg.debug) {
                         std::fprintf(stderr, "self-contact (%s), cells (%d,%d,%d) and (%d,%d,%d):\n",

@@ -376,4 +376,25 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
     return judge.unknown ? Contact::Undecided : Contact::None;
 }
 
+Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                       const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib)
+{
+    const Contact contact = trianglesIntersect(a, ia, b, ib);
+    if (contact == Contact::None) return contact;
+    int same = 0, ka = -1, kb = -1;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            if (ia[size_t(i)] == ib[size_t(j)]) return contact; // a vertex in common: judged as it is
+            if (a[size_t(i)] == b[size_t(j)]) {
+                ++same;
+                ka = i;
+                kb = j;
+            }
+        }
+    if (same != 1) return contact;
+    std::array<uint32_t, 3> joined = ib;
+    joined[size_t(kb)] = ia[size_t(ka)]; // as if one vertex: do they meet anywhere else?
+    return trianglesIntersect(a, ia, b, joined) == Contact::None ? Contact::None : contact;
+}
+
 } // namespace mtcut::cutter
