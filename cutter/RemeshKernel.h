@@ -254,9 +254,14 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 ///   its exact orientation in float) and puts no triangle into a cell face
 ///   (the next cell may hold the same one); repeated while it mends.
 /// Copies of one point (side or pinch tags differ) are never joined.
+/// With `crossings` (a cut with a width, once its local check has failed:
+/// CutRemesher::update), then also, in rounds, an edge of a triangle that
+/// crosses or touches another triangle of the cell once written (as the
+/// local check judges it: trianglesCross after snap rounding), shortest
+/// first, where a private end can move as above.
 /// Returns the vertices removed.
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
-                        CutCellGeometry& out);
+                        CutCellGeometry& out, bool crossings = false);
 
 /// The fans of a vertex from its link (the edge b -> c opposite it in each
 /// of its triangles, in triangle order): when every link vertex starts
