@@ -162,10 +162,13 @@ public:
     CutRemesher& operator=(const CutRemesher&) = delete;
 
     /// Brings the cut geometry in line with `mask` (same volume frame). Returns
-    /// the number of cells re-meshed. The cells re-meshed are the mask's cut
+    /// the number of cells re-meshed. The cut cells are the mask's cut
     /// cells plus the cells just outside the scan box (index -1 or dims-1)
     /// that a quad of a border cell touches: the isosurface closes there and
-    /// the mask holds only cells inside the box; cells() lists them all.
+    /// the mask holds only cells inside the box; cells() lists them all. An
+    /// air cell (all eight corners outside the solid: most cells of a cut
+    /// through a head) has no triangles, cut or not, whatever its quads: it
+    /// is listed with empty geometry but never re-meshed, counted or checked.
     /// Throws std::runtime_error ("remesh: ... cell (i,j,k)") when a cell
     /// meets a configuration the kernel does not handle (two exactly coplanar,
     /// overlapping quads; see the file comment for kerf > 0), rather than
@@ -256,7 +259,7 @@ public:
     /// The cut cells' new geometry only (no uncut triangles), cells ascending.
     const std::map<openvdb::Coord, CutCellGeometry>& cells() const { return mCells; }
     /// The cells whose geometry the last successful update() re-made or
-    /// forgot (ascending; empty when it changed nothing). For an interactive
+    /// forgot, air cells left out (ascending; empty when it changed nothing). For an interactive
     /// view: upload cells().at(c) for each of them that is still in cells(),
     /// drop the others, instead of building a whole fusedMesh() per step.
     const std::vector<openvdb::Coord>& lastChangedCells() const { return mLastChanged; }

@@ -683,6 +683,61 @@ TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
     }
 }
 
+// An air cell (all eight corners outside the solid) has no triangles, cut
+// or not: update() lists it with empty geometry but never re-meshes, counts
+// or checks it (the kernel would make nothing there: asked here), and a
+// stroke through air alone, or its undo, changes nothing.
+TEST(Remesh, AirCellsAreListedEmptyAndNeverReMeshed)
+{
+    const BallAndTwoStrokes ball;
+    auto acc = ball.vol.grid->getConstAccessor();
+    const openvdb::CoordBBox box = ball.vol.indexBox();
+    auto isAir = [&](const Coord& c) {
+        for (int k = 0; k < 8; ++k) {
+            const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+            if (box.isInside(g) && acc.getValue(g) >= 0.0f) return false;
+        }
+        return true;
+    };
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(ball.vol), kerf);
+        addStroke(mask, ball.first);
+        CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+        const size_t meshed = remesher.update(mask);
+        size_t air = 0, solid = 0;
+        CutCellGeometry again;
+        for (const auto& [c, g] : remesher.cells()) {
+            if (!isAir(c)) {
+                ++solid;
+                continue;
+            }
+            ++air;
+            EXPECT_TRUE(g.indices.empty() && g.vertexIds.empty());
+            remeshCell(ball.vol, 0.0f, mask, c, again);
+            EXPECT_TRUE(again.indices.empty() && again.vertexIds.empty()) << "the kernel makes triangles in an air cell";
+        }
+        EXPECT_GT(air, 100u) << "kerf " << kerf;
+        EXPECT_GT(solid, 100u) << "kerf " << kerf;
+        EXPECT_EQ(meshed, solid) << "kerf " << kerf;
+        EXPECT_EQ(remesher.lastChangedCells().size(), solid) << "kerf " << kerf;
+        for (const Coord& c : remesher.lastChangedCells()) EXPECT_FALSE(isAir(c));
+
+        // Above the ball (radius 15) and out of the box's top (19.5): air only.
+        const Mesh before = remesher.fusedMesh();
+        const size_t cellsBefore = remesher.cells().size();
+        addStroke(mask, straightStroke(dvec3(-25, 10.37, 19.2), dvec3(25, 10.37, 19.2), dvec3(0, 0, 1), 3.0, 100));
+        EXPECT_EQ(remesher.update(mask), 0u);
+        EXPECT_GT(remesher.cells().size(), cellsBefore + 40);
+        EXPECT_TRUE(remesher.lastChangedCells().empty());
+        EXPECT_TRUE(sameMesh(remesher.fusedMesh(), before));
+        ASSERT_TRUE(mask.undoStroke());
+        EXPECT_EQ(remesher.update(mask), 0u);
+        EXPECT_EQ(remesher.cells().size(), cellsBefore);
+        EXPECT_TRUE(remesher.lastChangedCells().empty());
+        EXPECT_TRUE(sameMesh(remesher.fusedMesh(), before));
+    }
+}
+
 // A cell source (the GPU cut pass's recovered cells): update() takes its
 // geometry instead of running the kernel, and fuses and checks it the same:
 // the CPU's own cells given back make the same fused mesh; a cell given
@@ -696,7 +751,8 @@ TEST(Remesh, ACellSourceIsFusedAndCheckedAsTheKernelsCells)
         addStroke(mask, ball.first);
         addStroke(mask, ball.second);
         CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
-        cpu.update(mask);
+        const size_t meshed = cpu.update(mask); // the cut cells but air cells (never asked)
+        ASSERT_GT(meshed, 10u);
         const Mesh want = cpu.fusedMesh();
         const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
         for (int mode : {0, 1, 2}) { // all given; every other cell given; one given broken
@@ -732,8 +788,8 @@ TEST(Remesh, ACellSourceIsFusedAndCheckedAsTheKernelsCells)
                 continue;
             }
             sourced.update(mask);
-            EXPECT_EQ(asked, cells.size());
-            EXPECT_EQ(sourced.lastSourcedCells(), mode == 0 ? cells.size() : (cells.size() + 1) / 2);
+            EXPECT_EQ(asked, meshed);
+            EXPECT_EQ(sourced.lastSourcedCells(), mode == 0 ? meshed : (meshed + 1) / 2);
             EXPECT_TRUE(sameMesh(sourced.fusedMesh(), want)) << "kerf " << kerf << " mode " << mode;
         }
     }
@@ -807,6 +863,7 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
 // chunks in parallel (CutRemesher::checkLocally). The chunks must give the
 // serial check's verdict: no refusal of a clean cut (chunk boundaries cross
 // the cut), and a broken cell in a late chunk refused with the same message.
+// (Three strokes: air cells are not checked, and two leave fewer than 2,048.)
 TEST(Remesh, ChunkedLocalCheckGivesTheSerialVerdict)
 {
     const BallAndTwoStrokes ball;
@@ -814,6 +871,7 @@ TEST(Remesh, ChunkedLocalCheckGivesTheSerialVerdict)
         CutMask mask(frameOf(ball.vol), kerf);
         addStroke(mask, ball.first);
         addStroke(mask, ball.second);
+        addStroke(mask, straightStroke(dvec3(-25, -22, 3.3), dvec3(25, -22, 3.3), dvec3(0, 1, 0), 45.0, 200));
         // The cells with new geometry, to pick a victim far along the cut.
         std::vector<Coord> withGeometry;
         {
