@@ -28,6 +28,9 @@
 //          mesh: the geometry of CutRemesher::lastChangedCells() gathered into
 //          world-mm float positions and indices (what a renderer uploads).
 //   whole: a fresh remesher's update() over the whole mask, and + fusedMesh().
+//   "re-meshed" counts the cells the kernel ran on (update()'s result): air
+//          cells (all eight corners outside the bone) are recorded without it,
+//          so "us per cell" is a whole update's time per cell of bone.
 //   noop:  update() when nothing changed (the per-update O(cut cells) scan).
 //   kernel: remeshCell() over every cut cell, from outside: a kernel and the
 //          quads' geometry made anew per cell, no caches (with kerf > 0 each
@@ -531,7 +534,7 @@ void printRow(const Row& r)
                 "ours_defects=%zu b_defects=%zu variant=%d kind=%s from=%.3f,%.3f,%.3f to=%.3f,%.3f,%.3f%s%s\n",
                 r.volume.c_str(), r.kerf, r.target, r.cells, r.surfaceCells, r.remeshedWhole, r.quads, r.blade, r.sweep, r.refused,
                 r.stepNew, r.stepRemeshed, r.stepVoxUs, r.stepUpdateUs, stepUs, r.stepViewUs, r.stepFusedMs, r.setupMs,
-                r.wholeUpdateMs, r.wholeFusedMs, r.noopMs, r.kernelMs, 1e3 * r.wholeUpdateMs / double(r.remeshedWhole),
+                r.wholeUpdateMs, r.wholeFusedMs, r.noopMs, r.kernelMs, r.remeshedWhole ? 1e3 * r.wholeUpdateMs / double(r.remeshedWhole) : 0.0,
                 r.aMs, r.bStepMs, r.bBladeMs, r.bCopyMs, r.bCsgMs, r.bMeshMs, r.bWholeMs, r.aMs / (stepUs * 1e-3),
                 r.bStepMs / (stepUs * 1e-3), r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs,
                 r.bWholeMs / r.wholeUpdateMs, r.oursTris, r.bTris, r.oursDefects, r.bDefects, r.variant, bench::strokeKindName(r.variant), r.from.x,
@@ -576,7 +579,7 @@ void printTables(const std::vector<Row>& rows)
         std::printf("| %s | %zu | %zu | %.1f x %.1f, %zu (%s %d) | %.1f | %.1f | %.0f | %.2f | %.1f | %.0f | %.0f | %.0f | %.2fx | "
                     "%.2fx | %.2fx | %zu / %zu | %d |\n",
                     label(r).c_str(), r.cells, r.remeshedWhole, r.blade, r.sweep, r.quads, bench::strokeKindName(r.variant), r.variant, r.wholeUpdateMs, r.wholeFusedMs,
-                    1e3 * r.wholeUpdateMs / double(r.remeshedWhole), r.noopMs, r.kernelMs, r.setupMs, r.aMs, r.bWholeMs,
+                    r.remeshedWhole ? 1e3 * r.wholeUpdateMs / double(r.remeshedWhole) : 0.0, r.noopMs, r.kernelMs, r.setupMs, r.aMs, r.bWholeMs,
                     r.aMs / r.wholeUpdateMs, r.aMs / r.wholeFusedMs, r.bWholeMs / r.wholeUpdateMs, r.oursDefects,
                     r.bDefects, r.refused);
     }
