@@ -764,6 +764,26 @@ CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& 
 
 CutRemesher::~CutRemesher() = default;
 
+namespace {
+
+using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
+
+/// The corners of `cell` inside the solid, bit c for corner (c & 1, c >> 1 & 1,
+/// c >> 2 & 1), by the kernel's and the isosurface's rule: in the scan box and
+/// at least the isovalue. 0: an air cell.
+uint8_t insideCorners(const vdb::Volume& volume, float iso, VolumeAccessor& acc, const Coord& cell)
+{
+    const openvdb::CoordBBox box = volume.indexBox();
+    uint8_t inside = 0;
+    for (int c = 0; c < 8; ++c) {
+        const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        if (box.isInside(g) && acc.getValue(g) >= iso) inside |= uint8_t(1 << c);
+    }
+    return inside;
+}
+
+} // namespace
+
 std::pair<uint32_t, uint32_t> CutRemesher::uncutRun(UncutAccessor& acc, const Coord& cell) const
 {
     const int32_t first = acc.getValue(cell);
@@ -779,13 +799,8 @@ void CutRemesher::uncutCornerEdges(const Coord& cell, std::pair<uint32_t, uint32
 {
     out.clear();
     if (run.second == 0) return;
-    openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(mVolume->grid->tree());
-    uint8_t inside = 0;
-    for (int c = 0; c < 8; ++c) {
-        const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        const bool inBox = mVolume->indexBox().isInside(g);
-        if (inBox && acc.getValue(g) >= mIso) inside |= uint8_t(1 << c);
-    }
+    VolumeAccessor acc(mVolume->grid->tree());
+    const uint8_t inside = insideCorners(*mVolume, mIso, acc, cell);
     const int parity = cellParity(cell.x(), cell.y(), cell.z());
     const CellCase& cc = cellCase(parity, inside);
     const auto& edges = cellEdges(parity);
@@ -974,15 +989,8 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     // once and for all. Most cells of a cut through a head are air (the
     // LeFort stroke on the 1 mm head: 2,995 of 47,880 meet the solid); they
     // are recorded as cut without their quads, meshing or checking.
-    openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> volumeAcc(mVolume->grid->tree());
-    const openvdb::CoordBBox scanBox = mVolume->indexBox();
-    auto airCell = [&](const Coord& c) {
-        for (int k = 0; k < 8; ++k) {
-            const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
-            if (scanBox.isInside(g) && volumeAcc.getValue(g) >= mIso) return false;
-        }
-        return true;
-    };
+    VolumeAccessor volumeAcc(mVolume->grid->tree());
+    auto airCell = [&](const Coord& c) { return insideCorners(*mVolume, mIso, volumeAcc, c) == 0; };
     // Cells kept as they are (same kernel input) with their old signatures.
     std::vector<std::pair<Coord, std::vector<std::array<double, 36>>>> resigned;
     auto restore = [&] {
