@@ -774,6 +774,23 @@ using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, fa
 uint8_t insideCorners(const vdb::Volume& volume, float iso, VolumeAccessor& acc, const Coord& cell)
 {
     const openvdb::CoordBBox box = volume.indexBox();
+    using Leaf = openvdb::FloatTree::LeafNodeType;
+    constexpr int kLast = int(Leaf::DIM) - 1;
+    if ((cell.x() & kLast) != kLast && (cell.y() & kLast) != kLast && (cell.z() & kLast) != kLast &&
+        box.isInside(cell) && box.isInside(cell + Coord(1))) {
+        // The eight corners lie in one leaf's block (and in the box): read
+        // that leaf once, or, where the block is a tile, its one value.
+        if (const Leaf* leaf = acc.probeConstLeaf(cell)) {
+            const openvdb::Index at = Leaf::coordToOffset(cell);
+            constexpr openvdb::Index dx = Leaf::DIM * Leaf::DIM, dy = Leaf::DIM;
+            const openvdb::Index step[8] = {0, dx, dy, dx + dy, 1, dx + 1, dy + 1, dx + dy + 1};
+            uint8_t inside = 0;
+            for (int c = 0; c < 8; ++c)
+                if (leaf->getValue(at + step[c]) >= iso) inside |= uint8_t(1 << c);
+            return inside;
+        }
+        return acc.getValue(cell) >= iso ? uint8_t(0xff) : uint8_t(0);
+    }
     uint8_t inside = 0;
     for (int c = 0; c < 8; ++c) {
         const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
@@ -988,7 +1005,9 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     // the kernel makes none whatever quads cut it: its geometry is empty
     // once and for all. Most cells of a cut through a head are air (the
     // LeFort stroke on the 1 mm head: 2,995 of 47,880 meet the solid); they
-    // are recorded as cut without their quads, meshing or checking.
+    // are recorded as cut without their quads, meshing or checking, and
+    // their record says so (the volume and isovalue never change), so a
+    // step reads the corners of its new cells only.
     VolumeAccessor volumeAcc(mVolume->grid->tree());
     auto airCell = [&](const Coord& c) { return insideCorners(*mVolume, mIso, volumeAcc, c) == 0; };
     // Cells kept as they are (same kernel input) with their old signatures.
@@ -1020,7 +1039,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         if (list) continue;
         auto it = mRecords.find(dirty[i]);
         if (it == mRecords.end()) continue;
-        save(dirty[i], !airCell(dirty[i]));
+        save(dirty[i], !it->second.air);
         mCells.erase(dirty[i]);
         mRecords.erase(it);
     }
@@ -1040,15 +1059,21 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             if (!lists[i]) continue;
             const Coord& c = dirty[i];
             const std::vector<QuadRef>& list = *lists[i];
-            auto it = mRecords.find(c);
-            if (airCell(c)) {
-                if (it == mRecords.end()) {
-                    save(c, false);
-                    mRecords[c] = CellRecord{};
+            auto it = mRecords.lower_bound(c);
+            const bool recorded = it != mRecords.end() && it->first == c;
+            if (recorded ? it->second.air : airCell(c)) {
+                if (!recorded) {
+                    Saved fresh; // a new cell: nothing to keep but that it was not cut
+                    fresh.cell = c;
+                    saved.push_back(std::move(fresh));
+                    CellRecord air;
+                    air.air = true;
+                    mRecords.emplace_hint(it, c, std::move(air));
                     mCells[c].clear();
                 }
                 continue;
             }
+            if (!recorded) it = mRecords.end();
             const bool newList = it == mRecords.end() || !(it->second.quads == list);
             std::vector<std::array<double, 36>> signatures;
             signatures.reserve(list.size());

@@ -272,6 +272,7 @@ private:
         std::vector<QuadRef> quads;
         std::vector<std::array<double, 36>> quadCorners; ///< the quads' (and their stroke neighbours') corners now
         std::array<uint64_t, 2> input{}; ///< digest of the kernel's input when meshed (Remesh.cpp kernelInputDigest)
+        bool air = false; ///< an air cell (update()): recorded as cut, never meshed; the rest is empty
     };
     /// A quad of the mask as the last successful update() saw it.
     struct SeenQuad
