@@ -82,6 +82,7 @@ void CutMask::apply(uint32_t stroke, uint32_t quadIndex, const std::vector<openv
     for (const openvdb::Coord& c : cells) {
         auto [it, inserted] = mCells.try_emplace(c);
         std::vector<QuadRef>& list = it->second;
+        if (inserted) list.reserve(4); // a cell's list is a few quads long: one allocation, not three
         // A cell listed twice by one quad is recorded once.
         if (!list.empty() && list.back() == QuadRef{stroke, quadIndex}) continue;
         list.push_back({stroke, quadIndex});
