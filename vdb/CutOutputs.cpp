@@ -8,7 +8,11 @@
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/Prune.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <cstdio>
@@ -189,16 +193,34 @@ void writeCutVdb(const std::string& path, const Volume& volume, const openvdb::F
     maskOut->setTransform(volume.grid->transform().copy());
     grids.push_back(maskOut);
 
+    // The fragments' level sets are independent: made concurrently (a cut
+    // of a head leaves one large fragment and hundreds of small chips, each
+    // too small to keep the threads of its own meshToVolume busy), then
+    // written in the given order. Progress counts fragments done; each
+    // meshToVolume is only asked whether to stop (its own percentages would
+    // run the bar back and forth).
     InterrupterScope scope(interrupter, "level sets of the fragments");
-    for (size_t f = 0; f < fragments.size(); ++f) {
-        pollInterrupter(interrupter, int(100 * f / fragments.size()));
-        openvdb::FloatGrid::Ptr ls = fragmentToLevelSet(fragments[f], f, voxelMm, volume.origin(),
-                                                        options.halfWidthVoxels, interrupter);
-        ls->insertMeta("mtcut:volume_mm3", openvdb::DoubleMetadata(stats[f].volumeMm3));
-        ls->insertMeta("mtcut:area_mm2", openvdb::DoubleMetadata(stats[f].areaMm2));
-        ls->insertMeta("mtcut:triangles", openvdb::Int64Metadata(int64_t(stats[f].triangles)));
-        grids.push_back(ls);
-    }
+    pollInterrupter(interrupter, 0);
+    struct CancelOnly : Interrupter
+    {
+        Interrupter* outer = nullptr;
+        bool wasInterrupted(int) override { return outer && outer->wasInterrupted(-1); }
+    } cancelOnly;
+    cancelOnly.outer = interrupter;
+    std::vector<openvdb::FloatGrid::Ptr> levelSets(fragments.size());
+    std::atomic<size_t> done{0};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, fragments.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t f = range.begin(); f != range.end(); ++f) {
+            openvdb::FloatGrid::Ptr ls = fragmentToLevelSet(fragments[f], f, voxelMm, volume.origin(),
+                                                            options.halfWidthVoxels, interrupter ? &cancelOnly : nullptr);
+            ls->insertMeta("mtcut:volume_mm3", openvdb::DoubleMetadata(stats[f].volumeMm3));
+            ls->insertMeta("mtcut:area_mm2", openvdb::DoubleMetadata(stats[f].areaMm2));
+            ls->insertMeta("mtcut:triangles", openvdb::Int64Metadata(int64_t(stats[f].triangles)));
+            levelSets[f] = std::move(ls);
+            pollInterrupter(interrupter, int(100 * (done.fetch_add(1) + 1) / fragments.size()));
+        }
+    });
+    for (openvdb::FloatGrid::Ptr& ls : levelSets) grids.push_back(std::move(ls));
 
     openvdb::MetaMap fileMeta;
     fileMeta.insertMeta("mtcut:version", openvdb::StringMetadata(kMtcutVersion));
