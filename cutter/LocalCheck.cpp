@@ -407,11 +407,20 @@ void checkEdgeUses(const LocalRegion& reg)
     const bool debug = reg.debug;
     // Directed edge uses; an edge matters when a changed cell's closed box holds it
     // (then every triangle that can use it is in the region).
+    // (Each vertex's cells once: a vertex is on about six edge uses.)
+    std::vector<std::array<Coord, 2>> holding(ids.size());
+    std::vector<char> held(ids.size(), 0);
+    auto holdingOf = [&](uint32_t v) -> const std::array<Coord, 2>& {
+        if (!held[v]) {
+            cellsHolding(ids[v], holding[v][0], holding[v][1]);
+            held[v] = 1;
+        }
+        return holding[v];
+    };
     auto matters = [&](uint32_t a, uint32_t b, bool ofChangedCell) {
         if (ofChangedCell) return true;
-        Coord la, ha, lb, hb;
-        cellsHolding(ids[a], la, ha);
-        cellsHolding(ids[b], lb, hb);
+        const Coord &la = holdingOf(a)[0], &ha = holdingOf(a)[1];
+        const Coord &lb = holdingOf(b)[0], &hb = holdingOf(b)[1];
         Coord lo, hi;
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::max(la[k], lb[k]);
