@@ -252,10 +252,12 @@ struct Judge
         return false;
     }
 
-    /// Closed segment [s, t] and closed triangle tri (non-zero area) meet.
-    bool segmentMeetsTriangle(const glm::vec3& s, const glm::vec3& t, const std::array<glm::vec3, 3>& tri)
+    /// Closed segment [s, t] and closed triangle tri (non-zero area) meet;
+    /// os, ot: the sides of s and t to tri's plane, o3(tri[0], tri[1],
+    /// tri[2], s) and of t (the callers have them already).
+    bool segmentMeetsTriangle(const glm::vec3& s, const glm::vec3& t, const std::array<glm::vec3, 3>& tri, int os,
+                              int ot)
     {
-        const int os = o3(tri[0], tri[1], tri[2], s), ot = o3(tri[0], tri[1], tri[2], t);
         if (os * ot > 0) return false; // both strictly on one side
         if (os == 0 && ot == 0) {
             int i = 0, j = 1, sign = 0;
@@ -336,7 +338,7 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
         } else {
             const int t1 = judge.o3(b[0], b[1], b[2], a1), t2 = judge.o3(b[0], b[1], b[2], a2);
             if (t1 * t2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
-            hit = judge.segmentMeetsTriangle(a1, a2, b) || judge.segmentMeetsTriangle(b1, b2, a);
+            hit = judge.segmentMeetsTriangle(a1, a2, b, t1, t2) || judge.segmentMeetsTriangle(b1, b2, a, s1, s2);
         }
     } else {
         // Quick: one strictly on one side of the other's plane.
@@ -367,9 +369,12 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
         } else {
             // Two closed triangles meet exactly when an edge of one meets the
             // other (their common part is bounded by points of their edges).
-            for (int k = 0; k < 3 && !hit; ++k)
-                hit = judge.segmentMeetsTriangle(a[size_t(k)], a[size_t((k + 1) % 3)], b) ||
-                      judge.segmentMeetsTriangle(b[size_t(k)], b[size_t((k + 1) % 3)], a);
+            // (Each end's side of the other's plane is known from above.)
+            for (int k = 0; k < 3 && !hit; ++k) {
+                const int n = (k + 1) % 3;
+                hit = judge.segmentMeetsTriangle(a[size_t(k)], a[size_t(n)], b, side[1][k], side[1][n]) ||
+                      judge.segmentMeetsTriangle(b[size_t(k)], b[size_t(n)], a, side[0][k], side[0][n]);
+            }
         }
     }
     if (hit) return Contact::Intersect;
