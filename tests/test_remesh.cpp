@@ -735,6 +735,22 @@ TEST(Remesh, AirCellsAreListedEmptyAndNeverReMeshed)
         EXPECT_EQ(remesher.cells().size(), cellsBefore);
         EXPECT_TRUE(remesher.lastChangedCells().empty());
         EXPECT_TRUE(sameMesh(remesher.fusedMesh(), before));
+
+        // The same stroke quad by quad, an update after each, as a haptic
+        // device feeds it: every step looks again at the previous quad's
+        // cells, already recorded as air, and re-meshes none of them.
+        const std::vector<Quad> quads =
+            filterStroke(straightStroke(dvec3(-25, 10.37, 19.2), dvec3(25, 10.37, 19.2), dvec3(0, 0, 1), 3.0, 100),
+                         mask.frame());
+        ASSERT_GT(quads.size(), 5u);
+        mask.beginStroke();
+        for (const Quad& q : quads) {
+            mask.addQuad(q);
+            EXPECT_EQ(remesher.update(mask), 0u) << "kerf " << kerf;
+            EXPECT_TRUE(remesher.lastChangedCells().empty());
+        }
+        EXPECT_GT(remesher.cells().size(), cellsBefore + 40);
+        EXPECT_TRUE(sameMesh(remesher.fusedMesh(), before));
     }
 }
 
