@@ -30,6 +30,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <mutex>
 #include <regex>
 
 using namespace mtcut;
@@ -136,6 +137,28 @@ public:
 
 private:
     std::atomic<int> mLeft;
+};
+
+/// Records the phases started and the percentages reported (from any thread).
+class Recorder : public Interrupter
+{
+public:
+    void start(const char* name = nullptr) override
+    {
+        std::lock_guard<std::mutex> lock(mMutex);
+        phases.push_back(name ? name : "");
+    }
+    bool wasInterrupted(int percent = -1) override
+    {
+        std::lock_guard<std::mutex> lock(mMutex);
+        if (percent >= 0) percents.push_back(percent);
+        return false;
+    }
+    std::vector<std::string> phases;
+    std::vector<int> percents;
+
+private:
+    std::mutex mMutex;
 };
 
 } // namespace
@@ -363,6 +386,25 @@ TEST(CutVdb, UnwritablePathIsAnInputErrorAndCancelLeavesNothing)
                              s.info, {}, &stop),
                  Cancelled);
     EXPECT_EQ(filesIn(dir.path()), std::vector<std::string>{"plain"});
+}
+
+// The level sets' progress counts fragments done, up to 100 and never back:
+// each fragment's meshToVolume only answers whether to stop (its own
+// percentages, 30 to 94 for every fragment, ran the bar back and forth).
+TEST(CutVdb, ProgressCountsFragmentsAndNeverGoesBack)
+{
+    const Scene s;
+    test::TempDir dir;
+    Recorder recorder;
+    const std::vector<FragmentMesh> fragments = {s.boxA.view(), s.boxB.view(), s.boxA.view(), s.boxB.view()};
+    writeCutVdb(dir.file("cut.vdb"), s.volume, *s.carved, *s.mask, fragments, s.info, {}, &recorder);
+    EXPECT_EQ(recorder.phases, std::vector<std::string>{"level sets of the fragments"});
+    ASSERT_FALSE(recorder.percents.empty());
+    EXPECT_TRUE(std::is_sorted(recorder.percents.begin(), recorder.percents.end()))
+        << ::testing::PrintToString(recorder.percents);
+    EXPECT_EQ(recorder.percents.back(), 100);
+    // 0, then one report per fragment (25, 50, 75, 100 in the order they finish).
+    EXPECT_EQ(recorder.percents, (std::vector<int>{0, 25, 50, 75, 100}));
 }
 
 TEST(SliceExr, PartsChannelsValuesAndAttributesReadBack)
