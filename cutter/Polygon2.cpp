@@ -1,6 +1,8 @@
 // 2-D polygon helpers of the re-meshing kernel: see Polygon2.h.
 #include "cutter/Polygon2.h"
 
+#include <boost/container/small_vector.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -95,8 +97,10 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
     return true;
 }
 
-bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<int>& tris)
+bool earClip(const std::vector<int>& polyIn, const std::vector<Vec2>& pts, std::vector<int>& tris)
 {
+    // The corners still to clip; a region's polygon has a few dozen at most.
+    boost::container::small_vector<int, 32> poly(polyIn.begin(), polyIn.end());
     auto P = [&](int i) -> const Vec2& { return pts[size_t(i)]; };
     auto len = [](const Vec2& a, const Vec2& b) { return length2(a.x - b.x, a.y - b.y); };
     while (poly.size() > 3) {
@@ -170,10 +174,15 @@ bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<in
 
 double signedArea(const std::vector<int>& loop, const std::vector<Vec2>& pts)
 {
+    return signedArea(loop.data(), loop.size(), pts);
+}
+
+double signedArea(const int* loop, size_t n, const std::vector<Vec2>& pts)
+{
     double a = 0.0;
-    for (size_t i = 0; i < loop.size(); ++i) {
+    for (size_t i = 0; i < n; ++i) {
         const Vec2& p = pts[size_t(loop[i])];
-        const Vec2& q = pts[size_t(loop[(i + 1) % loop.size()])];
+        const Vec2& q = pts[size_t(loop[(i + 1) % n])];
         a += p.x * q.y - p.y * q.x;
     }
     return 0.5 * a;

@@ -88,10 +88,12 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
 /// better worst shape. Points within a relative 1e-9 of an ear's edges
 /// count as inside it. Appends 3 indices per triangle to `tris`; returns
 /// false when no ear can be found.
-bool earClip(std::vector<int> poly, const std::vector<Vec2>& pts, std::vector<int>& tris);
+bool earClip(const std::vector<int>& poly, const std::vector<Vec2>& pts, std::vector<int>& tris);
 
 /// Signed area of a loop (indices into pts): > 0 when CCW.
 double signedArea(const std::vector<int>& loop, const std::vector<Vec2>& pts);
+/// The same for the n indices from `loop` on (same arithmetic, same bits).
+double signedArea(const int* loop, size_t n, const std::vector<Vec2>& pts);
 
 /// Splices holes (CW loops inside the CCW `outer`) into `outer` through
 /// shortest visible bridges, so earClip() can take it. Returns false when a

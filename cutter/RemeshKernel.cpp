@@ -478,7 +478,7 @@ private:
     void splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
     /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
     void pushSimple(Poly o, std::vector<Poly>& out);
-    void remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
+    void remeshTet(CutCellGeometry& out);
     void splitIsoPinches(CutCellGeometry& out);
     bool isoStarOffPlane(const CutVertexId& v, const Plane& plane);
     // ---- remeshTet, phase by phase (its state: the members below and above)
@@ -544,8 +544,49 @@ private:
     void traceRegions(const Surface& s, int side, const SmallVector<char, 32>& kept);
     /// The nodes kept as corners of the regions' loops, then the regions triangulated into `out`.
     void markCorners(SmallVector<char, 64>& corner);
-    void triangulateRegions(const SmallVector<char, 64>& corner, CutCellGeometry& out,
-                            std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex);
+    void triangulateRegions(const SmallVector<char, 64>& corner, CutCellGeometry& out);
+    /// triangulateRegions' scratch, kept between regions for its capacity.
+    std::vector<int> mLoopCorners, mPoly, mTris, mNodeOut;
+    std::vector<std::pair<uint32_t, uint32_t>> mOuterLoops, mHoleLoops; ///< (first, count) in mLoopCorners
+    /// The cell's output vertices by name (the tets weld there by name):
+    /// open addressing over out.vertexIds, kept between cells for its capacity.
+    struct CellIndex
+    {
+        std::vector<uint32_t> slots;  ///< out vertex + 1; 0 = empty; a power of two long
+        std::vector<uint64_t> hashes; ///< per out vertex
+        void clear()
+        {
+            if (slots.empty()) slots.assign(64, 0);
+            else std::fill(slots.begin(), slots.end(), 0u);
+            hashes.clear();
+        }
+        /// The index in `out` of the vertex named `id`, appended (at `pos`) if new.
+        uint32_t findOrAdd(const CutVertexId& id, const dvec3& pos, CutCellGeometry& out)
+        {
+            const uint64_t h = CutVertexIdHash()(id);
+            size_t mask = slots.size() - 1, i = size_t(h ^ h >> 29) & mask;
+            for (; slots[i]; i = (i + 1) & mask) {
+                const uint32_t v = slots[i] - 1;
+                if (hashes[v] == h && out.vertexIds[v] == id) return v;
+            }
+            const uint32_t v = uint32_t(out.vertexIds.size());
+            out.vertexIds.push_back(id);
+            out.indexPositions.push_back(pos);
+            hashes.push_back(h);
+            slots[i] = v + 1;
+            if (2 * hashes.size() > slots.size()) { // grow: rehash every vertex
+                slots.assign(2 * slots.size(), 0);
+                mask = slots.size() - 1;
+                for (uint32_t k = 0; k < hashes.size(); ++k) {
+                    size_t j = size_t(hashes[k] ^ hashes[k] >> 29) & mask;
+                    while (slots[j]) j = (j + 1) & mask;
+                    slots[j] = k + 1;
+                }
+            }
+            return v;
+        }
+    };
+    CellIndex mCellIndex;
 
     openvdb::tree::ValueAccessor<const openvdb::FloatTree> mAcc;
     float mIso;
@@ -981,10 +1022,10 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
     mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
-    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> cellIndex;
+    mCellIndex.clear();
     for (int t = 0; t < kTetsPerCell; ++t) {
         loadTet(t);
-        remeshTet(out, cellIndex);
+        remeshTet(out);
         if (mCapture && (mT.inside[0] || mT.inside[1] || mT.inside[2] || mT.inside[3]))
             for (const Vert& v : mVerts) (*mCapture)[size_t(t)].push_back({v.key, v.support, v.pos, v.steiner});
     }
@@ -1238,9 +1279,9 @@ static std::array<int, 4> evenPerm(std::initializer_list<int> first)
 /// others, the pieces kept by the removed region's rule, joined into regions
 /// per side across shared edges (not across slits), their loops traced, and
 /// the regions triangulated into `out`, vertices named (CutVertexId) so that
-/// the tets and cells around weld by name; cellIndex maps the names `out`
+/// the tets and cells around weld by name; mCellIndex maps the names `out`
 /// holds to their index.
-void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
+void RemeshKernel::remeshTet(CutCellGeometry& out)
 {
     // No solid in the tet (all four values below the isovalue): P is empty,
     // so there is neither an iso piece nor a cap (caps are kept inside P;
@@ -1275,7 +1316,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out, std::unordered_map<CutVertexI
     }
     SmallVector<char, 64> corner;
     markCorners(corner);
-    triangulateRegions(corner, out, cellIndex);
+    triangulateRegions(corner, out);
     if (mArrangeCapture) {
         ArrangementProbe& probe = (*mArrangeCapture)[size_t(mTet)];
         probe.solid = true;
@@ -1978,11 +2019,12 @@ void RemeshKernel::markCorners(SmallVector<char, 64>& corner)
     }
 }
 
-void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCellGeometry& out,
-                                      std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash>& cellIndex)
+void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCellGeometry& out)
 {
     const std::vector<Node>& nodes = mNodes;
     const auto& regions = mRegions;
+    // Each node's vertex in `out`, once looked up (-1: not yet).
+    mNodeOut.assign(nodes.size(), -1);
     for (const Region& r : regions) {
         const dvec3& nrm = r.normal;
         dvec3 e1 = std::abs(nrm.x) < 0.9 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
@@ -1992,30 +2034,42 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
         std::vector<int>& ptNode = mTriangulateNodes;
         pts.clear();
         ptNode.clear();
-        std::vector<std::vector<int>> outers, holes;
+        // The loops' corners back to back in mLoopCorners; outer and hole
+        // loops as (first, count) ranges of it.
+        std::vector<int>& corners = mLoopCorners;
+        corners.clear();
+        auto& outers = mOuterLoops;
+        auto& holes = mHoleLoops;
+        outers.clear();
+        holes.clear();
         for (const Loop& l : r.loops) {
-            std::vector<int> loop;
+            const size_t first = corners.size();
             for (int nd : l.nodes) {
                 if (!corner[size_t(nd)]) continue;
                 const dvec3& x = mVerts[size_t(nodes[size_t(nd)].vert)].pos;
                 pts.push_back({glm::dot(x, e1), glm::dot(x, e2)});
                 ptNode.push_back(nd);
-                loop.push_back(int(pts.size() - 1));
+                corners.push_back(int(pts.size() - 1));
             }
-            if (loop.size() < 3) {
-                if (loop.empty()) continue;
+            const size_t n = corners.size() - first;
+            if (n < 3) {
+                if (n == 0) continue;
                 throw std::runtime_error("remesh: degenerate boundary loop in cell " + cellText(mCell));
             }
             // A loop of (nearly) zero area is a slit inside the region (a blade
             // corner through the surface): a hole, whatever its rounding says.
+            const int* loop = corners.data() + first;
             double perim = 0.0;
-            for (size_t i = 0; i < loop.size(); ++i) {
-                const Vec2 &a = pts[size_t(loop[i])], &b = pts[size_t(loop[(i + 1) % loop.size()])];
+            for (size_t i = 0; i < n; ++i) {
+                const Vec2 &a = pts[size_t(loop[i])], &b = pts[size_t(loop[(i + 1) % n])];
                 perim += poly2::length2(a.x - b.x, a.y - b.y);
             }
-            const double area = signedArea(loop, pts);
-            (area > 1e-9 * perim * perim ? outers : holes).push_back(loop);
+            const double area = signedArea(loop, n, pts);
+            (area > 1e-9 * perim * perim ? outers : holes).push_back({uint32_t(first), uint32_t(n)});
         }
+        auto loopOf = [&](const std::pair<uint32_t, uint32_t>& range) {
+            return std::vector<int>(corners.begin() + range.first, corners.begin() + range.first + range.second);
+        };
         // A region that is one triangle too small for its corners to span an
         // area in double (a cap piece a few nm across where planes meet near
         // a grid edge; seed 2013 on the 1 mm head): the triangle, as its loop
@@ -2024,38 +2078,48 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
         bool lone = false;
         if (outers.empty()) {
             if (holes.empty()) continue;
-            if (holes.size() != 1 || holes[0].size() != 3)
+            if (holes.size() != 1 || holes[0].second != 3)
                 throw std::runtime_error("remesh: region without outer loop in cell " + cellText(mCell));
-            outers.swap(holes);
+            outers.push_back(holes[0]);
+            holes.clear();
             lone = true;
         }
-        std::vector<std::vector<std::vector<int>>> holesOf(outers.size());
-        for (auto& h : holes) {
-            size_t best = 0;
-            if (outers.size() > 1) {
-                Vec2 c{0, 0};
-                for (int i : h) {
-                    c.x += pts[size_t(i)].x / double(h.size());
-                    c.y += pts[size_t(i)].y / double(h.size());
-                }
-                for (size_t o = 0; o < outers.size(); ++o) {
-                    bool in = false;
-                    const auto& L = outers[o];
-                    for (size_t i = 0, j = L.size() - 1; i < L.size(); j = i++) {
-                        const Vec2 &a = pts[size_t(L[i])], &b = pts[size_t(L[j])];
-                        if ((a.y > c.y) != (b.y > c.y) && c.x < (b.x - a.x) * (c.y - a.y) / (b.y - a.y) + a.x) in = !in;
-                    }
-                    if (in) best = o;
-                }
+        // Each hole's outer loop: the last one holding the hole's centroid.
+        SmallVector<uint32_t, 4> holeOuter(holes.size(), 0);
+        for (size_t h = 0; h < holes.size() && outers.size() > 1; ++h) {
+            const int* hole = corners.data() + holes[h].first;
+            const size_t hn = holes[h].second;
+            Vec2 c{0, 0};
+            for (size_t k = 0; k < hn; ++k) {
+                c.x += pts[size_t(hole[k])].x / double(hn);
+                c.y += pts[size_t(hole[k])].y / double(hn);
             }
-            holesOf[best].push_back(h);
+            for (size_t o = 0; o < outers.size(); ++o) {
+                bool in = false;
+                const int* L = corners.data() + outers[o].first;
+                const size_t ln = outers[o].second;
+                for (size_t i = 0, j = ln - 1; i < ln; j = i++) {
+                    const Vec2 &a = pts[size_t(L[i])], &b = pts[size_t(L[j])];
+                    if ((a.y > c.y) != (b.y > c.y) && c.x < (b.x - a.x) * (c.y - a.y) / (b.y - a.y) + a.x) in = !in;
+                }
+                if (in) holeOuter[h] = uint32_t(o);
+            }
         }
         for (size_t o = 0; o < outers.size(); ++o) {
-            std::vector<int> poly = outers[o];
-            if (!holesOf[o].empty() && !bridgeHoles(poly, holesOf[o], pts))
-                throw std::runtime_error("remesh: cannot bridge a hole in cell " + cellText(mCell));
-            std::vector<int> tris;
-            bool convex = r.cap && !mPrism && outers.size() == 1 && holesOf[o].empty();
+            std::vector<int>& poly = mPoly;
+            poly.assign(corners.begin() + outers[o].first, corners.begin() + outers[o].first + outers[o].second);
+            bool hasHoles = false;
+            for (size_t h = 0; h < holes.size(); ++h) hasHoles = hasHoles || holeOuter[h] == o;
+            if (hasHoles) {
+                std::vector<std::vector<int>> mine; // rare: a slit inside the region
+                for (size_t h = 0; h < holes.size(); ++h)
+                    if (holeOuter[h] == o) mine.push_back(loopOf(holes[h]));
+                if (!bridgeHoles(poly, std::move(mine), pts))
+                    throw std::runtime_error("remesh: cannot bridge a hole in cell " + cellText(mCell));
+            }
+            std::vector<int>& tris = mTris;
+            tris.clear();
+            bool convex = r.cap && !mPrism && outers.size() == 1 && !hasHoles;
             for (size_t i = 0; i < poly.size() && convex; ++i) {
                 const Vec2 &a = pts[size_t(poly[(i + poly.size() - 1) % poly.size()])], &b = pts[size_t(poly[i])],
                            &c = pts[size_t(poly[(i + 1) % poly.size()])];
@@ -2103,20 +2167,20 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                     }
                 }
             }
+            if (mNodeOut.size() < nodes.size()) mNodeOut.resize(nodes.size(), -1);
             for (int i : tris) {
-                const Node& nd = nodes[size_t(ptNode[size_t(i)])];
-                CutVertexId id = mVerts[size_t(nd.vert)].key;
-                id.tagCount = uint8_t(std::min<size_t>(nd.tags.size(), id.tags.size()));
-                if (nd.tags.size() > id.tags.size())
-                    throw std::runtime_error("remesh: a point lies in more than 4 slits in cell " + cellText(mCell));
-                for (size_t k = 0; k < nd.tags.size(); ++k) id.tags[k] = nd.tags[k];
-                auto it = cellIndex.find(id);
-                if (it == cellIndex.end()) {
-                    it = cellIndex.emplace(id, uint32_t(out.vertexIds.size())).first;
-                    out.vertexIds.push_back(id);
-                    out.indexPositions.push_back(mVerts[size_t(nd.vert)].pos);
+                const int ndi = ptNode[size_t(i)];
+                int& index = mNodeOut[size_t(ndi)];
+                if (index < 0) {
+                    const Node& nd = nodes[size_t(ndi)];
+                    CutVertexId id = mVerts[size_t(nd.vert)].key;
+                    id.tagCount = uint8_t(std::min<size_t>(nd.tags.size(), id.tags.size()));
+                    if (nd.tags.size() > id.tags.size())
+                        throw std::runtime_error("remesh: a point lies in more than 4 slits in cell " + cellText(mCell));
+                    for (size_t k = 0; k < nd.tags.size(); ++k) id.tags[k] = nd.tags[k];
+                    index = int(mCellIndex.findOrAdd(id, mVerts[size_t(nd.vert)].pos, out));
                 }
-                out.indices.push_back(it->second);
+                out.indices.push_back(uint32_t(index));
             }
         }
     }
