@@ -578,22 +578,11 @@ bool angleSwap(inout dvec2 a, inout dvec2 b, inout int va, inout int vb)
     return true;
 }
 
-/// RemeshKernel::capSurfaces: a quad's plane (zero kerf) or each face of its
-/// prism (kerf > 0) through the tet, its corners by angle.
-void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal)
+/// RemeshKernel::capSurfaces' section of the tet by a face plane: h per
+/// corner (ties 0), the corners' simplices ps and positions pp (n, at most
+/// four); returns how many tet corners lie on the plane.
+int capSection(dvec4 plane, out double h[4], out uint ps[4], out dvec3 pp[4], out int n)
 {
-    if (uPrism) {
-        for (int o = 0; o < gSurfaceCount; ++o)
-            if (gSQuad[o] >= 0 && gSPlane[o] == id && dot3(gSNormal[o], normal) > 0.0lf) {
-                if (gSAlsoCount[o] == 4) {
-                    gFail |= kFailSurfaces;
-                    return;
-                }
-                gSAlso[4 * o + gSAlsoCount[o]++] = q;
-                return;
-            }
-    }
-    double h[4];
     int on = 0;
     for (int i = 0; i < 4; ++i) {
         h[i] = planeH(plane, gT.p[i]);
@@ -602,14 +591,10 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal)
             ++on;
         }
     }
-    int pv[4];
-    dvec3 pp[4];
-    int n = 0;
-    uint64_t def[8];
-    def[0] = id;
+    n = 0;
     for (int i = 0; i < 4; ++i)
         if (h[i] == 0.0lf && n < 4) {
-            pv[n] = makeVertex(1u << i, def, 1, gT.p[i]);
+            ps[n] = 1u << i;
             pp[n++] = gT.p[i];
         }
     for (int i = 0; i < 4; ++i)
@@ -623,10 +608,84 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal)
             }
             const double t = h[a] / (h[a] - h[b]);
             precise dvec3 x = gT.p[a] + t * (gT.p[b] - gT.p[a]);
-            pv[n] = makeVertex((1u << i) | (1u << j), def, 1, x);
+            ps[n] = (1u << i) | (1u << j);
             pp[n++] = x;
         }
-    if (gFail != 0u || n < 3) return;
+    return on;
+}
+
+/// RemeshKernel::capOutside's clip buffers: three polygons of up to 16
+/// corners (a section has four, and each of at most seven clips adds one).
+dvec3 gClip[48];
+
+double clipGrow(dvec3 x) { return kApart * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z))); }
+
+/// Polygon `src` (n corners) clipped to orient * h(x) + clipGrow(x) >= 0
+/// into polygon `dst`; returns its corner count.
+int clipTo(int src, int dst, int n, dvec4 plane, double orient)
+{
+    int m = 0;
+    for (int i = 0; i < n; ++i) {
+        const dvec3 a = gClip[16 * src + i], b = gClip[16 * src + (i + 1) % n];
+        precise double ha = orient * planeH(plane, a) + clipGrow(a);
+        precise double hb = orient * planeH(plane, b) + clipGrow(b);
+        if (ha >= 0.0lf && m < 16) gClip[16 * dst + m++] = a;
+        if ((ha >= 0.0lf) != (hb >= 0.0lf) && m < 16) {
+            precise dvec3 x = a + (ha / (ha - hb)) * (b - a);
+            gClip[16 * dst + m++] = x;
+        }
+    }
+    return m;
+}
+
+/// RemeshKernel::capOutside: can no point of the section (ps, pp, n), by
+/// kApart, lie inside both quad q (kerf > 0: its closed prism, face `face`
+/// aside) and the solid?
+bool capOutside(int q, uint64_t face, uint ps[4], dvec3 pp[4], int n)
+{
+    // The corners in their cyclic order (capSection lists four by edge, and
+    // the middle two then share no tet face).
+    for (int k = 0; k < n; ++k) gClip[k] = pp[k];
+    if (n == 4 && bitCount(ps[1] | ps[2]) == 4) {
+        gClip[2] = pp[3];
+        gClip[3] = pp[2];
+    }
+    int src = 0, cn = n;
+    for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
+        if (kSides[s].id == face) continue;
+        cn = clipTo(src, 1 - src, cn, kSides[s].plane, kSides[s].orient);
+        if (cn == 0) return true;
+        src = 1 - src;
+    }
+    if (gIso.triCount == 0) return false; // solid throughout
+    const int an = clipTo(src, 1 - src, cn, gIso.plane[0], 1.0lf);
+    if (gIso.triCount == 1) return an == 0;
+    if (gFoldConvex) return an == 0 || clipTo(1 - src, 2, an, gIso.plane[1], 1.0lf) == 0;
+    return an == 0 && clipTo(src, 2, cn, gIso.plane[1], 1.0lf) == 0;
+}
+
+/// RemeshKernel::capSurfaces, first pass: a quad's plane (zero kerf) or
+/// each face of its prism (kerf > 0) through the tet as a surface (no
+/// polygon yet), or joined to an earlier one with its plane (kerf > 0).
+void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal, int first)
+{
+    if (uPrism) {
+        for (int o = first; o < gSurfaceCount; ++o)
+            if (gSPlane[o] == id && dot3(gSNormal[o], normal) > 0.0lf) {
+                if (gSAlsoCount[o] == 4) {
+                    gFail |= kFailSurfaces;
+                    return;
+                }
+                gSAlso[4 * o + gSAlsoCount[o]++] = q;
+                return;
+            }
+    }
+    double h[4];
+    uint ps[4];
+    dvec3 pp[4];
+    int n;
+    const int on = capSection(plane, h, ps, pp, n);
+    if (n < 3) return;
     int sides = 3;
     if (on == 3) { // the plane is a tet face: only the cap facing away from this tet
         int f = 0;
@@ -636,6 +695,38 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal)
         if (uPrism && facing > 0.0lf) return; // faces into this tet
     }
     if (uPrism) sides = 1;
+    openSurface(id, q, sides, normal);
+}
+
+/// The plane of cap surface s (its quad's plane, or the prism face's).
+dvec4 capPlane(int s)
+{
+    const int q = gSQuad[s];
+    if (!uPrism) return kQuads[q].plane;
+    for (uint x = kQuads[q].firstSide; x < kQuads[q].firstSide + kQuads[q].sideCount; ++x)
+        if (kSides[x].id == gSPlane[s]) return kSides[x].plane;
+    return kQuads[q].plane; // not reached: the face is one of the quad's sides
+}
+
+/// Second pass: cap surface s's polygon, its corners by angle; false (no
+/// polygon made) when capOutside holds for its quad and every joined one.
+bool capPolygon(int s)
+{
+    const dvec4 plane = capPlane(s);
+    double h[4];
+    uint ps[4];
+    dvec3 pp[4];
+    int n;
+    capSection(plane, h, ps, pp, n);
+    bool outside = capOutside(gSQuad[s], gSPlane[s], ps, pp, n);
+    for (int k = 0; k < gSAlsoCount[s]; ++k) outside = outside && capOutside(gSAlso[4 * s + k], gSPlane[s], ps, pp, n);
+    if (outside) return false;
+    uint64_t def[8];
+    def[0] = gSPlane[s];
+    int pv[4];
+    for (int k = 0; k < n; ++k) pv[k] = makeVertex(ps[k], def, 1, pp[k]);
+    if (gFail != 0u) return false;
+    const dvec3 normal = gSNormal[s];
     dvec3 c = dvec3(0.0lf);
     for (int i = 0; i < n; ++i) c = c + pp[i];
     c = c / double(n);
@@ -653,28 +744,51 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal)
     if (angleSwap(a1, a2, v1, v2)) angleSwap(a0, a1, v0, v1);
     if (n == 4 && angleSwap(a2, a3, v2, v3))
         if (angleSwap(a1, a2, v1, v2)) angleSwap(a0, a1, v0, v1);
-    if (!openSurface(id, q, sides, normal)) return;
-    const int s = gSurfaceCount - 1;
     const int order[4] = int[4](v0, v1, v2, v3);
     for (int i = 0; i < n; ++i) gSPolyV[4 * s + i] = order[i];
     for (int i = 0; i < n; ++i)
         gSPolyLab[4 * s + i] = kBoundaryLabel | uint64_t(vSupport(order[i]) | vSupport(order[(i + 1) % n]));
     gSPolyLen[s] = n;
+    return true;
+}
+
+/// Copies surface `from` into slot `to` (capSurfaces' compaction).
+void moveSurface(int from, int to)
+{
+    gSPlane[to] = gSPlane[from];
+    gSQuad[to] = gSQuad[from];
+    gSSides[to] = gSSides[from];
+    gSNormal[to] = gSNormal[from];
+    gSAlsoCount[to] = gSAlsoCount[from];
+    gSPolyLen[to] = gSPolyLen[from];
+    for (int i = 0; i < 4; ++i) {
+        gSAlso[4 * to + i] = gSAlso[4 * from + i];
+        gSPolyV[4 * to + i] = gSPolyV[4 * from + i];
+        gSPolyLab[4 * to + i] = gSPolyLab[4 * from + i];
+    }
 }
 
 void capSurfaces()
 {
+    const int first = gSurfaceCount;
     for (int i = 0; i < gReachCount && gFail == 0u; ++i) {
         const int q = gReachQuad[i];
         if (!uPrism) {
-            capFace(q, kQuads[q].id, kQuads[q].plane, kQuads[q].plane.xyz);
+            capFace(q, kQuads[q].id, kQuads[q].plane, kQuads[q].plane.xyz, first);
             continue;
         }
         for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount && gFail == 0u; ++s) {
             precise dvec3 normal = kSides[s].orient * kSides[s].plane.xyz;
-            capFace(q, kSides[s].id, kSides[s].plane, normal);
+            capFace(q, kSides[s].id, kSides[s].plane, normal, first);
         }
     }
+    int kept = first;
+    for (int s = first; s < gSurfaceCount && gFail == 0u; ++s) {
+        if (!capPolygon(s)) continue;
+        if (kept != s) moveSurface(s, kept);
+        ++kept;
+    }
+    if (gFail == 0u) gSurfaceCount = kept;
 }
 
 /// chooseSplitOrder's test: the whole tet strictly on one side of the plane.
@@ -684,7 +798,7 @@ bool apart(dvec4 p)
     for (int i = 0; i < 4; ++i) {
         const double h = planeH(p, gT.p[i]);
         const dvec3 x = gT.p[i];
-        const double e = 1e-9lf * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z)));
+        const double e = kApart * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z)));
         pos = pos && h > e;
         neg = neg && h < -e;
     }

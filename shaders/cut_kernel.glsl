@@ -74,6 +74,8 @@ double planeH(dvec4 p, dvec3 x)
 }
 /// The kernel's tie for a point: 1e-13 (1 + its largest |coordinate|).
 double epsAt(dvec3 x) { return 1e-13lf * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z))); }
+/// RemeshKernel.cpp's kApart: farther than kApart (1 + |x|) from a plane is off it.
+const double kApart = 1e-9lf;
 
 /// cutter::edgeCrossing: the crossing's fraction from the lower-keyed end.
 double edgeCrossing(float valueLo, float valueHi, float isovalue)
