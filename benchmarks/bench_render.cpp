@@ -41,7 +41,7 @@
 //
 // Usage: bench_render [--quick] [--frames N] [--size WxH] [--egl-device]
 //                     [--cpu-passes] [--targets N,N,...] [--gpu-cut [LANES]]
-//                     [--volumes a,b,...]
+//                     [--volumes a,b,...] [--head PATH]
 //   --quick: the 64x64x22 and 256x256x40 crops, uncut and the 419-cell cut,
 //            3 frames (about 40 s on llvmpipe on a loaded 2-core machine).
 //   --egl-device: EGL_PLATFORM=device (the NVIDIA EGL device platform); the
@@ -61,6 +61,9 @@
 //            invocations (default 8 on llvmpipe, its SIMD width, 1 else).
 //   --volumes: names among 64x64x22, 256x256x40, 512x512x40, 512x512x100,
 //            256x256x196, head.
+//   --head PATH: read the VHM head from PATH (any format readVolume takes,
+//            e.g. a .vdb written by `mtcut convert` from the DICOM series)
+//            instead of ../shared/data/vhm-head-dicom.
 // One parseable line per case ("case=render ..."), then a Markdown table.
 #include "benchmarks/BenchCuts.h"
 #include "benchmarks/BenchUtil.h"
@@ -439,6 +442,7 @@ int main(int argc, char** argv)
     bool quick = false, framesGiven = false, targetsGiven = false, gpuCut = false;
     size_t lanes = 0; // --gpu-cut's: 8 on llvmpipe (its SIMD width; cut_arrange.vert), else 1
     std::vector<std::string> names;
+    std::string headPath = std::string(MTCUT_SHARED_DATA) + "/vhm-head-dicom";
     for (int i = 1; i < argc; ++i) {
         if (!std::strcmp(argv[i], "--quick")) {
             quick = true;
@@ -464,9 +468,11 @@ int main(int argc, char** argv)
             targetsGiven = true;
         } else if (!std::strcmp(argv[i], "--volumes") && i + 1 < argc) {
             names = split(argv[++i]);
+        } else if (!std::strcmp(argv[i], "--head") && i + 1 < argc) {
+            headPath = argv[++i];
         } else {
             std::fprintf(stderr, "usage: bench_render [--quick] [--frames N] [--size WxH] [--egl-device] [--cpu-passes] "
-                                 "[--targets N,N,...] [--gpu-cut [LANES]] [--volumes 64x64x22,256x256x40,512x512x40,512x512x100,256x256x196,head]\n");
+                                 "[--targets N,N,...] [--gpu-cut [LANES]] [--volumes 64x64x22,256x256x40,512x512x40,512x512x100,256x256x196,head] [--head PATH]\n");
             return 2;
         }
     }
@@ -502,7 +508,7 @@ int main(int argc, char** argv)
             auto spec = std::find_if(all.begin(), all.end(), [&](const VolumeSpec& s) { return s.name == name; });
             if (spec == all.end()) throw std::runtime_error("unknown volume " + name);
             if (spec->head) {
-                const std::string path = std::string(MTCUT_SHARED_DATA) + "/vhm-head-dicom";
+                const std::string& path = headPath;
                 if (!std::filesystem::exists(path)) {
                     std::printf("case=render volume=vhm-head skipped: %s not found\n", path.c_str());
                     continue;
