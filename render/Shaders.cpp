@@ -1,5 +1,6 @@
 #include "render/Shaders.h"
 
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
@@ -59,8 +60,11 @@ Program buildProgram(const std::vector<ShaderText>& stages)
 
 Program buildProgram(const std::vector<std::string>& files, const std::string& defines)
 {
+    std::string all = defines;
+    if (const char* preamble = std::getenv("MTCUT_SHADER_PREAMBLE"); preamble && *preamble)
+        all = std::string(preamble) + "\n" + defines;
     std::vector<ShaderText> stages;
-    for (const std::string& f : files) stages.push_back({f, withDefines(shaderSource(f), defines)});
+    for (const std::string& f : files) stages.push_back({f, withDefines(shaderSource(f), all)});
     return buildProgram(stages);
 }
 

@@ -50,7 +50,10 @@ struct ShaderText
 /// ("PROGRAM: link error:\n<log>"). Needs a current context.
 Program buildProgram(const std::vector<ShaderText>& stages);
 
-/// buildProgram over embedded files, each with `defines` inserted.
+/// buildProgram over embedded files, each with `defines` inserted. The
+/// environment variable MTCUT_SHADER_PREAMBLE, when set, goes in first (for
+/// trying a driver's pragmas, e.g. "#pragma optionNV(fastmath off)", without
+/// a rebuild).
 Program buildProgram(const std::vector<std::string>& files, const std::string& defines = {});
 
 } // namespace mtcut::render
