@@ -8,7 +8,8 @@
 // uResults[i * POLY2_RECORD]:
 //   0 the function's bool, 1 the second bool (earClip after bridgeHoles),
 //   2 poly2Overflow, 3 poly2TriCount, 4 poly2PolyCount, 5-7 zero,
-//   8-15 four doubles as unpackDouble2x32 (low word first),
+//   8-15 four doubles as unpackDouble2x32 (low word first; segments: the
+//   four orientations poly2SegmentsIntersect tests),
 //   16.. 3 POLY2_MAX_TRIS triangle indices, then POLY2_MAX corners of poly2Poly.
 layout(local_size_x = 16) in;
 
@@ -63,6 +64,10 @@ void main()
     if (load(c)) {
         if (c.func == POLY2_FUNC_SEGMENTS) {
             r0 = poly2SegmentsIntersect(poly2Pt[0], poly2Pt[1], poly2Pt[2], poly2Pt[3]);
+            d[0] = poly2Cross(poly2Pt[2], poly2Pt[3], poly2Pt[0]);
+            d[1] = poly2Cross(poly2Pt[2], poly2Pt[3], poly2Pt[1]);
+            d[2] = poly2Cross(poly2Pt[0], poly2Pt[1], poly2Pt[2]);
+            d[3] = poly2Cross(poly2Pt[0], poly2Pt[1], poly2Pt[3]);
         } else if (c.func == POLY2_FUNC_TRIANGLE) {
             dvec2 a = poly2Pt[0], b = poly2Pt[1], e = poly2Pt[2];
             d[0] = poly2MinSine(a, b, e);

@@ -85,7 +85,15 @@ Answer cpuAnswer(const Input& in)
     const std::vector<Vec2>& p = in.pts;
     a.poly = in.poly;
     switch (in.func) {
-    case kSegments: a.r0 = segmentsIntersect(p[0], p[1], p[2], p[3]); break;
+    case kSegments:
+        a.r0 = segmentsIntersect(p[0], p[1], p[2], p[3]);
+        // Its four orientations too, in the shader's order: a wrong answer
+        // then shows which product the GPU rounded differently.
+        a.bits[0] = bitsOf(cross2(p[2], p[3], p[0]));
+        a.bits[1] = bitsOf(cross2(p[2], p[3], p[1]));
+        a.bits[2] = bitsOf(cross2(p[0], p[1], p[2]));
+        a.bits[3] = bitsOf(cross2(p[0], p[1], p[3]));
+        break;
     case kTriangle:
         a.bits[0] = bitsOf(minSine(p[0], p[1], p[2]));
         a.bits[1] = bitsOf(cross2(p[0], p[1], p[2]));
@@ -651,6 +659,56 @@ std::vector<Input> overflowCases()
 
 } // namespace
 
+// Each path by which the kernel's shaders take a double (a buffer, a global
+// array written by a function, a parameter) and the plain operations on it
+// keep every bit. Written after poly2_test.comp's answers on an NVIDIA H100
+// (driver 580.159.04) came out as double arithmetic on float-rounded points:
+// a failure here names the path that rounds.
+TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
+{
+    MTCUT_REQUIRE_GL();
+    constexpr int kPaths = 9;
+    const char* pathNames[kPaths] = {"dvec2 buffer .x", "dvec2 buffer .y", "double buffer",
+                                     "global array",    "function",        "global array via function",
+                                     "x - y",           "x * y",           "cross product"};
+    std::mt19937_64 rng(77);
+    std::uniform_real_distribution<double> u(-2000.0, 2000.0);
+    std::vector<Vec2> in(4096);
+    for (Vec2& p : in) p = {u(rng), u(rng) * 1e-3};
+    in[0] = {1.0 / 3.0, 2.0 / 3.0};
+    in[1] = {1000.0000018057766, 1099.9999986812238}; // poly2's case 9 on the H100
+    const Program program = buildProgram({"doubles_test.comp"});
+    const Buffer inBuf(in.size() * sizeof(Vec2), in.data());
+    const Buffer scalarBuf(in.size() * sizeof(Vec2), in.data());
+    const Buffer outBuf(in.size() * kPaths * 2 * sizeof(uint32_t), nullptr, GL_MAP_READ_BIT);
+    program.use();
+    glProgramUniform1ui(program.id(), program.uniform("uCount"), GLuint(in.size()));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, inBuf.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, scalarBuf.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, outBuf.id());
+    glDispatchCompute(GLuint((in.size() + 15) / 16), 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<double> out(in.size() * kPaths);
+    glGetNamedBufferSubData(outBuf.id(), 0, GLsizeiptr(out.size() * sizeof(double)), out.data());
+    glUseProgram(0);
+    checkGlError("doubles_test.comp");
+    size_t bad[kPaths] = {};
+    for (size_t i = 0; i < in.size(); ++i) {
+        const double x = in[i].x, y = in[i].y;
+        volatile double d = x - y, m = x * y; // volatile: no fma, as the shader's precise
+        volatile double c1 = (x - 1.0) * (y + 1.0), c2 = (y - 1.0) * (x + 1.0);
+        const double want[kPaths] = {x, y, x, x, x, x, d, m, c1 - c2};
+        for (int k = 0; k < kPaths; ++k) {
+            const double got = out[i * kPaths + k];
+            if (bitsOf(got) == bitsOf(want[k])) continue;
+            if (++bad[k] <= 2)
+                ADD_FAILURE() << pathNames[k] << ", input " << i << ": shader " << std::hexfloat << got << " want "
+                              << want[k] << std::defaultfloat;
+        }
+    }
+    for (int k = 0; k < kPaths; ++k) EXPECT_EQ(bad[k], 0u) << pathNames[k] << ": of " << in.size();
+}
+
 TEST(RenderPoly2, ShaderDecidesAsTheCpuBitForBit)
 {
     MTCUT_REQUIRE_GL();
@@ -680,7 +738,7 @@ TEST(RenderPoly2, ShaderDecidesAsTheCpuBitForBit)
     ASSERT_EQ(records.size(), inputs.size() * kRecord);
 
     size_t count[kFuncCount] = {}, trueCount[kFuncCount] = {}, overflowCount[kFuncCount] = {}, tris[kFuncCount] = {};
-    size_t mismatches = 0;
+    size_t mismatches = 0, mismatchCount[kFuncCount] = {};
     for (size_t i = 0; i < inputs.size(); ++i) {
         const Answer cpu = cpuAnswer(inputs[i]), gpu = gpuAnswer(records.data() + i * kRecord);
         const int f = inputs[i].func;
@@ -689,13 +747,14 @@ TEST(RenderPoly2, ShaderDecidesAsTheCpuBitForBit)
         overflowCount[f] += cpu.overflow;
         tris[f] += cpu.overflow ? 0 : cpu.tris.size() / 3;
         const std::string d = difference(cpu, gpu);
+        mismatchCount[f] += !d.empty();
         if (!d.empty() && ++mismatches <= 10)
             ADD_FAILURE() << "case " << i << ":" << d << "\n  " << inputText(inputs[i]);
     }
     EXPECT_EQ(mismatches, 0u) << "cases where the shader differs from the C++";
     for (int f = 0; f < kFuncCount; ++f) {
-        std::printf("%-30s %5zu cases, %5zu true, %3zu over capacity, %6zu triangles\n", kFuncNames[f], count[f],
-                    trueCount[f], overflowCount[f], tris[f]);
+        std::printf("%-30s %5zu cases, %5zu true, %3zu over capacity, %6zu triangles, %5zu differ\n", kFuncNames[f],
+                    count[f], trueCount[f], overflowCount[f], tris[f], mismatchCount[f]);
         // Both outcomes occur (the bool of minSine's case is same2's).
         if (f == kArea) continue;
         EXPECT_GT(trueCount[f], count[f] / 50) << kFuncNames[f];
