@@ -11,7 +11,7 @@ layout(std430, binding = 1) readonly buffer InScalar { double uInScalar[]; };
 layout(std430, binding = 2) writeonly buffer Out { uvec2 uOut[]; };
 uniform uint uCount;
 
-#define PATHS 9
+#define PATHS 11
 
 dvec2 gArray[16]; // a per-invocation global array, as poly2Pt
 int gCount;
@@ -25,6 +25,17 @@ int addPoint(dvec2 p) // as poly2AddPoint
 {
     gArray[gCount] = p;
     return gCount++;
+}
+
+double crossPrecise(dvec2 o, dvec2 a, dvec2 b) // as poly2Cross
+{
+    precise double r = (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    return r;
+}
+
+double crossPlain(dvec2 o, dvec2 a, dvec2 b) // the same without precise (may fuse: compared loosely)
+{
+    return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
 }
 
 void put(uint i, int path, double v)
@@ -54,4 +65,7 @@ void main()
     put(i, 7, m);                         // a product
     precise double c = (p.x - 1.0lf) * (p.y + 1.0lf) - (p.y - 1.0lf) * (p.x + 1.0lf);
     put(i, 8, c);                         // a cross product, as poly2Cross
+    dvec2 o = dvec2(1.0lf, -1.0lf), a = dvec2(-1.0lf, -1.0lf);
+    put(i, 9, crossPrecise(o, a, gArray[at])); // poly2Cross on a point from the global array
+    put(i, 10, crossPlain(o, a, gArray[at]));
 }
