@@ -1,0 +1,58 @@
+#!/bin/bash
+# Runs a bundle from benchmarks/gpu_bundle.sh on a GPU machine: the render
+# benchmark (bench_render --egl-device --frames 15, with the head when the
+# bundle holds data/head.vdb), each GPU-pass program's build time, and the GL
+# tests, each under a time limit, writing RESULTS_DIR/{gpu_run.txt,
+# bench_render.txt}. The GL tests that read ../shared/data find the bundle's
+# data/ when MTCUT_DATA is not set.
+#
+# Usage: benchmarks/gpu_run.sh BUNDLE.tar.xz RESULTS_DIR
+# Environment: BENCH_S (bench_render's limit, default 240), SHADER_S (each
+# program's build, default 60), TEST_S (each test program, default 120),
+# BENCH_ARGS (extra bench_render arguments, e.g. --gpu-cut).
+set -uo pipefail
+if [ $# -ne 2 ]; then
+    echo "usage: $0 BUNDLE.tar.xz RESULTS_DIR" >&2
+    exit 2
+fi
+bundle=$(realpath "$1") results=$2
+mkdir -p "$results" && results=$(realpath "$results")
+exec > >(tee -a "$results/gpu_run.txt") 2>&1
+dir=$(mktemp -d)
+tar xJf "$bundle" -C "$dir" || exit 3
+export LD_LIBRARY_PATH=$dir/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+ldconfig -p | grep -q 'libstdc++.so.6 ' || export LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$dir/libfb
+nvidia_json=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nvidia_json" ]; then
+    export __EGL_VENDOR_LIBRARY_FILENAMES=$nvidia_json
+fi
+export MTCUT_DATA=${MTCUT_DATA:-$dir/data}
+cd "$dir"
+date
+nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv,noheader 2>&1
+missing=$(ldd ./bench_render | grep "not found")
+[ -n "$missing" ] && { echo "missing libraries:"; echo "$missing"; exit 4; }
+
+head=()
+[ -f data/head.vdb ] && head=(--head data/head.vdb)
+echo "== bench_render --egl-device --frames 15 ${head[*]} ${BENCH_ARGS:-}"
+# shellcheck disable=SC2086
+timeout -k 5 "${BENCH_S:-240}" ./bench_render --egl-device --frames 15 "${head[@]}" ${BENCH_ARGS:-} \
+    > "$results/bench_render.txt" 2>&1
+echo "bench_render rc=$? at ${SECONDS}s"
+grep -v '^|' "$results/bench_render.txt" | cut -c1-300
+
+echo "== program build times (one process each)"
+for p in surface mask_query.comp poly2_test.comp cut_phase_one.comp cut_vertex_positions.comp cut_names.comp \
+         cut_arrange.vert cut_regions.vert; do
+    timeout -k 5 "${SHADER_S:-60}" ./bench_render_shaders --egl-device "$p" 2>&1 | grep -v '^device='
+    rc=${PIPESTATUS[0]}
+    [ "$rc" -ne 0 ] && echo "case=shader program=$p rc=$rc (124: not built within ${SHADER_S:-60} s)"
+done
+
+for t in test_render_gl test_render_mask test_render_frame test_render_kerf test_render_overlay test_render_timer \
+         test_render_poly2 test_render_cut_kernel; do
+    echo "== $t"
+    timeout -k 5 "${TEST_S:-120}" "./$t" --gtest_brief=1 2>&1 | tail -40
+    echo "$t rc=${PIPESTATUS[0]} at ${SECONDS}s"
+done
