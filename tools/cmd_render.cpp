@@ -136,7 +136,13 @@ int runRender(const Args& args)
                 std::vector<openvdb::Coord> cells;
                 for (const auto& entry : remesher.cells()) cells.push_back(entry.first);
                 const auto g0 = Clock::now();
+                // Its programs are large (the exact kernel on doubles): quick
+                // on Mesa, but an NVIDIA 580 driver had not built them
+                // after 4 minutes (benchmarks/RESULTS.md), so say what is going on.
+                std::fprintf(stderr, "mtcut: --gpu-cut: building the GPU cut pass's shaders\n");
                 const render::GpuCutKernel gpu;
+                std::fprintf(stderr, "mtcut: --gpu-cut: shaders built in %.1f s; making the cut geometry of %zu cells\n",
+                             secondsSince(g0), cells.size());
                 auto draw = std::make_shared<render::GpuCutDraw>(2 * cutTriangles + 4096);
                 const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, iso, mask, cells, 1, draw.get());
                 size_t differ = 0;
