@@ -144,35 +144,63 @@ TEST(RenderGl, ObjectsAreMoveOnlyAndFreeTheirNames)
 
 namespace {
 
-/// Sets EGL_PLATFORM for the scope, restoring it after.
-class ScopedEglPlatform
+/// Sets an environment variable for the scope, restoring it after.
+class ScopedEnv
 {
 public:
-    explicit ScopedEglPlatform(const char* value)
+    ScopedEnv(const char* name, const char* value) : mName(name)
     {
-        const char* old = std::getenv("EGL_PLATFORM");
+        const char* old = std::getenv(name);
         mHad = old != nullptr;
         if (old) mOld = old;
-        ::setenv("EGL_PLATFORM", value, 1);
+        ::setenv(name, value, 1);
     }
-    ~ScopedEglPlatform()
+    ~ScopedEnv()
     {
-        if (mHad) ::setenv("EGL_PLATFORM", mOld.c_str(), 1); else ::unsetenv("EGL_PLATFORM");
+        if (mHad) ::setenv(mName.c_str(), mOld.c_str(), 1); else ::unsetenv(mName.c_str());
     }
 
 private:
+    std::string mName;
     bool mHad = false;
     std::string mOld;
 };
 
 } // namespace
 
+TEST(RenderGl, ShaderPreambleFromTheEnvironmentGoesInFrontOfEveryEmbeddedShader)
+{
+    MTCUT_REQUIRE_GL();
+    const std::vector<std::string> files{"surface.vert", "surface.frag"};
+    EXPECT_NO_THROW(buildProgram(files));
+    {
+        // Not GLSL: the build must fail, naming the first stage, so the
+        // text did reach the compiler.
+        ScopedEnv env("MTCUT_SHADER_PREAMBLE", "this is not glsl");
+        try {
+            buildProgram(files);
+            FAIL() << "the preamble was not inserted";
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("surface.vert: compile error"), std::string::npos) << e.what();
+        }
+    }
+    {
+        // A pragma the driver ignores, then the program's own defines: builds.
+        ScopedEnv env("MTCUT_SHADER_PREAMBLE", "#pragma optionNV(fastmath off)");
+        EXPECT_NO_THROW(buildProgram(files));
+    }
+    {
+        ScopedEnv env("MTCUT_SHADER_PREAMBLE", ""); // empty: nothing inserted
+        EXPECT_NO_THROW(buildProgram(files));
+    }
+}
+
 TEST(RenderGl, EglPlatformIsHonoured)
 {
     MTCUT_REQUIRE_GL();
     const std::string shared = mtcut::test::glContext(nullptr)->description();
     {
-        ScopedEglPlatform env("surfaceless");
+        ScopedEnv env("EGL_PLATFORM", "surfaceless");
         try {
             auto ctx = createHeadlessContext();
             EXPECT_EQ(ctx->description().rfind("EGL surfaceless: ", 0), 0u) << ctx->description();
@@ -182,7 +210,7 @@ TEST(RenderGl, EglPlatformIsHonoured)
         }
     }
     {
-        ScopedEglPlatform env("device"); // any EGL device, Mesa's software one included
+        ScopedEnv env("EGL_PLATFORM", "device"); // any EGL device, Mesa's software one included
         try {
             auto ctx = createHeadlessContext();
             EXPECT_EQ(ctx->description().rfind("EGL device ", 0), 0u) << ctx->description();
@@ -205,7 +233,7 @@ TEST(RenderGl, UnknownEglPlatformFailsWithAMessage)
     // drivers ignore the variable) a working context.
     MTCUT_REQUIRE_GL();
     {
-        ScopedEglPlatform env("no-such-platform");
+        ScopedEnv env("EGL_PLATFORM", "no-such-platform");
         try {
             auto ctx = createHeadlessContext();
             EXPECT_GE(epoxy_gl_version(), 45);
