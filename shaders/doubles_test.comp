@@ -9,9 +9,10 @@ layout(local_size_x = 16) in;
 layout(std430, binding = 0) readonly buffer In { dvec2 uIn[]; };
 layout(std430, binding = 1) readonly buffer InScalar { double uInScalar[]; };
 layout(std430, binding = 2) writeonly buffer Out { uvec2 uOut[]; };
+layout(std430, binding = 3) readonly buffer Index { int uIndex[]; }; // a permutation of the inputs
 uniform uint uCount;
 
-#define PATHS 11
+#define PATHS 12
 
 dvec2 gArray[16]; // a per-invocation global array, as poly2Pt
 int gCount;
@@ -68,4 +69,5 @@ void main()
     dvec2 o = dvec2(1.0lf, -1.0lf), a = dvec2(-1.0lf, -1.0lf);
     put(i, 9, crossPrecise(o, a, gArray[at])); // poly2Cross on a point from the global array
     put(i, 10, crossPlain(o, a, gArray[at]));
+    put(i, 11, uIn[uIndex[i]].x);         // at an index read from another buffer, as poly2_test's cases
 }

@@ -668,7 +668,7 @@ std::vector<Input> overflowCases()
 TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
 {
     MTCUT_REQUIRE_GL();
-    constexpr int kPaths = 11;
+    constexpr int kPaths = 12, kPlainCross = 10; // the one path compared loosely
     const char* pathNames[kPaths] = {"dvec2 buffer .x",
                                      "dvec2 buffer .y",
                                      "double buffer",
@@ -679,7 +679,8 @@ TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
                                      "x * y",
                                      "cross product",
                                      "precise cross in a function, of a global array's point",
-                                     "the same without precise (within 4 ulp: it may fuse)"};
+                                     "the same without precise (within 4 ulp: it may fuse)",
+                                     "dvec2 buffer at an index from another buffer"};
     std::mt19937_64 rng(77);
     std::uniform_real_distribution<double> u(-2000.0, 2000.0);
     std::vector<Vec2> in(4096);
@@ -689,12 +690,16 @@ TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
     const Program program = buildProgram({"doubles_test.comp"});
     const Buffer inBuf(in.size() * sizeof(Vec2), in.data());
     const Buffer scalarBuf(in.size() * sizeof(Vec2), in.data());
+    std::vector<int32_t> index(in.size()); // i -> 7 i mod n: a permutation (n = 4096)
+    for (size_t i = 0; i < in.size(); ++i) index[i] = int32_t(i * 7 % in.size());
+    const Buffer indexBuf(index.size() * sizeof(int32_t), index.data());
     const Buffer outBuf(in.size() * kPaths * 2 * sizeof(uint32_t), nullptr, GL_MAP_READ_BIT);
     program.use();
     glProgramUniform1ui(program.id(), program.uniform("uCount"), GLuint(in.size()));
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, inBuf.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, scalarBuf.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, outBuf.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, indexBuf.id());
     glDispatchCompute(GLuint((in.size() + 15) / 16), 1, 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     std::vector<double> out(in.size() * kPaths);
@@ -709,11 +714,11 @@ TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
         // poly2Cross((1, -1), (-1, -1), (x, y)) = (-2) (y + 1) - 0 (x - 1)
         volatile double e1 = -2.0 * (y - -1.0), e2 = 0.0 * (x - 1.0);
         const double cross = e1 - e2;
-        const double want[kPaths] = {x, y, x, x, x, x, d, m, c1 - c2, cross, cross};
+        const double want[kPaths] = {x, y, x, x, x, x, d, m, c1 - c2, cross, cross, in[size_t(index[i])].x};
         for (int k = 0; k < kPaths; ++k) {
             const double got = out[i * kPaths + k];
             if (bitsOf(got) == bitsOf(want[k])) continue;
-            if (k == kPaths - 1 && std::abs(got - want[k]) <= 4 * std::numeric_limits<double>::epsilon() * std::abs(want[k]))
+            if (k == kPlainCross && std::abs(got - want[k]) <= 4 * std::numeric_limits<double>::epsilon() * std::abs(want[k]))
                 continue;
             if (++bad[k] <= 2)
                 ADD_FAILURE() << pathNames[k] << ", input " << i << ": shader " << std::hexfloat << got << " want "
