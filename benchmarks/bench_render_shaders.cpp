@@ -11,7 +11,9 @@
 //            default: all, the small ones first.
 //   MTCUT_SHADER_PREAMBLE in the environment goes in front of every shader
 //   (render/Shaders.h), to try a driver's pragmas.
-// One line per program: "case=shader program=NAME source_kb=N build_ms=T",
+// Mesa (llvmpipe) defers most of its compiling to the first draw or
+// dispatch, so its build_ms are small and say little; on NVIDIA the build is
+// done at link. One line per program: "case=shader program=NAME source_kb=N build_ms=T",
 // or "... error=..." when it does not build. Run one program per process
 // (under `timeout`) where a driver may not finish.
 #include "benchmarks/BenchUtil.h"
