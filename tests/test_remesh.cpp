@@ -877,6 +877,75 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
     }
 }
 
+// With a width, the self-contact test of a step's changed cells runs in
+// parallel on several threads; the refusal must name the cell the serial
+// test names (the first in cell order with a contact), however the threads
+// meet the cells. Many cells broken at once, so that a parallel test that
+// named the first contact it found would name another.
+TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
+{
+    const BallAndTwoStrokes ball;
+    CutMask mask(frameOf(ball.vol), 0.5);
+    addStroke(mask, ball.first);
+    addStroke(mask, ball.second);
+    // Every third cell with new geometry gets a small tetrahedron through its
+    // first triangle (as in AKerfCutWhoseSurfaceCrossesItselfIsRefused).
+    auto poke = [](CutCellGeometry& g, uint64_t tag) {
+        const dvec3 centre =
+            (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] + g.indexPositions[g.indices[2]]) / 3.0;
+        const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+        const uint32_t base = uint32_t(g.vertexIds.size());
+        for (int k = 0; k < 4; ++k) {
+            CutVertexId id;
+            id.dim = 3;
+            id.feature = {uint64_t(0xfeed), tag, uint64_t(k)};
+            id.planeCount = 1;
+            id.planes[0] = 0xdead0 + uint64_t(k);
+            g.vertexIds.push_back(id);
+            g.indexPositions.push_back(centre + 0.03 * corner[k]);
+        }
+        for (auto [a, b, c] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
+            for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
+    };
+    std::vector<Coord> withGeometry;
+    {
+        CutRemesher probe(ball.vol, 0.0f, ball.uncut);
+        probe.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+            if (g.indices.size() >= 6) withGeometry.push_back(c);
+        });
+        probe.update(mask);
+    }
+    std::sort(withGeometry.begin(), withGeometry.end());
+    ASSERT_GT(withGeometry.size(), 60u);
+    std::vector<Coord> victims;
+    for (size_t i = withGeometry.size() / 3; i < withGeometry.size(); i += 3) victims.push_back(withGeometry[i]);
+    auto run = [&](int threads) {
+        std::string message;
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+        tbb::task_arena arena(threads);
+        arena.execute([&] {
+            CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+            remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+                if (std::binary_search(victims.begin(), victims.end(), c)) poke(g, uint64_t(c.x() * 4096 + c.y() * 64 + c.z()));
+            });
+            try {
+                remesher.update(mask);
+            } catch (const std::runtime_error& e) {
+                message = e.what();
+            }
+        });
+        return message;
+    };
+    const std::string serial = run(1);
+    EXPECT_NE(serial.find("remesh: the surface crosses or touches itself"), std::string::npos) << serial;
+    const size_t at = serial.rfind("in cell (");
+    ASSERT_NE(at, std::string::npos) << serial;
+    int x = 0, y = 0, z = 0;
+    ASSERT_EQ(std::sscanf(serial.c_str() + at, "in cell (%d, %d, %d)", &x, &y, &z), 3);
+    EXPECT_LE(Coord(x, y, z), victims.front()) << serial << " (the first victim: " << victims.front() << ")";
+    for (int round = 0; round < 5; ++round) EXPECT_EQ(run(4), serial) << "round " << round;
+}
+
 // A whole cut of 2,048 cells or more on several threads is checked in
 // chunks in parallel (CutRemesher::checkLocally). The chunks must give the
 // serial check's verdict: no refusal of a clean cut (chunk boundaries cross
