@@ -97,6 +97,9 @@ public:
     std::array<ArrangementProbe, kTetsPerCell>* mArrangeCapture = nullptr;
     /// capSurfaces() leaves out the caps capOutside() rules out (CellKernel::skipOutsideCapsForTesting).
     bool mSkipOutsideCaps = true;
+    /// makeVertex answers repeats from its memo (CellKernel::useNameMemoForTesting).
+    bool mUseMemo = true;
+    size_t mMemoHits = 0; ///< calls the memo answered (for tests)
 
 private:
     // ---- per tet state
@@ -222,6 +225,69 @@ private:
         mVertHash.push_back(hash);
         if (mHashIndexed) indexVertex(int(mVerts.size() - 1));
         else if (mVerts.size() >= kIndexFrom) rebuildHashIndex();
+    }
+    /// makeVertex's memo: the vertex a call with the same simplex and the
+    /// same planes (as a set) made earlier in this tet. Such a call names the
+    /// same point, computed along another edge or by another surface (a
+    /// crossing of two pieces' common edge; a line's point on each surface
+    /// through it): a third of the calls at kerf 0.5. Open addressing, valid
+    /// for entries of the current tet's generation.
+    struct MemoEntry
+    {
+        uint64_t hash = 0;
+        uint32_t generation = 0;
+        int vertex = -1;
+        uint8_t support = 0;
+        uint8_t count = 0;
+        std::array<uint64_t, 4> planes{};
+    };
+    std::vector<MemoEntry> mMemo = std::vector<MemoEntry>(256);
+    size_t mMemoUsed = 0;
+    uint32_t mMemoGeneration = 1;
+    static uint64_t memoHash(uint8_t support, const std::array<uint64_t, 4>& planes, int count)
+    {
+        uint64_t h = 0x9e3779b97f4a7c15ull * (uint64_t(support) + 1);
+        for (int i = 0; i < count; ++i) {
+            h ^= planes[size_t(i)] + 0x632be59bd9b4e019ull + (h << 6) + (h >> 2);
+            h *= 0xbf58476d1ce4e5b9ull;
+        }
+        return h ^ (h >> 31);
+    }
+    /// The slot of (support, planes) in mMemo: its entry, or the empty slot
+    /// where it goes.
+    MemoEntry& memoSlot(uint64_t hash, uint8_t support, const std::array<uint64_t, 4>& planes, int count)
+    {
+        const size_t mask = mMemo.size() - 1;
+        for (size_t i = size_t(hash) & mask;; i = (i + 1) & mask) {
+            MemoEntry& e = mMemo[i];
+            if (e.generation != mMemoGeneration) return e;
+            if (e.hash == hash && e.support == support && e.count == count &&
+                std::equal(planes.begin(), planes.begin() + count, e.planes.begin()))
+                return e;
+        }
+    }
+    void memoAdd(MemoEntry& slot, uint64_t hash, uint8_t support, const std::array<uint64_t, 4>& planes, int count,
+                 int vertex)
+    {
+        slot = MemoEntry{hash, mMemoGeneration, vertex, support, uint8_t(count), planes};
+        if (2 * ++mMemoUsed <= mMemo.size()) return;
+        std::vector<MemoEntry> old(2 * mMemo.size());
+        old.swap(mMemo);
+        const size_t mask = mMemo.size() - 1;
+        for (const MemoEntry& e : old) {
+            if (e.generation != mMemoGeneration) continue;
+            size_t i = size_t(e.hash) & mask;
+            while (mMemo[i].generation == mMemoGeneration) i = (i + 1) & mask;
+            mMemo[i] = e;
+        }
+    }
+    void memoReset()
+    {
+        mMemoUsed = 0;
+        if (++mMemoGeneration == 0) { // wrapped: no entry may look current
+            std::fill(mMemo.begin(), mMemo.end(), MemoEntry{});
+            mMemoGeneration = 1;
+        }
     }
     /// sign() memo, one column per plane of mPlanes (a plane's signs over
     /// the vertices are contiguous: splitting pieces asks one plane about many
@@ -400,6 +466,8 @@ private:
 
     dvec3 canonicalPosition(const CutVertexId& key, uint8_t support, const dvec3& pos0) const;
     int makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
+    /// makeVertex without its memo: names the point and finds or makes its vertex.
+    int nameVertex(uint8_t support, PlaneList defining, const dvec3& pos0);
     /// The first of `planes` (in order; those with a plane in this tet)
     /// whose normals are independent, at most three: three fix one point.
     PlaneList independentPlanes(const PlaneList& planes) const
@@ -669,6 +737,39 @@ dvec3 RemeshKernel::canonicalPosition(const CutVertexId& key, uint8_t support, c
 }
 
 int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& pos0)
+{
+    // A repeat of an earlier call in this tet (same simplex, same planes):
+    // its vertex. The planes and simplex fix the point; only its computed
+    // position differs, in the last bits, and the name is the same unless a
+    // plane passes within the tie of one position and not the other (then
+    // the two would merge by position anyway: mergeCandidate). Measured: the
+    // output is the same bits with and without the memo (test
+    // TheNameMemoChangesNoVertexOrTriangle; 1,204 random strokes on the CT
+    // volumes). The GLSL port (cut_arrange.glsl) names every call. Not while
+    // names are captured: the GPU port's tests compare every call's name.
+    std::array<uint64_t, 4> memoPlanes{};
+    const int memoCount = int(defining.size());
+    MemoEntry* slot = nullptr;
+    uint64_t memoKey = 0;
+    if (mUseMemo && !mNameCapture && memoCount <= 4) {
+        for (int i = 0; i < memoCount; ++i) { // sorted, by insertion
+            int j = i;
+            for (; j > 0 && memoPlanes[size_t(j - 1)] > defining[size_t(i)]; --j) memoPlanes[size_t(j)] = memoPlanes[size_t(j - 1)];
+            memoPlanes[size_t(j)] = defining[size_t(i)];
+        }
+        memoKey = memoHash(support, memoPlanes, memoCount);
+        slot = &memoSlot(memoKey, support, memoPlanes, memoCount);
+        if (slot->generation == mMemoGeneration) {
+            ++mMemoHits;
+            return slot->vertex;
+        }
+    }
+    const int made = nameVertex(support, std::move(defining), pos0);
+    if (slot) memoAdd(*slot, memoKey, support, memoPlanes, memoCount, made);
+    return made;
+}
+
+int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& pos0)
 {
     if (mNameCapture)
         mNameCapture->push_back({mTet, support, std::vector<uint64_t>(defining.begin(), defining.end()), pos0, {}, false});
@@ -1336,6 +1437,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out)
 
 void RemeshKernel::resetTet()
 {
+    memoReset();
     mVerts.clear();
     mVertHash.clear();
     if (mHashIndexed) {
@@ -2325,6 +2427,10 @@ std::vector<NameProbe> CellKernel::namesForTesting(const Coord& cell, const std:
 }
 
 void CellKernel::skipOutsideCapsForTesting(bool skip) { mKernel->mSkipOutsideCaps = skip; }
+
+void CellKernel::useNameMemoForTesting(bool use) { mKernel->mUseMemo = use; }
+
+size_t CellKernel::nameMemoHitsForTesting() const { return mKernel->mMemoHits; }
 
 std::array<ArrangementProbe, kTetsPerCell> CellKernel::arrangementForTesting(const Coord& cell,
                                                                              const std::vector<QuadGeom>& quads,

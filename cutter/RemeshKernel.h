@@ -201,6 +201,12 @@ public:
     /// inside a tet on four or more planes, whose position is its first
     /// maker's.
     void skipOutsideCapsForTesting(bool skip);
+    /// For tests: whether the kernel answers a repeated naming (the same
+    /// simplex and planes again in one tet) from its memo (on by default).
+    /// The output is the same either way.
+    void useNameMemoForTesting(bool use);
+    /// For tests: how many namings the memo has answered.
+    size_t nameMemoHitsForTesting() const;
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;

@@ -1157,6 +1157,66 @@ TEST(Remesh, FragmentsKeepTheirCavities)
     }
 }
 
+// The kernel names a point once per tet: a later naming with the same
+// simplex and planes (the crossing of two pieces' common edge, a line's
+// point on each surface through it) takes the first one's vertex from a
+// memo. The memo must change no vertex, position or triangle: every cut
+// cell of random strokes (phantom; the 4 mm head when present), at both
+// kerfs, re-meshed with it and without; and it must answer calls, or this
+// tests nothing.
+TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
+{
+    auto compare = [](const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes,
+                      size_t& cells, size_t& hits) {
+        remesh_detail::CellKernel memo(vol, 400.0f), full(vol, 400.0f);
+        full.useNameMemoForTesting(false);
+        CutMask mask(frameOf(vol), kerf);
+        for (const auto& poses : strokes) addStroke(mask, poses);
+        mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) {
+            const std::vector<remesh_detail::QuadGeom> quads = remesh_detail::kernelQuadsOf(mask, c);
+            CutCellGeometry a, b;
+            std::string whyA, whyB;
+            try {
+                memo.remesh(c, quads, kerf > 0, a);
+            } catch (const std::runtime_error& e) {
+                whyA = e.what();
+            }
+            try {
+                full.remesh(c, quads, kerf > 0, b);
+            } catch (const std::runtime_error& e) {
+                whyB = e.what();
+            }
+            ASSERT_EQ(whyA, whyB) << "cell " << c;
+            ++cells;
+            ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(a.indexPositions == b.indexPositions) << "positions differ in cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c << ", kerf " << kerf;
+        });
+        EXPECT_EQ(full.nameMemoHitsForTesting(), 0u);
+        hits += memo.nameMemoHitsForTesting();
+    };
+    vdb::PhantomOptions options;
+    options.dims = Coord(160, 160, 128);
+    const vdb::Volume phantom = vdb::makePhantom(options);
+    const std::string head = test::dataPath("vhm_head_4mm.nhdr");
+    const vdb::Volume headVol = head.empty() ? vdb::Volume() : vdb::readVolume(head);
+    for (double kerf : {0.0, 0.5}) {
+        size_t cells = 0, hits = 0;
+        for (uint32_t seed = 1; seed <= 4; ++seed)
+            compare(phantom, kerf, makeRandomStrokes(frameOf(phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0), cells,
+                    hits);
+        if (!head.empty())
+            for (uint32_t seed : {1009u, 1019u})
+                compare(headVol, kerf,
+                        makeRandomStrokes(frameOf(headVol), seed, 4, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
+                                          20.0 + 10.0 * (seed % 4)),
+                        cells, hits);
+        std::printf("kerf %.1f: %zu cut cells equal, %zu namings answered by the memo\n", kerf, cells, hits);
+        EXPECT_GT(cells, 1000u);
+        EXPECT_GT(hits, 1000u) << "the memo answered (almost) nothing";
+    }
+}
+
 // A tet's caps that can keep no piece (the section of the tet by the cap's
 // plane holds no point, by 1e-9 (1 + |x|) voxel, both inside the cap's own
 // quad, at kerf > 0 its closed prism, and inside the solid) are left out of
