@@ -493,13 +493,21 @@ private:
     /// the two sides of the slit need a tagged vertex on it.
     bool needsMidpoint(int u, int v, const QuadGeom& r)
     {
-        if (mPrism) return false;
-        if (sign(u, r.id) != 0 || sign(v, r.id) != 0) return false;
-        if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) || (inSlitOpen(v, r) && !onStripRim(v, r))) return false;
+        if (mPrism || !chordEnd(u, r) || !chordEnd(v, r)) return false;
         for (const auto& sd : r.sides)
-            if (sd.partner < 0 && sign(u, sd.id) == 0 && sign(v, sd.id) == 0) return false;
+            if (sd.partner < 0 && sign(u, sd.id) == 0 && sign(v, sd.id) == 0) return false; // both on one rim
         return true;
     }
+    /// needsMidpoint's test of each end: a rim point of r (on its plane, in
+    /// its closed extent, not inside its open slit); memoised as slitInterior.
+    bool chordEnd(int v, const QuadGeom& r)
+    {
+        if (size_t(v) >= mSlitKnown) return chordEndNow(v, r);
+        int8_t& e = mSlitMemo[(size_t(v) * mCellQuads->size() + size_t(&r - mCellQuads->data())) * 2 + 1];
+        if (e == 2) e = int8_t(chordEndNow(v, r));
+        return e != 0;
+    }
+    bool chordEndNow(int v, const QuadGeom& r) { return sign(v, r.id) == 0 && inExtentClosed(v, r) && !slitInterior(v, r); }
     /// Side of vertex v on plane planeId: 1, -1, or 0 on it (by name, or
     /// within the tie rule); memoised.
     int sign(int v, uint64_t planeId)
@@ -527,6 +535,29 @@ private:
         }
         return true;
     }
+    /// Zero kerf: v lies inside r's open slit, off every rim of r's strip
+    /// (its sides there are the slit's two sides). Asked for every vertex of
+    /// a surface's kept pieces about every quad, twice over (slit midpoints,
+    /// then each side's regions), so memoised per surface: mSlitMemo holds
+    /// the answers (and chordEnd's) for the vertices made before the
+    /// surface's midpoints (resetSlitMemo), whose signs no longer change;
+    /// later ones (the midpoints) are asked directly.
+    bool slitInterior(int v, const QuadGeom& r)
+    {
+        if (size_t(v) >= mSlitKnown) return slitInteriorNow(v, r);
+        const size_t q = size_t(&r - mCellQuads->data());
+        int8_t& e = mSlitMemo[(size_t(v) * mCellQuads->size() + q) * 2];
+        if (e == 2) e = int8_t(slitInteriorNow(v, r));
+        return e != 0;
+    }
+    bool slitInteriorNow(int v, const QuadGeom& r) { return sign(v, r.id) == 0 && inSlitOpen(v, r) && !onStripRim(v, r); }
+    void resetSlitMemo()
+    {
+        mSlitKnown = mVerts.size();
+        mSlitMemo.assign(mSlitKnown * mCellQuads->size() * 2, int8_t(2)); // (slitInterior, chordEnd) per vertex and quad
+    }
+    std::vector<int8_t> mSlitMemo;
+    size_t mSlitKnown = 0;
     /// On the rim of a neighbouring quad of r's strip (a strip corner that r
     /// touches only at a point)? Then the point is rim for r too.
     bool onStripRim(int v, const QuadGeom& r)
@@ -1412,6 +1443,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out)
         splitSurface(s);
         conformPieces();
         classifyPieces(s, kept);
+        if (!mPrism) resetSlitMemo();
         insertSlitMidpoints(kept);
         if (mArrangeCapture) {
             ArrangementProbe::Surface& probe = (*mArrangeCapture)[size_t(mTet)].surfaces.emplace_back();
@@ -2088,7 +2120,7 @@ void RemeshKernel::traceRegions(const Surface& s, int side, const SmallVector<ch
             Tags tags;
             for (const QuadGeom* r : mQuads) {
                 if (mPrism) break;
-                if (sign(p.v[k], r->id) != 0 || !inSlitOpen(p.v[k], *r) || onStripRim(p.v[k], *r)) continue;
+                if (!slitInterior(p.v[k], *r)) continue;
                 const int sg = stripSide(p, r, p.v[k]);
                 tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
             }
