@@ -771,13 +771,15 @@ int RemeshKernel::makeVertex(uint8_t support, PlaneList defining, const dvec3& p
 {
     // A repeat of an earlier call in this tet (same simplex, same planes):
     // its vertex. The planes and simplex fix the point; only its computed
-    // position differs, in the last bits, and the name is the same unless a
-    // plane passes within the tie of one position and not the other (then
-    // the two would merge by position anyway: mergeCandidate). Measured: the
-    // output is the same bits with and without the memo (test
-    // TheNameMemoChangesNoVertexOrTriangle; 1,204 random strokes on the CT
-    // volumes). The GLSL port (cut_arrange.glsl) names every call. Not while
-    // names are captured: the GPU port's tests compare every call's name.
+    // position differs, in the last bits, so the name is the same unless a
+    // plane passes within the tie of one computed position and not the
+    // other. There the memo keeps the first name where naming again could
+    // give the point a second vertex (inside the tet, mergeCandidate would
+    // join them). Measured: the output is the same bits with and without
+    // the memo (test TheNameMemoChangesNoVertexOrTriangle; 1,204 random
+    // strokes on the CT volumes). The GLSL port (cut_arrange.glsl) names
+    // every call. Not while names are captured: the GPU port's tests
+    // compare every call's name.
     std::array<uint64_t, 4> memoPlanes{};
     const int memoCount = int(defining.size());
     MemoEntry* slot = nullptr;
@@ -1470,6 +1472,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out)
 void RemeshKernel::resetTet()
 {
     memoReset();
+    mSlitKnown = 0; // (resetSlitMemo per surface)
     mVerts.clear();
     mVertHash.clear();
     if (mHashIndexed) {
