@@ -629,7 +629,41 @@ struct BallAndTwoStrokes
     Mesh uncut = extractIsosurface(vol, 0.0f);
     std::vector<Pose> first = straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200);
     std::vector<Pose> second = straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200);
+    /// The cells that a whole update of `mask` gives two or more triangles, sorted.
+    std::vector<Coord> cellsWithGeometry(const CutMask& mask) const
+    {
+        std::vector<Coord> cells;
+        CutRemesher probe(vol, 0.0f, uncut);
+        probe.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+            if (g.indices.size() >= 6) cells.push_back(c);
+        });
+        probe.update(mask);
+        std::sort(cells.begin(), cells.end());
+        return cells;
+    }
 };
+
+/// Breaks cell geometry `g` so that only the exact self-contact check sees
+/// it: a closed tetrahedron of edge ~0.1 voxel centred on the first
+/// triangle's centroid, its vertices named inside the cell only (by `tag`).
+void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
+{
+    const dvec3 centre =
+        (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] + g.indexPositions[g.indices[2]]) / 3.0;
+    const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+    const uint32_t base = uint32_t(g.vertexIds.size());
+    for (int k = 0; k < 4; ++k) {
+        CutVertexId id;
+        id.dim = 3;
+        id.feature = {uint64_t(0xfeed), tag, uint64_t(k)};
+        id.planeCount = 1;
+        id.planes[0] = 0xdead0 + uint64_t(k);
+        g.vertexIds.push_back(id);
+        g.indexPositions.push_back(centre + 0.03 * corner[k]);
+    }
+    for (auto [a, b, c] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
+        for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
+}
 
 TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
 {
@@ -838,23 +872,7 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
             if (!poke || done || g.indices.empty()) return;
             done = true;
             victim = c;
-            // A tetrahedron of edge ~0.1 voxel centred on the first
-            // triangle's centroid, vertices named inside the cell only.
-            const dvec3 centre = (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] +
-                                  g.indexPositions[g.indices[2]]) / 3.0;
-            const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
-            const uint32_t base = uint32_t(g.vertexIds.size());
-            for (int k = 0; k < 4; ++k) {
-                CutVertexId id;
-                id.dim = 3;
-                id.feature = {uint64_t(0xfeed), uint64_t(k), 0};
-                id.planeCount = 1;
-                id.planes[0] = 0xdead0 + uint64_t(k);
-                g.vertexIds.push_back(id);
-                g.indexPositions.push_back(centre + 0.03 * corner[k]);
-            }
-            for (auto [a, b, c2] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
-                for (uint32_t v : {a, b, c2}) g.indices.push_back(base + v);
+            addTetrahedronThroughFirstTriangle(g, 0);
         });
         std::string message;
         try {
@@ -888,34 +906,8 @@ TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
     CutMask mask(frameOf(ball.vol), 0.5);
     addStroke(mask, ball.first);
     addStroke(mask, ball.second);
-    // Every third cell with new geometry gets a small tetrahedron through its
-    // first triangle (as in AKerfCutWhoseSurfaceCrossesItselfIsRefused).
-    auto poke = [](CutCellGeometry& g, uint64_t tag) {
-        const dvec3 centre =
-            (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] + g.indexPositions[g.indices[2]]) / 3.0;
-        const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
-        const uint32_t base = uint32_t(g.vertexIds.size());
-        for (int k = 0; k < 4; ++k) {
-            CutVertexId id;
-            id.dim = 3;
-            id.feature = {uint64_t(0xfeed), tag, uint64_t(k)};
-            id.planeCount = 1;
-            id.planes[0] = 0xdead0 + uint64_t(k);
-            g.vertexIds.push_back(id);
-            g.indexPositions.push_back(centre + 0.03 * corner[k]);
-        }
-        for (auto [a, b, c] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
-            for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
-    };
-    std::vector<Coord> withGeometry;
-    {
-        CutRemesher probe(ball.vol, 0.0f, ball.uncut);
-        probe.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
-            if (g.indices.size() >= 6) withGeometry.push_back(c);
-        });
-        probe.update(mask);
-    }
-    std::sort(withGeometry.begin(), withGeometry.end());
+    // Every third cell with new geometry (past the first third) is broken.
+    const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
     ASSERT_GT(withGeometry.size(), 60u);
     std::vector<Coord> victims;
     for (size_t i = withGeometry.size() / 3; i < withGeometry.size(); i += 3) victims.push_back(withGeometry[i]);
@@ -926,7 +918,8 @@ TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
         arena.execute([&] {
             CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
             remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
-                if (std::binary_search(victims.begin(), victims.end(), c)) poke(g, uint64_t(c.x() * 4096 + c.y() * 64 + c.z()));
+                if (std::binary_search(victims.begin(), victims.end(), c))
+                    addTetrahedronThroughFirstTriangle(g, uint64_t(c.x() * 4096 + c.y() * 64 + c.z()));
             });
             try {
                 remesher.update(mask);
@@ -960,15 +953,7 @@ TEST(Remesh, ChunkedLocalCheckGivesTheSerialVerdict)
         addStroke(mask, ball.second);
         addStroke(mask, straightStroke(dvec3(-25, -22, 3.3), dvec3(25, -22, 3.3), dvec3(0, 1, 0), 45.0, 200));
         // The cells with new geometry, to pick a victim far along the cut.
-        std::vector<Coord> withGeometry;
-        {
-            CutRemesher probe(ball.vol, 0.0f, ball.uncut);
-            probe.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
-                if (g.indices.size() >= 6) withGeometry.push_back(c);
-            });
-            probe.update(mask);
-        }
-        std::sort(withGeometry.begin(), withGeometry.end());
+        const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
         ASSERT_GT(withGeometry.size(), 100u);
         const Coord victim = withGeometry[withGeometry.size() * 4 / 5];
         for (int corruption : {-1, 0, 1}) { // none, drop a triangle, turn one over
