@@ -1142,6 +1142,32 @@ TEST(Remesh, FragmentsKeepTheirCavities)
     }
 }
 
+namespace {
+
+/// Re-meshes cut cell `c` with kernel `k` into `out`: "" or the refusal.
+std::string remeshOrRefusal(remesh_detail::CellKernel& k, const Coord& c,
+                            const std::vector<remesh_detail::QuadGeom>& quads, bool prism, CutCellGeometry& out)
+{
+    try {
+        k.remesh(c, quads, prism, out);
+    } catch (const std::runtime_error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+/// Calls `each` with every cut cell of `strokes` on `vol` at `kerf` and the
+/// cell's quads as the kernel takes them.
+void forEachKernelCell(const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes,
+                       const std::function<void(const Coord&, const std::vector<remesh_detail::QuadGeom>&)>& each)
+{
+    CutMask mask(frameOf(vol), kerf);
+    for (const auto& poses : strokes) addStroke(mask, poses);
+    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { each(c, remesh_detail::kernelQuadsOf(mask, c)); });
+}
+
+} // namespace
+
 // The kernel names a point once per tet: a later naming with the same
 // simplex and planes (the crossing of two pieces' common edge, a line's
 // point on each surface through it) takes the first one's vertex from a
@@ -1155,22 +1181,10 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
                       size_t& cells, size_t& hits) {
         remesh_detail::CellKernel memo(vol, 400.0f), full(vol, 400.0f);
         full.useNameMemoForTesting(false);
-        CutMask mask(frameOf(vol), kerf);
-        for (const auto& poses : strokes) addStroke(mask, poses);
-        mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) {
-            const std::vector<remesh_detail::QuadGeom> quads = remesh_detail::kernelQuadsOf(mask, c);
+        forEachKernelCell(vol, kerf, strokes, [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) {
             CutCellGeometry a, b;
-            std::string whyA, whyB;
-            try {
-                memo.remesh(c, quads, kerf > 0, a);
-            } catch (const std::runtime_error& e) {
-                whyA = e.what();
-            }
-            try {
-                full.remesh(c, quads, kerf > 0, b);
-            } catch (const std::runtime_error& e) {
-                whyB = e.what();
-            }
+            const std::string whyA = remeshOrRefusal(memo, c, quads, kerf > 0, a);
+            const std::string whyB = remeshOrRefusal(full, c, quads, kerf > 0, b);
             ASSERT_EQ(whyA, whyB) << "cell " << c;
             ++cells;
             ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c << ", kerf " << kerf;
@@ -1224,22 +1238,10 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
     auto compare = [](const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes, Tally& t) {
         remesh_detail::CellKernel skipping(vol, 400.0f), arranging(vol, 400.0f);
         arranging.skipOutsideCapsForTesting(false);
-        CutMask mask(frameOf(vol), kerf);
-        for (const auto& poses : strokes) addStroke(mask, poses);
-        mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) {
-            const std::vector<remesh_detail::QuadGeom> quads = remesh_detail::kernelQuadsOf(mask, c);
+        forEachKernelCell(vol, kerf, strokes, [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) {
             CutCellGeometry a, b;
-            bool threwA = false, threwB = false;
-            try {
-                skipping.remesh(c, quads, kerf > 0, a);
-            } catch (const std::runtime_error&) {
-                threwA = true;
-            }
-            try {
-                arranging.remesh(c, quads, kerf > 0, b);
-            } catch (const std::runtime_error&) {
-                threwB = true;
-            }
+            const bool threwA = !remeshOrRefusal(skipping, c, quads, kerf > 0, a).empty();
+            const bool threwB = !remeshOrRefusal(arranging, c, quads, kerf > 0, b).empty();
             ASSERT_EQ(threwA, threwB) << "cell " << c;
             if (threwA) {
                 ++t.refused;
