@@ -36,6 +36,14 @@ using openvdb::Coord;
 
 namespace {
 
+/// The threads this call may use: the arena's, capped by a
+/// tbb::global_control (`bench_cut` and the tests run on one).
+size_t threadsAllowed()
+{
+    return std::min(size_t(tbb::this_task_arena::max_concurrency()),
+                    tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+}
+
 /// The cells whose closed box holds vertex v: [lo, hi] per axis.
 void cellsHolding(const CutVertexId& v, Coord& lo, Coord& hi)
 {
@@ -364,8 +372,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
     size_t failed = SIZE_MAX; // index into toCheck
     Contact contact = Contact::None;
     size_t ta = 0, tb = 0;
-    const size_t threads = std::min(size_t(tbb::this_task_arena::max_concurrency()),
-                                    tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+    const size_t threads = threadsAllowed();
     if (threads > 1 && toCheck.size() >= 8 && !reg.debug) {
         std::atomic<size_t> first{SIZE_MAX};
         tbb::parallel_for(tbb::blocked_range<size_t>(0, toCheck.size(), 2), [&](const tbb::blocked_range<size_t>& range) {
@@ -678,8 +685,7 @@ void CutRemesher::checkLocally(const std::vector<Coord>& changed, bool kerf) con
     // chunk fails is the whole set checked again on this thread, so the
     // refusal names the cell a serial check names.
     constexpr size_t kChunk = 1024;
-    const size_t threads = std::min(size_t(tbb::this_task_arena::max_concurrency()),
-                                    tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+    const size_t threads = threadsAllowed();
     mLastCheckChunks = 0;
     if (threads > 1 && changed.size() >= 2 * kChunk && !std::getenv("MTCUT_REMESH_DEBUG")) {
         const size_t chunks = (changed.size() + kChunk - 1) / kChunk;
