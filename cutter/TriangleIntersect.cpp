@@ -328,13 +328,21 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
             const glm::vec3& v = a[size_t(ka)];
             const int signB = judge.o2(v, b1, b2, pi, pj);
             if (signB == 0) return Contact::Undecided; // b has zero area
-            // Corner (v; from, to) counter-clockwise in the projection.
-            auto holds = [&](const glm::vec3& from, const glm::vec3& to, const glm::vec3& r) {
-                return judge.o2(v, from, r, pi, pj) >= 0 && judge.o2(v, to, r, pi, pj) <= 0;
+            // Corner (v; from, to) counter-clockwise in the projection. Every
+            // test is the sign of det[x - v, y - v] for x an edge end of A
+            // and y one of B, or of its negation (swapped): four signs at
+            // most, each evaluated once (2 = not yet).
+            const glm::vec3* ends[2][2] = {{&a1, &a2}, {&b1, &b2}};
+            int det[2][2] = {{2, 2}, {2, 2}}; // [A end][B end]
+            auto turn = [&](int i, int j) {
+                if (det[i][j] == 2) det[i][j] = judge.o2(v, *ends[0][i], *ends[1][j], pi, pj);
+                return det[i][j];
             };
-            const glm::vec3 &fa = sign > 0 ? a1 : a2, &ta = sign > 0 ? a2 : a1;
-            const glm::vec3 &fb = signB > 0 ? b1 : b2, &tb = signB > 0 ? b2 : b1;
-            hit = holds(fa, ta, b1) || holds(fa, ta, b2) || holds(fb, tb, a1) || holds(fb, tb, a2);
+            // Does A's corner hold B's end j; B's corner A's end i?
+            const int fa = sign > 0 ? 0 : 1, fb = signB > 0 ? 0 : 1;
+            auto aHolds = [&](int j) { return turn(fa, j) >= 0 && turn(1 - fa, j) <= 0; };
+            auto bHolds = [&](int i) { return -turn(i, fb) >= 0 && -turn(i, 1 - fb) <= 0; };
+            hit = aHolds(0) || aHolds(1) || bHolds(0) || bHolds(1);
         } else {
             const int t1 = judge.o3(b[0], b[1], b[2], a1), t2 = judge.o3(b[0], b[1], b[2], a2);
             if (t1 * t2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
