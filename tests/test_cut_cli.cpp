@@ -298,6 +298,47 @@ TEST(CutCli, StrokeGoingBackIntoTheCutAddsNothing)
     }
 }
 
+// Deepening a cut along a scripted path: the straight stroke with a 20 mm
+// blade (its tip 2 mm above the ball's centre: the ball stays whole), then
+// the same poses with the 45 mm blade. With a 0.5 mm saw that is what the 45
+// mm stroke alone cuts: two clean fragments with its volumes (the second
+// pass's prisms contain the first's; the triangles may differ where the two
+// coincide). With kerf 0 the second pass's quads lie in the first's plane
+// over its whole length: refused ("coplanar overlapping quads"), nothing
+// written (README, "Cutting").
+TEST(CutCli, DeepeningAScriptedCutWithAKerfCutsWhatTheDeeperStrokeCuts)
+{
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string deep = readText(writeStraightPath(dir));
+    std::string shallow = deep;
+    for (size_t at = 0; (at = shallow.find(",-1,45\n", at)) != std::string::npos; at += 7) shallow.replace(at, 7, ",-1,20\n");
+    ASSERT_EQ(countOf(shallow, ",-1,20\n"), 201u);
+    const std::string deepOnly = dir.file("deep.csv"), deepened = dir.file("deepened.csv"),
+                      shallowOnly = dir.file("shallow.csv");
+    std::ofstream(deepOnly) << deep;
+    std::ofstream(shallowOnly) << shallow;
+    std::ofstream(deepened) << shallow << "\nstroke\n" << deep;
+    const auto s = runMtcut("cut " + ball + " --iso 0 --path " + shallowOnly + " --kerf 0.5 -o " + dir.file("s") + " --check");
+    ASSERT_EQ(s.exitCode, 0) << s.output;
+    EXPECT_FALSE(fs::exists(dir.file("s") + "/fragment_001.stl")) << "the 20 mm blade leaves the ball whole";
+    const auto a = runMtcut("cut " + ball + " --iso 0 --path " + deepOnly + " --kerf 0.5 -o " + dir.file("a") + " --check");
+    ASSERT_EQ(a.exitCode, 0) << a.output;
+    const auto b = runMtcut("cut " + ball + " --iso 0 --path " + deepened + " --kerf 0.5 -o " + dir.file("b") + " --check");
+    ASSERT_EQ(b.exitCode, 0) << b.output;
+    EXPECT_EQ(filesIn(dir.file("b")), filesIn(dir.file("a")));
+    EXPECT_TRUE(fs::exists(dir.file("b") + "/fragment_001.stl"));
+    EXPECT_FALSE(fs::exists(dir.file("b") + "/fragment_002.stl"));
+    const std::string ja = readText(dir.file("a") + "/summary.json"), jb = readText(dir.file("b") + "/summary.json");
+    const double va = jsonValue(ja, "volume_mm3"), vb = jsonValue(jb, "volume_mm3");
+    EXPECT_NEAR(vb, va, 1e-6 * va) << "the largest fragment's volume";
+
+    const auto z = runMtcut("cut " + ball + " --iso 0 --path " + deepened + " -o " + dir.file("z"));
+    EXPECT_EQ(z.exitCode, 1) << z.output;
+    EXPECT_EQ(z.output.rfind("mtcut: error: remesh: coplanar overlapping quads in cell (", 0), 0u) << z.output;
+    EXPECT_TRUE(filesIn(dir.file("z")).empty());
+}
+
 // Two strokes meeting in the middle of the ball, the second coming from the
 // other side, cut it in two as the single stroke does. A script's exact meet
 // (both end on the stick x = 0.1) and a hand's (0.05 mm of tremor, ending
