@@ -2841,7 +2841,17 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     // vertices a few 1e-7 apart chain there, and taking the triangles in
     // order moved the middle one far along a long edge of a folded sliver,
     // leaving two triangles folded onto each other (tooth seed 1009).
-    std::vector<std::pair<double, std::pair<uint32_t, uint32_t>>> shortEdges;
+    std::vector<std::pair<double, std::pair<uint32_t, uint32_t>>> shortEdges; // (exact length, (a, b))
+    // Shortest first, then by the ends' names; each edge once.
+    auto sortEdges = [&] {
+        std::sort(shortEdges.begin(), shortEdges.end(), [&](const auto& x, const auto& y) {
+            if (x.first != y.first) return x.first < y.first;
+            if (out.vertexIds[x.second.first] < out.vertexIds[y.second.first]) return true;
+            if (out.vertexIds[y.second.first] < out.vertexIds[x.second.first]) return false;
+            return out.vertexIds[x.second.second] < out.vertexIds[y.second.second];
+        });
+        shortEdges.erase(std::unique(shortEdges.begin(), shortEdges.end()), shortEdges.end());
+    };
     for (int round = 0; round < 16; ++round) {
         bool mended = false;
         shortEdges.clear();
@@ -2854,14 +2864,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 shortEdges.push_back({glm::length(exact[a] - exact[b]), {a, b}});
             }
         }
-        std::sort(shortEdges.begin(), shortEdges.end(), [&](const auto& x, const auto& y) {
-            if (x.first != y.first) return x.first < y.first;
-            if (out.vertexIds[x.second.first] < out.vertexIds[y.second.first]) return true;
-            if (out.vertexIds[y.second.first] < out.vertexIds[x.second.first]) return false;
-            return out.vertexIds[x.second.second] < out.vertexIds[y.second.second];
-        });
-        // Each edge once (its two triangles listed it twice).
-        shortEdges.erase(std::unique(shortEdges.begin(), shortEdges.end()), shortEdges.end());
+        sortEdges(); // each once (its two triangles listed it twice)
         for (const auto& [len, ab] : shortEdges) {
             const auto [a, b] = ab;
             if (mergedInto[a] != a || mergedInto[b] != b) continue;
@@ -2899,13 +2902,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                     if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
                     shortEdges.push_back({glm::length(exact[a] - exact[b]), {a, b}});
                 }
-            std::sort(shortEdges.begin(), shortEdges.end(), [&](const auto& x, const auto& y) {
-                if (x.first != y.first) return x.first < y.first;
-                if (out.vertexIds[x.second.first] < out.vertexIds[y.second.first]) return true;
-                if (out.vertexIds[y.second.first] < out.vertexIds[x.second.first]) return false;
-                return out.vertexIds[x.second.second] < out.vertexIds[y.second.second];
-            });
-            shortEdges.erase(std::unique(shortEdges.begin(), shortEdges.end()), shortEdges.end());
+            sortEdges();
             for (const auto& [len, ab] : shortEdges) {
                 const auto [a, b] = ab;
                 if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
