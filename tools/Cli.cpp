@@ -6,6 +6,7 @@
 #include "cutter/Remesh.h"
 #include "vdb/Error.h"
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -55,6 +56,14 @@ double Args::kerfMm() const
         throw InputError("--kerf " + get("kerf") + ": expected a saw width from 0 to " +
                          std::to_string(int(cutter::kMaxKerfMm)) + " mm");
     return kerf;
+}
+
+float Args::isoValue(const std::string& command) const
+{
+    if (!has("iso")) throw InputError("mtcut " + command + " needs --iso V (the isovalue, in the scan's units)");
+    const double iso = getDouble("iso", 0.0);
+    if (!std::isfinite(iso)) throw InputError("--iso " + get("iso") + ": expected a finite number");
+    return float(iso);
 }
 
 long long Args::getInt(const std::string& name, long long fallback) const

@@ -35,6 +35,9 @@ struct Args
     double getDouble(const std::string& name, double fallback) const;
     /// --kerf in mm (default 0); InputError outside 0..cutter::kMaxKerfMm.
     double kerfMm() const;
+    /// --iso, which `command` (mesh, cut, render) needs; InputError when it
+    /// is missing or not a finite number.
+    float isoValue(const std::string& command) const;
     long long getInt(const std::string& name, long long fallback) const;
 };
 

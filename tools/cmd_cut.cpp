@@ -78,11 +78,8 @@ std::string amountText(double v)
 int runCut(const Args& args)
 {
     // -- arguments: everything checked before the long work --------------------
-    if (!args.has("iso")) throw InputError("mtcut cut needs --iso V (the isovalue, in the scan's units)");
+    const float iso = args.isoValue("cut");
     if (!args.has("output")) throw InputError("mtcut cut needs -o OUTDIR");
-    const double isoArg = args.getDouble("iso", 0.0);
-    if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
-    const float iso = float(isoArg);
     const double kerf = args.kerfMm();
     const std::string ext = args.get("format", "stl");
     checkMeshFormat(ext);

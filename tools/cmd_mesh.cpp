@@ -17,11 +17,8 @@ using Clock = std::chrono::steady_clock;
 
 int runMesh(const Args& args)
 {
-    if (!args.has("iso")) throw InputError("mtcut mesh needs --iso V (the isovalue, in the scan's units)");
+    const float iso = args.isoValue("mesh");
     if (!args.has("output")) throw InputError("mtcut mesh needs -o OUT.{stl,obj,ply,off}");
-    const double isoArg = args.getDouble("iso", 0.0);
-    if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
-    const float iso = float(isoArg);
     const std::string out = args.get("output");
     (void)cutter::meshFormatFromPath(out); // fail before the long work
 

@@ -60,11 +60,8 @@ std::string lowerExtension(const std::string& path)
 int runRender(const Args& args)
 {
     // -- arguments: everything checked before the long work --------------------
-    if (!args.has("iso")) throw InputError("mtcut render needs --iso V (the isovalue, in the scan's units)");
+    const float iso = args.isoValue("render");
     if (!args.has("output")) throw InputError("mtcut render needs -o OUT.png or -o OUT.exr");
-    const double isoArg = args.getDouble("iso", 0.0);
-    if (!std::isfinite(isoArg)) throw InputError("--iso " + args.get("iso") + ": expected a finite number");
-    const float iso = float(isoArg);
     const std::string pathFile = args.get("path");
     const double kerf = args.kerfMm();
     if (args.has("kerf") && pathFile.empty()) throw InputError("--kerf needs --path (there is no cut without a path)");
