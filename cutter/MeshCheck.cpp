@@ -53,7 +53,9 @@ struct Csr
 };
 
 /// For each shell, the winding number of each other shell at the centroid
-/// of its first triangle (only the shells with a non-zero number, ascending): rays along the generic direction (a, b, 1), i.e.
+/// of its first triangle, or of the first of up to 16 of its triangles
+/// whose ray is clear of the other shells' surfaces, edges and vertices
+/// (only the shells with a non-zero number, ascending): rays along the generic direction (a, b, 1), i.e.
 /// along +z after the shear x' = x - a z, y' = y - b z (determinant 1, so
 /// orientation is kept); a crossing counts +1 where the ray leaves a solid
 /// (projected triangle counter-clockwise), -1 where it enters.
@@ -107,29 +109,48 @@ std::vector<std::vector<std::pair<uint32_t, int>>> windingByOtherShell(const Mes
     }
     std::vector<std::vector<std::pair<uint32_t, int>>> winding(shells.size());
     tbb::parallel_for(size_t(0), shells.size(), [&](size_t s) {
-        std::vector<std::pair<uint32_t, int>> crossings;
-        const uint32_t t0 = shells[s].triangles.front();
-        glm::dvec3 p(0.0);
-        for (int k = 0; k < 3; ++k) p += glm::dvec3(mesh.positions[mesh.indices[3 * size_t(t0) + k]]) / 3.0;
-        p = glm::dvec3(p.x - a * p.z, p.y - b * p.z, p.z);
-        const glm::ivec2 c = cellOf(glm::dvec2(p));
-        const size_t cell = size_t(c.y) * n + c.x;
-        for (uint32_t k = start[cell]; k < start[cell + 1]; ++k) {
-            const uint32_t i = bucket[k];
-            if (shellOf[i] == s) continue;
-            const uint32_t t = triangles[i];
-            const glm::dvec3 q0 = shear(mesh.indices[3 * size_t(t)]), q1 = shear(mesh.indices[3 * size_t(t) + 1]),
-                             q2 = shear(mesh.indices[3 * size_t(t) + 2]);
-            auto cross2 = [](const glm::dvec3& u, const glm::dvec3& v, const glm::dvec3& q) {
-                return (v.x - u.x) * (q.y - u.y) - (v.y - u.y) * (q.x - u.x);
-            };
-            const double area = cross2(q0, q1, q2);
-            if (area == 0.0) continue;
-            const double w0 = cross2(q1, q2, p), w1 = cross2(q2, q0, p), w2 = cross2(q0, q1, p);
-            const bool inside = area > 0 ? (w0 > 0 && w1 > 0 && w2 > 0) : (w0 < 0 && w1 < 0 && w2 < 0);
-            if (!inside) continue;
-            const double z = (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area;
-            if (z > p.z) crossings.push_back({shellOf[i], area > 0 ? 1 : -1});
+        std::vector<std::pair<uint32_t, int>> crossings, first;
+        // The ray from the centroid of triangle t0 of the shell. It is
+        // ambiguous when it starts on another shell's triangle or passes
+        // through another shell's edge or vertex (the count would depend on
+        // rounding): at kerf 0 the two sides of a cut touch, so a cut
+        // piece's cap lies on the other side's cap. Then the centroid of
+        // another of the shell's triangles is tried, up to kTries.
+        constexpr size_t kTries = 16;
+        const std::vector<uint32_t>& own = shells[s].triangles;
+        const size_t stride = std::max<size_t>(1, own.size() / kTries);
+        for (size_t attempt = 0; attempt < kTries && attempt * stride < own.size(); ++attempt) {
+            const uint32_t t0 = own[attempt * stride];
+            glm::dvec3 p(0.0);
+            for (int k = 0; k < 3; ++k) p += glm::dvec3(mesh.positions[mesh.indices[3 * size_t(t0) + k]]) / 3.0;
+            const double tol = 1e-9 * (1.0 + std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}));
+            p = glm::dvec3(p.x - a * p.z, p.y - b * p.z, p.z);
+            const glm::ivec2 c = cellOf(glm::dvec2(p));
+            const size_t cell = size_t(c.y) * n + c.x;
+            bool ambiguous = false;
+            crossings.clear();
+            for (uint32_t k = start[cell]; k < start[cell + 1]; ++k) {
+                const uint32_t i = bucket[k];
+                if (shellOf[i] == s) continue;
+                const uint32_t t = triangles[i];
+                const glm::dvec3 q0 = shear(mesh.indices[3 * size_t(t)]), q1 = shear(mesh.indices[3 * size_t(t) + 1]),
+                                 q2 = shear(mesh.indices[3 * size_t(t) + 2]);
+                auto cross2 = [](const glm::dvec3& u, const glm::dvec3& v, const glm::dvec3& q) {
+                    return (v.x - u.x) * (q.y - u.y) - (v.y - u.y) * (q.x - u.x);
+                };
+                const double area = cross2(q0, q1, q2);
+                if (area == 0.0) continue;
+                const double w0 = cross2(q1, q2, p), w1 = cross2(q2, q0, p), w2 = cross2(q0, q1, p);
+                const bool inside = area > 0 ? (w0 > 0 && w1 > 0 && w2 > 0) : (w0 < 0 && w1 < 0 && w2 < 0);
+                const bool closed = area > 0 ? (w0 >= 0 && w1 >= 0 && w2 >= 0) : (w0 <= 0 && w1 <= 0 && w2 <= 0);
+                if (!closed) continue;
+                const double z = (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area;
+                if (std::abs(z - p.z) <= tol || (!inside && z > p.z)) ambiguous = true;
+                if (inside && z > p.z) crossings.push_back({shellOf[i], area > 0 ? 1 : -1});
+            }
+            if (attempt == 0) first = crossings;
+            if (!ambiguous) break;
+            if (attempt + 1 == kTries || (attempt + 1) * stride >= own.size()) crossings = first; // none clear: the first
         }
         std::sort(crossings.begin(), crossings.end());
         for (const auto& [other, sign] : crossings) {

@@ -6,6 +6,7 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/MeshIO.h"
 
+#include <algorithm>
 #include <filesystem>
 
 using namespace mtcut;
@@ -116,6 +117,39 @@ TEST(MeshCheck, CountsEachDefect)
         EXPECT_EQ(c.badIndexTriangles, 1u);
         EXPECT_EQ(c.malformedArrays, 1u);
     }
+}
+
+// Two unit cubes stacked, touching over the face z = 1 with vertices of
+// their own: the two sides of a zero-width cut (kerf 0). The lower cube's
+// first triangle lies in that face, so the nesting ray from its centroid
+// starts on the upper cube's bottom face: counted by rounding, that once
+// made the lower cube "inside" the upper one (a cut piece of the tooth scan,
+// random strokes seed 7003 at kerf 0, was reported as facing the wrong
+// way). Such a ray is ambiguous and another triangle's is taken.
+TEST(MeshCheck, ShellsTouchingOverAFaceAreNotNestedByTheirCommonFace)
+{
+    for (const bool lowerFirst : {true, false}) {
+        Mesh m;
+        if (!lowerFirst) addCube(m, glm::vec3(0.0f, 0.0f, 1.0f), 1.0f);
+        const size_t at = m.indices.size();
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        // The lower cube's top face (its second quad) first.
+        std::rotate(m.indices.begin() + std::ptrdiff_t(at), m.indices.begin() + std::ptrdiff_t(at + 6),
+                    m.indices.begin() + std::ptrdiff_t(at + 12));
+        if (lowerFirst) addCube(m, glm::vec3(0.0f, 0.0f, 1.0f), 1.0f);
+        ASSERT_EQ(m.positions[m.indices[at]].z, 1.0f);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_TRUE(c.ok()) << c.report();
+        EXPECT_EQ(c.shells, 2u);
+        EXPECT_EQ(c.cavities, 0u);
+        const auto shells = findShells(m);
+        EXPECT_EQ(enclosingShells(m, shells), std::vector<int>(2, -1));
+    }
+    // Still found: the upper cube inside out on the lower one.
+    Mesh bad;
+    addCube(bad, glm::vec3(0.0f), 1.0f);
+    addCube(bad, glm::vec3(0.0f, 0.0f, 1.0f), 1.0f, true);
+    EXPECT_EQ(checkMesh(bad).negativeVolumeShells, 1u);
 }
 
 TEST(MeshCheck, ShellsSplitInFirstTriangleOrder)
