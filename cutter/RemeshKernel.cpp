@@ -567,10 +567,52 @@ private:
             const int64_t dq = int64_t((o->id >> 4) & 0xffffffff) - int64_t((r.id >> 4) & 0xffffffff);
             if (dq < -2 || dq > 2 || sign(v, o->id) != 0 || !inExtentClosed(v, *o)) continue;
             for (const auto& sd : o->sides)
-                if (sd.partner < 0 && sign(v, sd.id) == 0) return true;
+                if (sd.partner < 0 && sign(v, sd.id) == 0 && !rimLineIn(*o, sd, r)) return true;
         }
         return false;
     }
+    /// Does quad o's rim line on side sd (o's plane there) lie in the plane
+    /// of quad r, which crosses o's? Then r's slit does not end at a point of
+    /// it but runs along it (a dart r, whose hull reaches past the stick it
+    /// shares with o). Coplanar quads are left out: they touch on a rim or
+    /// overlap (refused).
+    static bool rimLineIn(const QuadGeom& o, const QuadGeom::Side& sd, const QuadGeom& r)
+    {
+        if (!(glm::length(glm::cross(o.pi.n, r.pi.n)) > 1e-9)) return false;
+        const dvec3 d = glm::cross(o.pi.n, sd.plane.n);
+        const double len = glm::length(d);
+        return len > 1e-12 && std::abs(glm::dot(d, r.pi.n)) <= 1e-9 * len;
+    }
+    /// A T-junction: v lies on a rim line of quad r that lies in the open
+    /// slit of another quad o (r's slit ends on o's; 1 mm head, kerf 0,
+    /// seed 2013). On the side of o where r lies, r's two sides are two
+    /// regions, so v takes r's side tag there too. Returns that side of o
+    /// (+1 or -1) and sets o; 0 when v is no such point for r.
+    int tJunctionSide(int v, const QuadGeom& r, const QuadGeom*& o)
+    {
+        if (mTJunctions < 0) { // once a cell: can a rim line of one of its quads lie in another's plane?
+            mTJunctions = 0;
+            for (const QuadGeom& a : *mCellQuads)
+                for (const auto& sd : a.sides)
+                    for (const QuadGeom& q : *mCellQuads)
+                        if (&q != &a && sd.partner < 0 && rimLineIn(a, sd, q)) mTJunctions = 1;
+        }
+        if (mTJunctions == 0 || mPrism || sign(v, r.id) != 0 || !inExtentClosed(v, r) || slitInterior(v, r)) return 0;
+        for (const auto& sd : r.sides) {
+            if (sd.partner >= 0 || sign(v, sd.id) != 0) continue;
+            for (const QuadGeom* q : mQuads) {
+                if (q == &r || !slitInterior(v, *q) || !rimLineIn(r, sd, *q)) continue;
+                // Into r from its rim: the side's inward normal in r's plane.
+                const dvec3 in = sd.orient * (sd.plane.n - r.pi.n * glm::dot(sd.plane.n, r.pi.n));
+                const double h = glm::dot(q->pi.n, in);
+                if (h == 0.0) continue;
+                o = q;
+                return h > 0 ? 1 : -1;
+            }
+        }
+        return 0;
+    }
+    int8_t mTJunctions = -1; ///< tJunctionSide's test of the cell's quads: -1 not yet, 0 none can meet so, 1 some can
     const QuadGeom* quadById(uint64_t id) const
     {
         for (const QuadGeom* q : mQuads)
@@ -1166,6 +1208,7 @@ void RemeshKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads,
     mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
+    mTJunctions = -1;
     mCellIndex.clear();
     for (int t = 0; t < kTetsPerCell; ++t) {
         loadTet(t);
@@ -1181,6 +1224,7 @@ void RemeshKernel::finishCell(const Coord& cell, const std::vector<QuadGeom>& qu
     mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
+    mTJunctions = -1;
     if (mPrism) {
         splitPinches(cell, out);
         splitIsoPinches(out);
@@ -1209,6 +1253,7 @@ TetPhaseOne RemeshKernel::phaseOne(const Coord& cell, const std::vector<QuadGeom
     mPrism = prism;
     mCell = cell;
     mCellQuads = &quads;
+    mTJunctions = -1;
     loadTet(t);
     TetPhaseOne r;
     if (!mT.inside[0] && !mT.inside[1] && !mT.inside[2] && !mT.inside[3]) return r;
@@ -2123,7 +2168,11 @@ void RemeshKernel::traceRegions(const Surface& s, int side, const SmallVector<ch
             Tags tags;
             for (const QuadGeom* r : mQuads) {
                 if (mPrism) break;
-                if (!slitInterior(p.v[k], *r)) continue;
+                if (!slitInterior(p.v[k], *r)) {
+                    const QuadGeom* o = nullptr;
+                    const int rSide = tJunctionSide(p.v[k], *r, o);
+                    if (rSide == 0 || stripSide(p, o, p.v[k]) != rSide) continue;
+                }
                 const int sg = stripSide(p, r, p.v[k]);
                 tags.push_back(r->id << 1 | (sg < 0 ? 1u : 0u));
             }

@@ -383,6 +383,16 @@ bool inSlitOpen(int v, int q)
     return true;
 }
 
+/// RemeshKernel::rimLineIn: does quad o's rim line on side s lie in the
+/// plane of quad r, which crosses o's?
+bool rimLineIn(int o, uint s, int r)
+{
+    if (!(length(cross(kQuads[o].plane.xyz, kQuads[r].plane.xyz)) > 1e-9lf)) return false;
+    const dvec3 d = cross(kQuads[o].plane.xyz, kSides[s].plane.xyz);
+    const double len = length(d);
+    return len > 1e-12lf && abs(dot(d, kQuads[r].plane.xyz)) <= 1e-9lf * len;
+}
+
 /// RemeshKernel::onStripRim.
 bool onStripRim(int v, int r)
 {
@@ -394,7 +404,7 @@ bool onStripRim(int v, int r)
         const int64_t dq = int64_t((oid >> 4) & 0xfffffffful) - int64_t((rid >> 4) & 0xfffffffful);
         if (dq < -2l || dq > 2l || signOf(v, oid) != 0 || !inExtentClosed(v, o)) continue;
         for (uint s = kQuads[o].firstSide; s < kQuads[o].firstSide + kQuads[o].sideCount; ++s)
-            if (kSides[s].partner < 0 && signOf(v, kSides[s].id) == 0) return true;
+            if (kSides[s].partner < 0 && signOf(v, kSides[s].id) == 0 && !rimLineIn(o, s, r)) return true;
     }
     return false;
 }

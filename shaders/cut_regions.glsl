@@ -181,8 +181,33 @@ int stripSide(int i, int r, int v, int s, int side)
     return sg;
 }
 
+/// RemeshKernel::tJunctionSide: v on quad r's rim, on a rim line that lies
+/// in the open slit of quad o: the side of o where r lies (o set), else 0.
+int tJunctionSide(int v, int r, out int o)
+{
+    o = -1;
+    if (uPrism || signOf(v, kQuads[r].id) != 0 || !inExtentClosed(v, r) || (inSlitOpen(v, r) && !onStripRim(v, r)))
+        return 0;
+    for (uint sd = kQuads[r].firstSide; sd < kQuads[r].firstSide + kQuads[r].sideCount; ++sd) {
+        if (kSides[sd].partner >= 0 || signOf(v, kSides[sd].id) != 0) continue;
+        for (int j = 0; j < gReachCount; ++j) {
+            const int q = gReachQuad[j];
+            if (q == r || signOf(v, kQuads[q].id) != 0 || !inSlitOpen(v, q) || onStripRim(v, q)) continue;
+            if (!rimLineIn(r, sd, q)) continue;
+            const dvec3 n = kQuads[r].plane.xyz, sn = kSides[sd].plane.xyz;
+            const dvec3 inward = kSides[sd].orient * (sn - n * dot(sn, n));
+            const double h = dot(kQuads[q].plane.xyz, inward);
+            if (h == 0.0lf) continue;
+            o = q;
+            return h > 0.0lf ? 1 : -1;
+        }
+    }
+    return 0;
+}
+
 /// The node of corner k of piece i (region 0) traced on `side`: its vertex
-/// and the tags of the slits it lies inside.
+/// and the tags of the slits it lies inside (and, at a T-junction, of the
+/// slit that ends there: tJunctionSide).
 int pieceCornerNode(int i, int k, int s, int side)
 {
     const int v = pieceV(0, i, k);
@@ -190,7 +215,14 @@ int pieceCornerNode(int i, int k, int s, int side)
     int n = 0;
     for (int j = 0; j < gReachCount && !uPrism; ++j) {
         const int r = gReachQuad[j];
-        if (signOf(v, kQuads[r].id) != 0 || !inSlitOpen(v, r) || onStripRim(v, r)) continue;
+        if (signOf(v, kQuads[r].id) != 0 || !inSlitOpen(v, r) || onStripRim(v, r)) {
+            int o;
+            const int rSide = tJunctionSide(v, r, o);
+            if (rSide == 0) continue;
+            const int oSide = stripSide(i, o, v, s, side);
+            if (gFail != 0u) return -1;
+            if (oSide != rSide) continue;
+        }
         const int sg = stripSide(i, r, v, s, side);
         if (gFail != 0u) return -1;
         if (n == 4) { // more than Node's 4 tags: the CPU would refuse if it made a triangle of it

@@ -1695,6 +1695,52 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
     expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
 }
 
+// The 1 mm head at kerf 0, random strokes seed 2013 (the strokes of
+// RandomKerfStrokesOnThe1mmHead...): the blade pivots near its tip, so quad
+// 201 of the second stroke is a dart (its sticks cross 1.4 mm from the tip)
+// and the kernel cuts its hull, whose edge next to quad 200 is not the
+// stick they share. No junction joins them: quad 200's slit ends on a rim
+// line that lies inside quad 201's open slit, a T-junction of two zero-width
+// slits with three regions round the line. The vertices there had no side
+// tags at all (quad 201's were taken away as on a strip rim), six triangles
+// used one edge, and the update was refused. They now get quad 201's side
+// and, on quad 200's side of quad 201, quad 200's too (tJunctionSide): all
+// three strokes are accepted and clean, nothing meets off the blade, and
+// the one cell that was refused has vertices with both quads' tags.
+TEST(CutPropsDefects, ASlitEndingInsideAnotherSlitGetsACopyPerRegion)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    const vdb::Volume vol = vdb::readVolume(dir);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const uint32_t seed = 2013;
+    const auto poses = makeRandomStrokes(mask.frame(), seed, 3, 300, 0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
+    for (size_t s = 0; s < poses.size(); ++s) {
+        mask.beginStroke();
+        for (const Quad& q : filterStroke(poses[s], mask.frame())) mask.addQuad(q);
+        const UpdateResult r = tryUpdate(remesher, mask);
+        ASSERT_EQ(r.outcome, Outcome::Ok) << "stroke " << s << ": " << r.message;
+    }
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
+    const auto it = remesher.cells().find(Coord(240, 213, 243));
+    ASSERT_NE(it, remesher.cells().end()) << "the stroke no longer cuts the cell";
+    size_t both = 0;
+    for (const CutVertexId& id : it->second.vertexIds) {
+        bool q200 = false, q201 = false;
+        for (int k = 0; k < id.tagCount; ++k) {
+            const uint64_t quad = (id.tags[size_t(k)] >> 5) & 0xffffffff;
+            q200 = q200 || quad == 200;
+            q201 = q201 || quad == 201;
+        }
+        both += q200 && q201;
+    }
+    EXPECT_GT(both, 0u) << "no vertex of the cell has both quads' side tags";
+}
+
 /// A level stroke across the 1 mm head at 400, cut with `kerf`: `poses`
 /// poses 1 ms apart, pose i's base at (xOf(i), 135, z) mm, the blade along
 /// +y tilted down by `tilt` rad, `length` mm. Asserts it is accepted and the

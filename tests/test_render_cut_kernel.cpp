@@ -364,6 +364,39 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
     EXPECT_TRUE(gpu.arrangement(cut.input, tets, 0).empty());
 }
 
+// A T-junction of two zero-width slits (1 mm head, kerf 0, random strokes
+// seed 2013: quad 200's slit ends inside quad 201's; test_cut_props'
+// CutPropsDefects.ASlitEndingInsideAnotherSlitGetsACopyPerRegion): the
+// GPU arranges the cells round it as the CPU does, the tags of both quads
+// on the line included. Only the 5 x 5 x 5 cells round the cell the CPU
+// once refused, so llvmpipe takes seconds.
+TEST(CutKernelGpu, ASlitEndingInsideAnotherSlitIsArrangedAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    const render::GpuCutKernel gpu;
+    const vdb::Volume head = vdb::readVolume(dir);
+    const openvdb::Coord at(240, 213, 243);
+    const ArrangeTally t = compareArrangements(gpu, head, 400.0f, 0.0, 2013, 1, [&](uint32_t seed) {
+        auto strokes = cutter::makeRandomStrokes(cutter::frameOf(head), seed, 3, 300, 0.4 + 0.2 * (seed % 4),
+                                                 20.0 + 10.0 * (seed % 4));
+        strokes.resize(2); // the second stroke makes the T-junction
+        auto cut = std::make_unique<RandomCut>(head, 400.0f, 0.0, strokes);
+        std::vector<openvdb::Coord> near;
+        for (const openvdb::Coord& c : cut->cells)
+            if (std::abs(c.x() - at.x()) <= 2 && std::abs(c.y() - at.y()) <= 2 && std::abs(c.z() - at.z()) <= 2) near.push_back(c);
+        cut->cells = near;
+        cut->input = cutter::packKernelInput(head, 400.0f, cut->mask, cut->cells);
+        return cut;
+    });
+    report("1 mm head, seed 2013, round the T-junction", t);
+    EXPECT_EQ(t.differ, 0u) << t.first;
+    EXPECT_EQ(t.refusedCells, 0u);
+    EXPECT_EQ(t.overCapacity + t.loopLimit, 0u);
+    EXPECT_GT(t.tets, 20u);
+    EXPECT_GT(t.tagged, 0u);
+}
+
 // Pass 4, recovery, the GPU cut pass's oracle: every cut cell's geometry
 // as the GPU makes it, finished on the CPU (CellKernel::finish: the
 // pinches split and the float repairs), with the cells the GPU flagged
