@@ -151,6 +151,9 @@ struct LocalRegion
     std::vector<Tri> tris;                       ///< in cell order, then each cell's order
     std::vector<glm::vec3> world;                ///< per name, as fusedMesh() writes it
     std::vector<char> known;                     ///< world[name] is set
+    /// (vertex, a name snapRound joined into it), sorted: the vertex is
+    /// used where any of them is.
+    std::vector<std::pair<uint32_t, uint32_t>> joined;
     bool debug = false;                          ///< MTCUT_REMESH_DEBUG
     bool kerf = false;                           ///< the cut has a width (pinches are split in fusion)
     /// The changed cells' box [lo, lo + dim) as a bitmap, when it is small
@@ -187,6 +190,20 @@ struct LocalRegion
     {
         const Coord d = c - lo;
         return (uint64_t(d.x()) * uint64_t(dim.y()) + uint64_t(d.y())) * uint64_t(dim.z()) + uint64_t(d.z());
+    }
+    /// The cells whose closed boxes hold vertex v: cellsHolding of its name
+    /// and of the names joined into it (their bounding box: they lie at one
+    /// float position, so it is at most two cells across).
+    void holding(uint32_t v, Coord& from, Coord& to) const
+    {
+        cellsHolding(ids[v], from, to);
+        auto it = std::lower_bound(joined.begin(), joined.end(), std::make_pair(v, uint32_t(0)));
+        for (; it != joined.end() && it->first == v; ++it) {
+            Coord l, h;
+            cellsHolding(ids[it->second], l, h);
+            from.minComponent(l);
+            to.maxComponent(h);
+        }
     }
     [[noreturn]] void fail(const std::string& what, const Coord& c) const
     {
@@ -434,6 +451,10 @@ void snapRound(LocalRegion& reg)
             const uint32_t ra = find(a), rb = find(b);
             if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
         }
+    reg.joined.clear();
+    for (uint32_t v = 0; v < uint32_t(rep.size()); ++v)
+        if (find(v) != v) reg.joined.push_back({find(v), v});
+    std::sort(reg.joined.begin(), reg.joined.end());
     std::vector<Tri> kept;
     for (Tri tr : tris) {
         for (uint32_t& v : tr.v) v = find(v);
@@ -454,13 +475,19 @@ void checkEdgeUses(const LocalRegion& reg)
     auto desc = [&](uint32_t v) { describeVertex(reg, v); };
     const bool debug = reg.debug;
     // Directed edge uses; an edge matters when a changed cell's closed box holds it
-    // (then every triangle that can use it is in the region).
+    // (then every triangle that can use it is in the region). A vertex is
+    // held where any name snapRound joined into it is (2 mm head, kerf 0,
+    // seed 7039, an update half-way through a stroke: the blade's names on
+    // two cube edges that meet at a grid vertex, both snapped onto it
+    // (snapToGridVertices), are one vertex, and an unchanged cell that holds
+    // only the second name's edge used an edge of it; that use was not
+    // counted, and the edge looked open).
     // (Each vertex's cells once: a vertex is on about six edge uses.)
     std::vector<std::array<Coord, 2>> holding(ids.size());
     std::vector<char> held(ids.size(), 0);
     auto holdingOf = [&](uint32_t v) -> const std::array<Coord, 2>& {
         if (!held[v]) {
-            cellsHolding(ids[v], holding[v][0], holding[v][1]);
+            reg.holding(v, holding[v][0], holding[v][1]);
             held[v] = 1;
         }
         return holding[v];
@@ -543,8 +570,8 @@ void checkEdgeUses(const LocalRegion& reg)
         if (!isChanged(cell) && r.count && isChanged(tris[r.triangle].cell)) cell = tris[r.triangle].cell;
         if (!isChanged(cell)) {
             Coord la, ha, lb, hb;
-            cellsHolding(ids[uint32_t(key >> 32)], la, ha);
-            cellsHolding(ids[uint32_t(key)], lb, hb);
+            reg.holding(uint32_t(key >> 32), la, ha);
+            reg.holding(uint32_t(key), lb, hb);
             for (const Coord& c : changed) {
                 bool in = true;
                 for (int k = 0; k < 3; ++k) in = in && std::max(la[k], lb[k]) <= c[k] && c[k] <= std::min(ha[k], hb[k]);
@@ -622,7 +649,7 @@ void checkVertexLinks(const LocalRegion& reg)
         std::vector<int> fanOf;
         if (reg.kerf && !ids[v].isIsoEdgeVertex() && linkFans(link, fanOf) >= 2) continue;
         Coord lo, hi;
-        cellsHolding(ids[v], lo, hi);
+        reg.holding(v, lo, hi);
         Coord cell = changed.front();
         for (const Coord& c : changed)
             if (lo.x() <= c.x() && c.x() <= hi.x() && lo.y() <= c.y() && c.y() <= hi.y() && lo.z() <= c.z() &&

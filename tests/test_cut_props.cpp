@@ -1695,6 +1695,48 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
     expectCleanRandomCut(path, "2 mm head", 3023, 4, 0.5);
 }
 
+// The 2 mm head at kerf 0, random strokes seed 7039, stroke 1, updated half
+// way through (as a haptic session updates at every step): quad 110's plane
+// passes within a float step of grid vertex (59, 76, 96), so its names on
+// the cube edge below that vertex and on the one beside it go onto the
+// vertex (snapToGridVertices) and the local check's snap rounding makes them
+// one vertex. An unchanged cell that holds only the second edge used an edge
+// of that vertex; the check counted that use only where a changed cell holds
+// the first name, so the edge looked open and the update was refused. A
+// vertex is now held where any name joined into it is.
+TEST(CutPropsDefects, NamesSnappedOntoOneGridVertexAreHeldByAllTheirCells)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const auto strokes = randomStrokes(mask.frame(), 7039, 2);
+    for (size_t s = 0; s < strokes.size(); ++s) {
+        mask.beginStroke();
+        const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
+        for (size_t q = 0; q < quads.size(); ++q) {
+            mask.addQuad(quads[q]);
+            if (q + 1 != quads.size() / 2 && q + 1 != quads.size()) continue;
+            const UpdateResult r = tryUpdate(remesher, mask);
+            ASSERT_EQ(r.outcome, Outcome::Ok) << "stroke " << s << ", quad " << q << ": " << r.message;
+            const MeshCheck check = checkMesh(remesher.fusedMesh());
+            EXPECT_TRUE(check.ok()) << "stroke " << s << ", quad " << q << check.report();
+        }
+    }
+    // The case is still there: two blade names, on two cube edges, at the grid vertex.
+    size_t onVertex = 0;
+    for (const Coord& c : {Coord(58, 75, 95), Coord(59, 75, 96)}) {
+        const auto it = remesher.cells().find(c);
+        ASSERT_NE(it, remesher.cells().end()) << "the stroke no longer cuts cell " << c;
+        const CutCellGeometry& g = it->second;
+        for (size_t v = 0; v < g.vertexIds.size(); ++v)
+            onVertex += g.vertexIds[v].dim == 1 && !g.vertexIds[v].isIsoEdgeVertex() &&
+                        g.indexPositions[v] == glm::dvec3(59, 76, 96);
+    }
+    EXPECT_GE(onVertex, 2u) << "no two blade names on cube edges were put on grid vertex (59, 76, 96)";
+}
+
 // The 1 mm head at kerf 0, random strokes seed 2013 (the strokes of
 // RandomKerfStrokesOnThe1mmHead...): the blade pivots near its tip, so quad
 // 201 of the second stroke is a dart (its sticks cross 1.4 mm from the tip)
