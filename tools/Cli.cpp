@@ -2,6 +2,7 @@
 
 #include "cutter/CutMask.h"
 #include "cutter/Isosurface.h"
+#include "cutter/LiveStroke.h"
 #include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
 #include "vdb/Error.h"
@@ -175,19 +176,18 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
         std::string why = refusalOf(remesher, mask);
         size_t kept = quads.size();
         if (!why.empty()) {
+            // Again quad by quad, as the viewer cuts a live stroke: a refusal
+            // of where the blade stops at one quad waits for the next.
             mask.undoStroke(); // as the remesher holds it
-            mask.beginStroke();
-            kept = 0;
-            for (const cutter::Quad& q : quads) {
-                mask.addQuad(q);
-                why = refusalOf(remesher, mask);
-                if (!why.empty()) {
-                    if (kept == 0) mask.undoStroke();
-                    else mask.undoToQuad(uint32_t(kept));
-                    break;
-                }
-                ++kept;
+            cutter::LiveStroke live(mask, remesher);
+            cutter::LiveStroke::Result r;
+            for (size_t q = 0; q < quads.size() && !live.stopped(); ++q) {
+                live.add(quads[q]);
+                r = live.update();
             }
+            if (!live.stopped()) r = live.finish();
+            why = r.refusal;
+            kept = live.acceptedQuads();
             if (kept < quads.size())
                 refused.push_back({i + 1, kept, quads.size(), times[kept], describeRefusal(why, mask.frame(), mask.kerf())});
         }

@@ -121,18 +121,20 @@ struct RefusedStroke
     std::string message;   ///< the re-mesher's reason, with the cell in world mm
 };
 
-/// --keep-going, once the re-mesher refused the whole cut: the strokes cut
-/// one after another into `mask` (fresh: the strokes' frame and kerf, no
-/// quads) and `remesher` (holding no cut, as a refused update leaves it). A
-/// stroke the re-mesher refuses is cut quad by quad to the last quad that
-/// goes through and the rest of it dropped, as the viewer stops a stroke
-/// where it is refused; it is listed in `refused`. The path filter sees only
-/// the quads kept. Returns the quads kept. Throws what update() throws other
-/// than a refusal (InputError, Cancelled).
 /// remesher.update(mask): "" when it went through, else the re-mesher's
 /// refusal ("remesh: ..."); InputError and Cancelled are thrown on.
 std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask);
 
+/// --keep-going, once the re-mesher refused the whole cut: the strokes cut
+/// one after another into `mask` (fresh: the strokes' frame and kerf, no
+/// quads) and `remesher` (holding no cut, as a refused update leaves it). A
+/// stroke the re-mesher refuses is cut again quad by quad, as the viewer
+/// cuts a live stroke (cutter::LiveStroke: a refusal of where the blade
+/// stops at one quad waits for the next), to its last accepted update, and
+/// the rest of it dropped; it is listed in `refused` (the first quad
+/// dropped, and the refusal of the update that added it). The path filter
+/// sees only the quads kept. Returns the quads kept. Throws what update()
+/// throws other than a refusal (InputError, Cancelled).
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused);
 

@@ -3,6 +3,7 @@
 #include "cutter/CutMask.h"
 #include "cutter/Fusion.h"
 #include "cutter/Isosurface.h"
+#include "cutter/LiveStroke.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
 #include "tools/Cli.h"
@@ -80,10 +81,8 @@ struct CutSession::State
 
     // The live stroke.
     std::unique_ptr<cutter::PathFilter> filter;
-    bool live = false;        ///< between beginStroke and endStroke
-    bool liveInMask = false;  ///< the live stroke has quads in the mask
-    bool broken = false;      ///< a refused update ended it early: poses are ignored
-    uint32_t goodQuads = 0;   ///< quads of the live stroke at the last good update
+    bool live = false;                          ///< between beginStroke and endStroke
+    std::unique_ptr<cutter::LiveStroke> stroke; ///< the live stroke's quads and its refusals
     bool haveBlade = false;
     cutter::Pose blade;
     std::string pathFile; ///< the path file the whole cut came from ("" after a mouse stroke)
@@ -188,7 +187,7 @@ void CutSession::run()
             }
             mPercent = -1;
         }
-        updateCut();
+        updateCut(true); // after a batch of poses a refusal may wait for the next
         if (mState->sceneDirty) {
             try {
                 publish();
@@ -202,29 +201,25 @@ void CutSession::run()
 
 // -- the cut -----------------------------------------------------------------
 
-void CutSession::updateCut()
+void CutSession::updateCut(bool mayDefer)
 {
     State& s = *mState;
-    if (!s.cutDirty || !s.remesher) return;
+    if (!s.remesher) return;
+    // A live stroke's update refused for where the blade is now is tried
+    // again with the next poses (LiveStroke); any other command settles it.
+    const bool waiting = s.live && s.stroke && s.stroke->quads() != s.stroke->acceptedQuads();
+    if (!s.cutDirty && (mayDefer || !waiting)) return;
     s.cutDirty = false;
     const auto t0 = Clock::now();
-    try {
-        s.remesher->update(*s.mask);
-        if (s.live && s.liveInMask) s.goodQuads = s.mask->quadCount(s.mask->strokeCount());
-    } catch (const std::runtime_error& e) {
-        // The remesher is as before the call; put the mask back to match it.
-        if (s.live && s.liveInMask) {
-            if (s.goodQuads == 0) {
-                s.mask->undoStroke();
-                s.liveInMask = false;
-            } else {
-                s.mask->undoToQuad(s.goodQuads);
-            }
-            s.broken = true;
-            message(true, "cut refused, the stroke stops here: " + cli::describeRefusal(e.what(), s.mask->frame(), s.mask->kerf()));
-        } else {
-            throw;
-        }
+    if (s.live && s.stroke && s.stroke->inMask()) {
+        const cutter::LiveStroke::Result r = mayDefer ? s.stroke->update() : s.stroke->finish();
+        if (r.outcome == cutter::LiveStroke::Outcome::Stopped)
+            message(true, "cut refused, the stroke stops here: " +
+                              cli::describeRefusal(r.refusal, s.mask->frame(), s.mask->kerf()));
+        if (r.outcome == cutter::LiveStroke::Outcome::Unchanged ||
+            r.outcome == cutter::LiveStroke::Outcome::Deferred)
+            return;
+    } else {
         s.remesher->update(*s.mask);
     }
     mLastUpdate = secondsSince(t0);
@@ -326,7 +321,8 @@ void CutSession::resetCut()
     s.mask = std::make_unique<cutter::CutMask>(s.frame, s.kerf);
     s.remesher = std::make_unique<cutter::CutRemesher>(*s.volume, s.iso, *s.surface);
     s.filter = std::make_unique<cutter::PathFilter>(s.frame);
-    s.live = s.liveInMask = s.broken = s.haveBlade = false;
+    s.live = s.haveBlade = false;
+    s.stroke.reset();
     s.cutDirty = false;
     s.cutIds.reset();
     s.pathFile.clear();
@@ -359,12 +355,13 @@ void CutSession::endLiveStroke()
     if (s.filter) {
         // The cut reaches the stroke's last pose (PathFilter::finishStroke).
         const std::vector<cutter::Quad> last = s.filter->endStroke();
-        if (!s.broken && !last.empty()) {
+        if (s.stroke && !s.stroke->stopped()) {
             addLiveQuads(last);
-            updateCut(); // while the stroke is live: a refusal undoes only these quads
+            updateCut(); // while the stroke is live: a refusal cuts it back to its last accepted update
         }
     }
     s.live = s.haveBlade = false;
+    s.stroke.reset();
     s.sceneDirty = s.fragmentsDirty = true;
 }
 
@@ -454,8 +451,8 @@ void CutSession::beginStroke()
               (void)s.filter->endStroke(); // already ended: nothing pending
               cutter::setEarlierQuads(*s.mask, *s.filter); // the cut as it is now (after any undo)
               s.live = true;
-              s.liveInMask = s.broken = s.haveBlade = false;
-              s.goodQuads = 0;
+              s.haveBlade = false;
+              s.stroke = std::make_unique<cutter::LiveStroke>(*s.mask, *s.remesher);
               s.sceneDirty = true;
           }});
 }
@@ -468,7 +465,7 @@ void CutSession::addPose(const cutter::Pose& pose)
               s.blade = pose;
               s.haveBlade = true;
               s.sceneDirty = true;
-              if (s.broken) return;
+              if (s.stroke->stopped()) return;
               std::vector<cutter::Quad> quads;
               s.filter->push(pose, quads);
               addLiveQuads(quads);
@@ -479,14 +476,8 @@ void CutSession::addLiveQuads(const std::vector<cutter::Quad>& quads)
 {
     State& s = *mState;
     for (const cutter::Quad& q : quads) {
-        if (!s.liveInMask) {
-            s.mask->beginStroke();
-            s.liveInMask = true;
-            s.goodQuads = 0;
-            s.pathFile.clear(); // the cut is no longer just a path file's
-        }
-        s.mask->addQuad(q);
-        s.cutDirty = true;
+        if (!s.stroke->inMask()) s.pathFile.clear(); // the cut is no longer just a path file's
+        if (s.stroke->add(q)) s.cutDirty = true;
     }
 }
 

@@ -143,7 +143,10 @@ private:
     };
     void post(Command command);
     void run();
-    void updateCut();
+    /// Worker: re-meshes what changed. mayDefer: a live stroke's refused
+    /// update waits for its next poses (cutter::LiveStroke); else it is
+    /// settled (the stroke stops at its last accepted update).
+    void updateCut(bool mayDefer = false);
     void publish();
     void message(bool error, const std::string& text);
     void setTaskName(const std::string& name);

@@ -1,0 +1,170 @@
+// LiveStroke: a stroke cut while it is drawn, updated after every quad, on
+// the tooth (../shared/data; skipped when absent). A refusal of the blade's
+// momentary end is retried at the next update; one that stays stops the
+// stroke where its last accepted update left it. Either way the cut equals a
+// from-scratch cut of the same mask, and the fused mesh is clean.
+#include "cutter/BladePath.h"
+#include "cutter/CutMask.h"
+#include "cutter/Isosurface.h"
+#include "cutter/LiveStroke.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/Remesh.h"
+#include "tests/TestUtil.h"
+#include "tests/TestVolumes.h"
+#include "vdb/VolumeIO.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+using namespace mtcut;
+using namespace mtcut::cutter;
+
+namespace {
+
+bool sameMesh(const Mesh& a, const Mesh& b)
+{
+    return a.positions == b.positions && a.indices == b.indices && a.triangleVoxels == b.triangleVoxels;
+}
+
+/// The tooth at 400 with kerf w, its strokes for `seed` (test_cut_props'
+/// randomStrokes), the strokes before `live` cut whole.
+struct ToothCut
+{
+    ToothCut(const std::string& path, double kerf, uint32_t seed, size_t live)
+        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false})),
+          mask(frameOf(vol), kerf), remesher(vol, 400.0f, uncut)
+    {
+        const auto strokes = makeRandomStrokes(mask.frame(), seed, int(live) + 1, 150 + 50 * int(seed % 5),
+                                               0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
+        for (size_t s = 0; s < live; ++s) {
+            mask.beginStroke();
+            for (const Quad& q : filterStroke(strokes[s], mask.frame())) mask.addQuad(q);
+            remesher.update(mask);
+        }
+        quads = filterStroke(strokes[live], mask.frame());
+    }
+    /// The cut of the same mask from scratch equals the live one, and is clean.
+    void expectSameAsFromScratch()
+    {
+        CutRemesher scratch(vol, 400.0f, uncut);
+        scratch.update(mask);
+        const Mesh fused = remesher.fusedMesh();
+        EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the live cut differs from a from-scratch cut";
+        const MeshCheck check = checkMesh(fused);
+        EXPECT_TRUE(check.ok()) << check.report();
+    }
+    vdb::Volume vol;
+    Mesh uncut;
+    CutMask mask;
+    CutRemesher remesher;
+    std::vector<Quad> quads; ///< the live stroke's
+};
+
+} // namespace
+
+// Tooth, kerf 0, seed 8000, stroke 1: the stroke's first quad alone (a slit
+// ending inside on both sides) is refused; with the second it goes through.
+// Updated after every quad, the stroke is deferred once and then accepted
+// whole. Without patience (1) it stops at once, with nothing of it cut.
+TEST(LiveStroke, ARefusalOfTheBladesMomentaryEndIsRetriedAtTheNextUpdate)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    for (int patience : {LiveStroke::kPatience, 1}) {
+        SCOPED_TRACE("patience " + std::to_string(patience));
+        ToothCut cut(path, 0.0, 8000, 1);
+        ASSERT_GT(cut.quads.size(), 10u);
+        const uint32_t strokesBefore = cut.mask.strokeCount();
+        LiveStroke live(cut.mask, cut.remesher, patience);
+        size_t deferred = 0, accepted = 0;
+        for (size_t q = 0; q < cut.quads.size(); ++q) {
+            if (!live.add(cut.quads[q])) break;
+            const LiveStroke::Result r = live.update();
+            deferred += r.outcome == LiveStroke::Outcome::Deferred;
+            accepted += r.outcome == LiveStroke::Outcome::Accepted;
+            if (q == 0) {
+                ASSERT_NE(r.outcome, LiveStroke::Outcome::Accepted) << "the first quad alone is no longer refused";
+                EXPECT_NE(r.refusal.find("remesh: "), std::string::npos) << r.refusal;
+            }
+        }
+        const LiveStroke::Result end = live.finish();
+        if (patience == 1) {
+            EXPECT_TRUE(live.stopped());
+            EXPECT_EQ(live.acceptedQuads(), 0u);
+            EXPECT_FALSE(live.inMask());
+            EXPECT_EQ(cut.mask.strokeCount(), strokesBefore) << "a stroke with nothing accepted leaves the mask";
+            EXPECT_EQ(end.outcome, LiveStroke::Outcome::Unchanged);
+            EXPECT_FALSE(live.add(cut.quads[0])) << "a stopped stroke took a quad";
+        } else {
+            EXPECT_EQ(deferred, 1u);
+            EXPECT_EQ(accepted, cut.quads.size() - 1);
+            EXPECT_FALSE(live.stopped());
+            EXPECT_EQ(live.acceptedQuads(), cut.quads.size());
+            EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), cut.quads.size());
+            EXPECT_EQ(end.outcome, LiveStroke::Outcome::Unchanged) << "nothing was left to cut at the end";
+        }
+        cut.expectSameAsFromScratch();
+    }
+}
+
+// Tooth, kerf 0.5, seed 8004, stroke 0: a refusal that stays (two blade
+// planes meet a cube edge a float step apart in a cell the later quads do not
+// change; the whole stroke is refused too). The stroke stops after
+// kPatience refused updates, cut back to its last accepted update, and
+// takes no more quads.
+TEST(LiveStroke, ARefusalThatStaysStopsTheStrokeAtItsLastAcceptedUpdate)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    ToothCut cut(path, 0.5, 8004, 0);
+    LiveStroke live(cut.mask, cut.remesher);
+    size_t firstRefused = SIZE_MAX, updates = 0;
+    LiveStroke::Result last;
+    for (size_t q = 0; q < cut.quads.size() && live.add(cut.quads[q]); ++q) {
+        last = live.update();
+        ++updates;
+        if (last.outcome != LiveStroke::Outcome::Accepted && firstRefused == SIZE_MAX) firstRefused = q;
+        if (live.stopped()) break;
+    }
+    ASSERT_NE(firstRefused, SIZE_MAX) << "the stroke is no longer refused";
+    ASSERT_TRUE(live.stopped());
+    EXPECT_EQ(last.outcome, LiveStroke::Outcome::Stopped);
+    EXPECT_NE(last.refusal.find("crosses or touches itself"), std::string::npos) << last.refusal;
+    EXPECT_EQ(updates, firstRefused + size_t(LiveStroke::kPatience));
+    EXPECT_EQ(live.acceptedQuads(), firstRefused);
+    EXPECT_EQ(live.quads(), firstRefused);
+    EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), firstRefused);
+    EXPECT_FALSE(live.add(cut.quads.back()));
+    EXPECT_EQ(live.finish().outcome, LiveStroke::Outcome::Unchanged);
+    cut.expectSameAsFromScratch();
+}
+
+// A refusal at the stroke's last update stops it there, however patient;
+// and an update with nothing new re-meshes nothing.
+TEST(LiveStroke, TheLastUpdateDoesNotDeferAndAnEmptyUpdateDoesNothing)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    ToothCut cut(path, 0.0, 8000, 1);
+    LiveStroke live(cut.mask, cut.remesher);
+    EXPECT_EQ(live.update().outcome, LiveStroke::Outcome::Unchanged);
+    EXPECT_EQ(live.finish().outcome, LiveStroke::Outcome::Unchanged);
+    EXPECT_FALSE(live.inMask());
+    ASSERT_TRUE(live.add(cut.quads[0]));
+    EXPECT_EQ(live.update().outcome, LiveStroke::Outcome::Deferred);
+    EXPECT_EQ(live.update().outcome, LiveStroke::Outcome::Unchanged) << "the same quads were tried again";
+    const LiveStroke::Result end = live.finish();
+    EXPECT_EQ(end.outcome, LiveStroke::Outcome::Stopped);
+    EXPECT_FALSE(end.refusal.empty());
+    EXPECT_FALSE(live.inMask());
+    cut.expectSameAsFromScratch();
+}
+
+TEST(LiveStroke, PatienceBelowOneIsRefused)
+{
+    const vdb::Volume vol = test::fieldVolume(openvdb::Coord(8), openvdb::Vec3d(1.0), openvdb::Vec3d(0.0),
+                                              [](const openvdb::Vec3d& p) { return 3.0 - (p - openvdb::Vec3d(4.0)).length(); });
+    const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, 0.0f, uncut);
+    EXPECT_THROW(LiveStroke(mask, remesher, 0), std::invalid_argument);
+    EXPECT_NO_THROW(LiveStroke(mask, remesher, 1));
+}
