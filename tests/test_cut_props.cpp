@@ -1707,10 +1707,9 @@ TEST(CutPropsDefects, AFacePairClosingATentIsMendedInBothCells)
 TEST(CutPropsDefects, NamesSnappedOntoOneGridVertexAreHeldByAllTheirCells)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
-    const vdb::Volume vol = vdb::readVolume(path);
-    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 0.0);
-    CutRemesher remesher(vol, 400.0f, uncut);
+    HeadStrokeCut cut(path, 7039, 0.0, 0); // nothing cut yet
+    CutMask& mask = cut.mask;
+    CutRemesher& remesher = cut.remesher;
     const auto strokes = randomStrokes(mask.frame(), 7039, 2);
     for (size_t s = 0; s < strokes.size(); ++s) {
         mask.beginStroke();
