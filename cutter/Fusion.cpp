@@ -319,15 +319,25 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     }
     for (; p < patches.size(); ++p) emitPatch(patches[p]);
     copyTo(nt);
-    // Then the cut cells' triangles, cells ascending.
+    // Then the cut cells' triangles, cells ascending, less those that snap
+    // rounding collapsed or made a cancelling pair (markCancellingPairs).
     const size_t firstNew = m.triangleCount();
+    std::vector<char> cancelled;
+    if (!rep.empty()) {
+        std::vector<std::array<uint32_t, 3>> snapped(newIndices.size() / 3), before(snapped.size());
+        for (size_t t = 0; t < snapped.size(); ++t) {
+            before[t] = {newIndices[3 * t], newIndices[3 * t + 1], newIndices[3 * t + 2]};
+            snapped[t] = {find(before[t][0]), find(before[t][1]), find(before[t][2])};
+        }
+        remesh_detail::markCancellingPairs(snapped, before, cancelled);
+    }
     for (size_t i = 0, t = 0; i < newIndices.size(); i += 3, ++t) {
         uint32_t a = newIndices[i], b = newIndices[i + 1], c = newIndices[i + 2];
         if (!rep.empty()) {
             a = find(a);
             b = find(b);
             c = find(c);
-            if (a == b || b == c || a == c) continue;
+            if (a == b || b == c || a == c || cancelled[t]) continue;
         }
         m.indices.insert(m.indices.end(), {a, b, c});
         m.triangleVoxels.push_back(newVoxels[t]);
@@ -352,6 +362,50 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
 }
 
 namespace remesh_detail {
+
+void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
+                         const std::vector<std::array<uint32_t, 3>>& before, std::vector<char>& drop)
+{
+    if (before.size() != tris.size()) throw std::logic_error("markCancellingPairs: one unsnapped triangle per triangle");
+    auto sameSet = [](std::array<uint32_t, 3> a, std::array<uint32_t, 3> b) {
+        std::sort(a.begin(), a.end());
+        std::sort(b.begin(), b.end());
+        return a == b;
+    };
+    drop.assign(tris.size(), 0);
+    // Each triangle rotated to start at its least vertex: (set, whether its
+    // last two corners are in descending order, index).
+    struct Entry
+    {
+        std::array<uint32_t, 3> set;
+        bool flipped;
+        uint32_t t;
+    };
+    std::vector<Entry> e;
+    e.reserve(tris.size());
+    for (uint32_t t = 0; t < uint32_t(tris.size()); ++t) {
+        std::array<uint32_t, 3> v = tris[t];
+        while (v[0] > v[1] || v[0] > v[2]) std::rotate(v.begin(), v.begin() + 1, v.end());
+        const bool flipped = v[1] > v[2];
+        if (flipped) std::swap(v[1], v[2]);
+        e.push_back({v, flipped, t});
+    }
+    std::sort(e.begin(), e.end(), [](const Entry& a, const Entry& b) { return a.set != b.set ? a.set < b.set : a.t < b.t; });
+    for (size_t i = 0, j = 0; i < e.size(); i = j) {
+        for (j = i; j < e.size() && e[j].set == e[i].set; ++j) {
+        }
+        if (j - i < 2) continue;
+        // In triangle order: each one pairs with the first unpaired one facing the other way.
+        for (size_t a = i; a < j; ++a) {
+            if (drop[e[a].t]) continue;
+            for (size_t b = a + 1; b < j; ++b)
+                if (!drop[e[b].t] && e[b].flipped != e[a].flipped && !sameSet(before[e[a].t], before[e[b].t])) {
+                    drop[e[a].t] = drop[e[b].t] = 1;
+                    break;
+                }
+        }
+    }
+}
 
 int linkFans(const std::vector<std::pair<uint32_t, uint32_t>>& link, std::vector<int>& fanOf)
 {

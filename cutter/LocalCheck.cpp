@@ -455,10 +455,23 @@ void snapRound(LocalRegion& reg)
     for (uint32_t v = 0; v < uint32_t(rep.size()); ++v)
         if (find(v) != v) reg.joined.push_back({find(v), v});
     std::sort(reg.joined.begin(), reg.joined.end());
+    // The cut cells' triangles that become cancelling pairs go, as in fusedMesh.
+    std::vector<std::array<uint32_t, 3>> cutTris, before;
+    std::vector<size_t> cutAt;
+    for (size_t t = 0; t < tris.size(); ++t) {
+        if (!tris[t].cut) continue;
+        before.push_back({tris[t].v[0], tris[t].v[1], tris[t].v[2]});
+        cutTris.push_back({find(tris[t].v[0]), find(tris[t].v[1]), find(tris[t].v[2])});
+        cutAt.push_back(t);
+    }
+    std::vector<char> cancelled, drop(tris.size(), 0);
+    remesh_detail::markCancellingPairs(cutTris, before, cancelled);
+    for (size_t i = 0; i < cutAt.size(); ++i) drop[cutAt[i]] = cancelled[i];
     std::vector<Tri> kept;
-    for (Tri tr : tris) {
+    for (size_t t = 0; t < tris.size(); ++t) {
+        Tri tr = tris[t];
         for (uint32_t& v : tr.v) v = find(v);
-        if (tr.v[0] == tr.v[1] || tr.v[1] == tr.v[2] || tr.v[0] == tr.v[2]) continue;
+        if (tr.v[0] == tr.v[1] || tr.v[1] == tr.v[2] || tr.v[0] == tr.v[2] || drop[t]) continue;
         kept.push_back(tr);
     }
     tris.swap(kept);

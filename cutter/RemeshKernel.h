@@ -290,4 +290,19 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
 /// gets its own copy of the vertex. Cost O(link log link).
 int linkFans(const std::vector<std::pair<uint32_t, uint32_t>>& link, std::vector<int>& fanOf);
 
+/// Snap rounding's cancelling pairs: two triangles that snap rounding has
+/// made into one vertex set facing opposite ways (`tris`, snapped), though
+/// they were not on one vertex set before (`before`, the same triangles
+/// unsnapped): a cap region a float step across, fanned from its centre,
+/// whose corners joined (4 mm head, kerf 0, random strokes seed 8043: three
+/// quads' planes through one point 4e-5 mm from a cell face). They coincide
+/// and bound nothing, and they use each of their edges once each way, so
+/// both go (fusedMesh and the local check alike). A pair the kernel made as
+/// it is (two cells' triangles back to back in their common face) is not
+/// snap rounding's and stays, for the check to refuse. Marks them in `drop`
+/// (one entry per triangle); pairs are taken in triangle order, so a third
+/// triangle on the set stays. Cost O(n log n).
+void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
+                         const std::vector<std::array<uint32_t, 3>>& before, std::vector<char>& drop);
+
 } // namespace mtcut::cutter::remesh_detail

@@ -1736,6 +1736,20 @@ TEST(CutPropsDefects, NamesSnappedOntoOneGridVertexAreHeldByAllTheirCells)
     EXPECT_GE(onVertex, 2u) << "no two blade names on cube edges were put on grid vertex (59, 76, 96)";
 }
 
+// The 4 mm head at kerf 0, random strokes seed 8043: quads 30-32 of stroke 1
+// pass through one point (the blade pivots) 4e-5 mm from a cell face, a
+// float step at z = 1213 mm. Quad 31's cap there is a triangle that small,
+// fanned from its centre; two of its corners are one float point, so snap
+// rounding joins them, and the fan became two triangles on one vertex set
+// facing opposite ways: each of their edges used twice each way (refused).
+// Such a pair, made by snap rounding, now goes (markCancellingPairs), in
+// fusedMesh and the local check alike; one the kernel made as it is stays.
+TEST(CutPropsDefects, TrianglesThatSnapRoundingFoldsBackOntoEachOtherGo)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
+    expectCleanRandomCut(path, "4 mm head", 8043, 4, 0.0);
+}
+
 // The 1 mm head at kerf 0, random strokes seed 2013 (the strokes of
 // RandomKerfStrokesOnThe1mmHead...): the blade pivots near its tip, so quad
 // 201 of the second stroke is a dart (its sticks cross 1.4 mm from the tip)

@@ -9,9 +9,11 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <limits>
 #include <map>
 #include <set>
+#include <stdexcept>
 
 namespace {
 
@@ -512,4 +514,33 @@ TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
     EXPECT_EQ(linkFans({{1, 2}, {2, 1}, {1, 2}, {2, 1}}, fan), 0);                   // an edge used twice
     EXPECT_EQ(linkFans({{1, 2}, {2, 1}}, fan), 0);                                   // too short for a disc
     EXPECT_EQ(linkFans({{1, 2}, {2, 3}, {3, 1}, {4, 5}, {5, 4}}, fan), 0);          // and beside a disc
+}
+
+// remesh_detail::markCancellingPairs (fusedMesh and the local check): two
+// triangles that snap rounding made into one vertex set facing opposite
+// ways both go; a pair that was one vertex set before snapping (the
+// kernel's own, back to back) stays, and so do two facing the same way and
+// a third on the set.
+TEST(CancellingPairs, OnlyPairsMadeBySnapRoundingGo)
+{
+    using mtcut::cutter::remesh_detail::markCancellingPairs;
+    using T = std::array<uint32_t, 3>;
+    std::vector<char> drop;
+    // A fan from centre 0 over corners 1, 2, 3 after 3 joined 2: (0, 1, 2) collapsed
+    // elsewhere; (0, 2, 3) -> (0, 2, 2) collapsed; (0, 3, 1) -> (0, 2, 1) cancels (0, 1, 2).
+    markCancellingPairs({T{0, 1, 2}, T{4, 5, 6}, T{0, 2, 1}}, {T{0, 1, 2}, T{4, 5, 6}, T{0, 3, 1}}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{1, 0, 1}));
+    // Rotations count as the same triangle; the pair is found across the list.
+    markCancellingPairs({T{2, 0, 1}, T{7, 8, 9}, T{1, 0, 2}}, {T{2, 0, 1}, T{7, 8, 9}, T{1, 0, 3}}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{1, 0, 1}));
+    // The kernel's own back-to-back pair stays (the check refuses it).
+    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}}, {T{0, 1, 2}, T{0, 2, 1}}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{0, 0}));
+    // Facing the same way: no pair.
+    markCancellingPairs({T{0, 1, 2}, T{1, 2, 0}}, {T{0, 1, 2}, T{1, 2, 3}}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{0, 0}));
+    // Three on one set: the first pair in triangle order goes, the third stays.
+    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}, T{0, 1, 2}}, {T{0, 1, 2}, T{0, 2, 3}, T{0, 1, 4}}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{1, 1, 0}));
+    EXPECT_THROW(markCancellingPairs({T{0, 1, 2}}, {}, drop), std::logic_error);
 }
