@@ -63,8 +63,9 @@
 //
 // Snap rounding (fusedMesh): new vertices joined by an edge that round to
 // the same float position are one vertex of the written mesh, and the
-// triangles that collapse are dropped; the local check judges the mesh after
-// that step.
+// triangles that collapse are dropped, and so are the pairs it folds back
+// onto each other (remesh_detail::markCancellingPairs); the local check
+// judges the mesh after that step.
 #pragma once
 
 #include "cutter/CutMask.h"
