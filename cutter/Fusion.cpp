@@ -381,14 +381,27 @@ void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
         bool flipped;
         uint32_t t;
     };
-    std::vector<Entry> e;
-    e.reserve(tris.size());
-    for (uint32_t t = 0; t < uint32_t(tris.size()); ++t) {
-        std::array<uint32_t, 3> v = tris[t];
+    auto entryOf = [](uint32_t t, std::array<uint32_t, 3> v) {
         while (v[0] > v[1] || v[0] > v[2]) std::rotate(v.begin(), v.begin() + 1, v.end());
         const bool flipped = v[1] > v[2];
         if (flipped) std::swap(v[1], v[2]);
-        e.push_back({v, flipped, t});
+        return Entry{v, flipped, t};
+    };
+    // A pair has a triangle that snapping changed: those, and the unchanged
+    // ones on a set that a changed one has (most of a mesh is neither).
+    std::vector<Entry> e;
+    std::vector<std::array<uint32_t, 3>> changedSets;
+    for (uint32_t t = 0; t < uint32_t(tris.size()); ++t)
+        if (tris[t] != before[t]) {
+            e.push_back(entryOf(t, tris[t]));
+            changedSets.push_back(e.back().set);
+        }
+    if (e.empty()) return;
+    std::sort(changedSets.begin(), changedSets.end());
+    for (uint32_t t = 0; t < uint32_t(tris.size()); ++t) {
+        if (tris[t] != before[t]) continue;
+        const Entry x = entryOf(t, tris[t]);
+        if (std::binary_search(changedSets.begin(), changedSets.end(), x.set)) e.push_back(x);
     }
     std::sort(e.begin(), e.end(), [](const Entry& a, const Entry& b) { return a.set != b.set ? a.set < b.set : a.t < b.t; });
     for (size_t i = 0, j = 0; i < e.size(); i = j) {

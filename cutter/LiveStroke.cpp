@@ -15,10 +15,7 @@ LiveStroke::LiveStroke(CutMask& mask, CutRemesher& remesher, int patience)
 bool LiveStroke::add(const Quad& quad)
 {
     if (mStopped) return false;
-    if (!mInMask) {
-        mMask.beginStroke();
-        mInMask = true;
-    }
+    if (mQuads == 0) mMask.beginStroke();
     mMask.addQuad(quad);
     ++mQuads;
     mPending = true;
@@ -31,12 +28,8 @@ LiveStroke::Result LiveStroke::finish() { return run(true); }
 
 void LiveStroke::cutBack()
 {
-    if (mAccepted == 0) {
-        mMask.undoStroke();
-        mInMask = false;
-    } else {
-        mMask.undoToQuad(mAccepted);
-    }
+    if (mAccepted == 0) mMask.undoStroke();
+    else mMask.undoToQuad(mAccepted);
     mQuads = mAccepted;
 }
 

@@ -68,7 +68,7 @@ public:
 
     bool stopped() const { return mStopped; }
     /// The stroke has quads in the mask.
-    bool inMask() const { return mInMask; }
+    bool inMask() const { return mQuads > 0; }
     /// Quads of the stroke the cut holds.
     uint32_t acceptedQuads() const { return mAccepted; }
     /// Quads of the stroke in the mask (accepted, and waiting after a deferral).
@@ -81,7 +81,7 @@ private:
     CutMask& mMask;
     CutRemesher& mRemesher;
     int mPatience;
-    bool mInMask = false, mStopped = false;
+    bool mStopped = false;
     bool mPending = false;   ///< quads added since the last update
     int mRefusedInARow = 0;
     std::string mFirstRefusal; ///< of the row of refused updates

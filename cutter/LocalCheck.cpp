@@ -455,10 +455,11 @@ void snapRound(LocalRegion& reg)
     for (uint32_t v = 0; v < uint32_t(rep.size()); ++v)
         if (find(v) != v) reg.joined.push_back({find(v), v});
     std::sort(reg.joined.begin(), reg.joined.end());
-    // The cut cells' triangles that become cancelling pairs go, as in fusedMesh.
+    // The cut cells' triangles that become cancelling pairs go, as in
+    // fusedMesh (only where snap rounding joined something).
     std::vector<std::array<uint32_t, 3>> cutTris, before;
     std::vector<size_t> cutAt;
-    for (size_t t = 0; t < tris.size(); ++t) {
+    for (size_t t = 0; t < tris.size() && !reg.joined.empty(); ++t) {
         if (!tris[t].cut) continue;
         before.push_back({tris[t].v[0], tris[t].v[1], tris[t].v[2]});
         cutTris.push_back({find(tris[t].v[0]), find(tris[t].v[1]), find(tris[t].v[2])});
