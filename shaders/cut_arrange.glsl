@@ -501,7 +501,7 @@ int pieceSign(int r, int i, uint64_t id)
 uint64_t gSPlane[ARR_MAX_SURFACES];
 int gSQuad[ARR_MAX_SURFACES]; // cap: its quad (kQuads index); -1: an iso polygon
 int gSSides[ARR_MAX_SURFACES];
-dvec3 gSNormal[ARR_MAX_SURFACES];
+uvec2 gSNormalBits[3 * ARR_MAX_SURFACES]; // dvec3 normals as bits: D3GET(gSNormalBits, s)
 int gSAlso[4 * ARR_MAX_SURFACES]; // kerf > 0: further prisms with this face plane
 int gSAlsoCount[ARR_MAX_SURFACES];
 int gSPolyV[4 * ARR_MAX_SURFACES];
@@ -518,7 +518,7 @@ void gatherPlanes()
     tetBegin(gT, gIso, gCell);
     if (gTetOverflow) gFail |= kFailPlanes;
     gFoldConvex = true;
-    if (gIso.triCount == 2) gFoldConvex = planeH(gIso.plane[0], gIso.pts[1][2]) >= 0.0lf;
+    if (gIso.triCount == 2) gFoldConvex = planeH(D4GET(gIso.planeBits, 0), D3GET(gIso.ptsBits, 4 * (1) + (2))) >= 0.0lf;
 }
 
 bool openSurface(uint64_t plane, int quad, int sides, dvec3 normal)
@@ -531,7 +531,7 @@ bool openSurface(uint64_t plane, int quad, int sides, dvec3 normal)
     gSPlane[s] = plane;
     gSQuad[s] = quad;
     gSSides[s] = sides;
-    gSNormal[s] = normal;
+    D3SET(gSNormalBits, s, normal);
     gSAlsoCount[s] = 0;
     gSPolyLen[s] = 0;
     return true;
@@ -541,14 +541,14 @@ bool openSurface(uint64_t plane, int quad, int sides, dvec3 normal)
 void isoSurfaces()
 {
     for (int k = 0; k < gIso.triCount; ++k) {
-        if (!openSurface(kIsoA + uint64_t(k), -1, 1, -gIso.plane[k].xyz)) return;
+        if (!openSurface(kIsoA + uint64_t(k), -1, 1, -D4GET(gIso.planeBits, k).xyz)) return;
         const int s = gSurfaceCount - 1;
         const int n = gIso.corners[k];
         for (int c = 0; c < n; ++c) {
             const int e = gIso.edges[k][c];
             uint64_t def[8];
             def[0] = kIsoA + uint64_t(k);
-            const int v = makeVertex((1u << (e & 3)) | (1u << (e >> 2)), def, 1, gIso.pts[k][c]);
+            const int v = makeVertex((1u << (e & 3)) | (1u << (e >> 2)), def, 1, D3GET(gIso.ptsBits, 4 * (k) + (c)));
             if (v < 0) return;
             gSPolyV[4 * s + c] = v;
             gTriVert[4 * k + c] = v;
@@ -591,42 +591,42 @@ bool angleSwap(inout dvec2 a, inout dvec2 b, inout int va, inout int vb)
 /// RemeshKernel::capSurfaces' section of the tet by a face plane: h per
 /// corner (ties 0), the corners' simplices ps and positions pp (n, at most
 /// four); returns how many tet corners lie on the plane.
-int capSection(dvec4 plane, out double h[4], out uint ps[4], out dvec3 pp[4], out int n)
+int capSection(dvec4 plane, out uvec2 hBits[4], out uint ps[4], out uvec2 ppBits[12], out int n)
 {
     int on = 0;
     for (int i = 0; i < 4; ++i) {
-        h[i] = planeH(plane, gT.p[i]);
-        if (abs(h[i]) <= epsAt(gT.p[i])) {
-            h[i] = 0.0lf;
+        D1SET(hBits, i, planeH(plane, D3GET(gT.pBits, i)));
+        if (abs(D1GET(hBits, i)) <= epsAt(D3GET(gT.pBits, i))) {
+            D1SET(hBits, i, 0.0lf);
             ++on;
         }
     }
     n = 0;
     for (int i = 0; i < 4; ++i)
-        if (h[i] == 0.0lf && n < 4) {
+        if (D1GET(hBits, i) == 0.0lf && n < 4) {
             ps[n] = 1u << i;
-            pp[n++] = gT.p[i];
+            D3SET(ppBits, n++, D3GET(gT.pBits, i));
         }
     for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j) {
-            precise double hh = h[i] * h[j];
+            precise double hh = D1GET(hBits, i) * D1GET(hBits, j);
             if (!(hh < 0.0lf) || n == 4) continue;
             int a = i, b = j;
             if (gT.id[b] < gT.id[a]) {
                 a = j;
                 b = i;
             }
-            const double t = h[a] / (h[a] - h[b]);
-            precise dvec3 x = gT.p[a] + t * (gT.p[b] - gT.p[a]);
+            const double t = D1GET(hBits, a) / (D1GET(hBits, a) - D1GET(hBits, b));
+            precise dvec3 x = D3GET(gT.pBits, a) + t * (D3GET(gT.pBits, b) - D3GET(gT.pBits, a));
             ps[n] = (1u << i) | (1u << j);
-            pp[n++] = x;
+            D3SET(ppBits, n++, x);
         }
     return on;
 }
 
 /// RemeshKernel::capOutside's clip buffers: three polygons of up to 16
 /// corners (a section has four, and each of at most seven clips adds one).
-dvec3 gClip[48];
+uvec2 gClipBits[3 * 48]; // dvec3 points as bits: D3GET(gClipBits, i)
 
 double clipGrow(dvec3 x) { return kApart * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z))); }
 
@@ -636,13 +636,13 @@ int clipTo(int src, int dst, int n, dvec4 plane, double orient)
 {
     int m = 0;
     for (int i = 0; i < n; ++i) {
-        const dvec3 a = gClip[16 * src + i], b = gClip[16 * src + (i + 1) % n];
+        const dvec3 a = D3GET(gClipBits, 16 * src + i), b = D3GET(gClipBits, 16 * src + (i + 1) % n);
         precise double ha = orient * planeH(plane, a) + clipGrow(a);
         precise double hb = orient * planeH(plane, b) + clipGrow(b);
-        if (ha >= 0.0lf && m < 16) gClip[16 * dst + m++] = a;
+        if (ha >= 0.0lf && m < 16) D3SET(gClipBits, 16 * dst + m++, a);
         if ((ha >= 0.0lf) != (hb >= 0.0lf) && m < 16) {
             precise dvec3 x = a + (ha / (ha - hb)) * (b - a);
-            gClip[16 * dst + m++] = x;
+            D3SET(gClipBits, 16 * dst + m++, x);
         }
     }
     return m;
@@ -651,14 +651,14 @@ int clipTo(int src, int dst, int n, dvec4 plane, double orient)
 /// RemeshKernel::capOutside: can no point of the section (ps, pp, n), by
 /// kApart, lie inside both quad q (kerf > 0: its closed prism, face `face`
 /// aside) and the solid?
-bool capOutside(int q, uint64_t face, uint ps[4], dvec3 pp[4], int n)
+bool capOutside(int q, uint64_t face, uint ps[4], uvec2 ppBits[12], int n)
 {
     // The corners in their cyclic order (capSection lists four by edge, and
     // the middle two then share no tet face).
-    for (int k = 0; k < n; ++k) gClip[k] = pp[k];
+    for (int k = 0; k < 3 * n; ++k) gClipBits[k] = ppBits[k];
     if (n == 4 && bitCount(ps[1] | ps[2]) == 4) {
-        gClip[2] = pp[3];
-        gClip[3] = pp[2];
+        D3SET(gClipBits, 2, D3GET(ppBits, 3));
+        D3SET(gClipBits, 3, D3GET(ppBits, 2));
     }
     int src = 0, cn = n;
     for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s) {
@@ -668,10 +668,10 @@ bool capOutside(int q, uint64_t face, uint ps[4], dvec3 pp[4], int n)
         src = 1 - src;
     }
     if (gIso.triCount == 0) return false; // solid throughout
-    const int an = clipTo(src, 1 - src, cn, gIso.plane[0], 1.0lf);
+    const int an = clipTo(src, 1 - src, cn, D4GET(gIso.planeBits, 0), 1.0lf);
     if (gIso.triCount == 1) return an == 0;
-    if (gFoldConvex) return an == 0 || clipTo(1 - src, 2, an, gIso.plane[1], 1.0lf) == 0;
-    return an == 0 && clipTo(src, 2, cn, gIso.plane[1], 1.0lf) == 0;
+    if (gFoldConvex) return an == 0 || clipTo(1 - src, 2, an, D4GET(gIso.planeBits, 1), 1.0lf) == 0;
+    return an == 0 && clipTo(src, 2, cn, D4GET(gIso.planeBits, 1), 1.0lf) == 0;
 }
 
 /// RemeshKernel::capSurfaces, first pass: a quad's plane (zero kerf) or
@@ -681,7 +681,7 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal, int first)
 {
     if (uPrism) {
         for (int o = first; o < gSurfaceCount; ++o)
-            if (gSPlane[o] == id && dot3(gSNormal[o], normal) > 0.0lf) {
+            if (gSPlane[o] == id && dot3(D3GET(gSNormalBits, o), normal) > 0.0lf) {
                 if (gSAlsoCount[o] == 4) {
                     gFail |= kFailSurfaces;
                     return;
@@ -690,18 +690,18 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal, int first)
                 return;
             }
     }
-    double h[4];
+    uvec2 hBits[4];
     uint ps[4];
-    dvec3 pp[4];
+    uvec2 ppBits[12];
     int n;
-    const int on = capSection(plane, h, ps, pp, n);
+    const int on = capSection(plane, hBits, ps, ppBits, n);
     if (n < 3) return;
     int sides = 3;
     if (on == 3) { // the plane is a tet face: only the cap facing away from this tet
         int f = 0;
-        while (h[f] == 0.0lf) ++f;
-        sides = h[f] > 0.0lf ? 1 : 2;
-        precise double facing = dot3(normal, plane.xyz) * h[f];
+        while (D1GET(hBits, f) == 0.0lf) ++f;
+        sides = D1GET(hBits, f) > 0.0lf ? 1 : 2;
+        precise double facing = dot3(normal, plane.xyz) * D1GET(hBits, f);
         if (uPrism && facing > 0.0lf) return; // faces into this tet
     }
     if (uPrism) sides = 1;
@@ -723,31 +723,31 @@ dvec4 capPlane(int s)
 bool capPolygon(int s)
 {
     const dvec4 plane = capPlane(s);
-    double h[4];
+    uvec2 hBits[4];
     uint ps[4];
-    dvec3 pp[4];
+    uvec2 ppBits[12];
     int n;
-    capSection(plane, h, ps, pp, n);
-    bool outside = capOutside(gSQuad[s], gSPlane[s], ps, pp, n);
-    for (int k = 0; k < gSAlsoCount[s]; ++k) outside = outside && capOutside(gSAlso[4 * s + k], gSPlane[s], ps, pp, n);
+    capSection(plane, hBits, ps, ppBits, n);
+    bool outside = capOutside(gSQuad[s], gSPlane[s], ps, ppBits, n);
+    for (int k = 0; k < gSAlsoCount[s]; ++k) outside = outside && capOutside(gSAlso[4 * s + k], gSPlane[s], ps, ppBits, n);
     if (outside) return false;
     uint64_t def[8];
     def[0] = gSPlane[s];
     int pv[4];
-    for (int k = 0; k < n; ++k) pv[k] = makeVertex(ps[k], def, 1, pp[k]);
+    for (int k = 0; k < n; ++k) pv[k] = makeVertex(ps[k], def, 1, D3GET(ppBits, k));
     if (gFail != 0u) return false;
-    const dvec3 normal = gSNormal[s];
+    const dvec3 normal = D3GET(gSNormalBits, s);
     dvec3 c = dvec3(0.0lf);
-    for (int i = 0; i < n; ++i) c = c + pp[i];
+    for (int i = 0; i < n; ++i) c = c + D3GET(ppBits, i);
     c = c / double(n);
-    const dvec3 d0 = pp[0] - c;
+    const dvec3 d0 = D3GET(ppBits, 0) - c;
     const double inv = 1.0lf / sqrt(dot3(d0, d0));
     const dvec3 e1 = d0 * inv; // glm::normalize
     const dvec3 e2 = cross3(normal, e1);
-    dvec2 a0 = dvec2(dot3(pp[0] - c, e1), dot3(pp[0] - c, e2));
-    dvec2 a1 = dvec2(dot3(pp[1] - c, e1), dot3(pp[1] - c, e2));
-    dvec2 a2 = dvec2(dot3(pp[2] - c, e1), dot3(pp[2] - c, e2));
-    dvec2 a3 = n == 4 ? dvec2(dot3(pp[3] - c, e1), dot3(pp[3] - c, e2)) : dvec2(0.0lf);
+    dvec2 a0 = dvec2(dot3(D3GET(ppBits, 0) - c, e1), dot3(D3GET(ppBits, 0) - c, e2));
+    dvec2 a1 = dvec2(dot3(D3GET(ppBits, 1) - c, e1), dot3(D3GET(ppBits, 1) - c, e2));
+    dvec2 a2 = dvec2(dot3(D3GET(ppBits, 2) - c, e1), dot3(D3GET(ppBits, 2) - c, e2));
+    dvec2 a3 = n == 4 ? dvec2(dot3(D3GET(ppBits, 3) - c, e1), dot3(D3GET(ppBits, 3) - c, e2)) : dvec2(0.0lf);
     int v0 = pv[0], v1 = pv[1], v2 = pv[2], v3 = n == 4 ? pv[3] : -1;
     // The CPU's stable insertion sort, unrolled (at most four corners).
     angleSwap(a0, a1, v0, v1);
@@ -768,7 +768,7 @@ void moveSurface(int from, int to)
     gSPlane[to] = gSPlane[from];
     gSQuad[to] = gSQuad[from];
     gSSides[to] = gSSides[from];
-    gSNormal[to] = gSNormal[from];
+    D3SET(gSNormalBits, to, D3GET(gSNormalBits, from));
     gSAlsoCount[to] = gSAlsoCount[from];
     gSPolyLen[to] = gSPolyLen[from];
     for (int i = 0; i < 4; ++i) {
@@ -806,8 +806,8 @@ bool apart(dvec4 p)
 {
     bool pos = true, neg = true;
     for (int i = 0; i < 4; ++i) {
-        const double h = planeH(p, gT.p[i]);
-        const dvec3 x = gT.p[i];
+        const double h = planeH(p, D3GET(gT.pBits, i));
+        const dvec3 x = D3GET(gT.pBits, i);
         const double e = kApart * (1.0lf + max(max(abs(x.x), abs(x.y)), abs(x.z)));
         pos = pos && h > e;
         neg = neg && h < -e;
@@ -853,7 +853,7 @@ void chooseSplitOrder()
     }
     for (int k = 0; k < planes; ++k) {
         const int i = gPlaneOrder(k);
-        if (gTetPlaneId(i) > kIsoB && int(gTetPlaneId(i) & 15ul) == kJunctionKind && !apart(gTetPlane[i])) {
+        if (gTetPlaneId(i) > kIsoB && int(gTetPlaneId(i) & 15ul) == kJunctionKind && !apart(D4GET(gTetPlaneBits, i))) {
             gSplitId(gSplitCount) = gTetPlaneId(i);
             gSplitOwner(gSplitCount++) = -1;
         }
@@ -861,7 +861,7 @@ void chooseSplitOrder()
     for (int k = 0; k < planes; ++k) {
         const int i = gPlaneOrder(k);
         const uint64_t id = gTetPlaneId(i);
-        if (id <= kIsoB || int(id & 15ul) == kJunctionKind || apart(gTetPlane[i])) continue;
+        if (id <= kIsoB || int(id & 15ul) == kJunctionKind || apart(D4GET(gTetPlaneBits, i))) continue;
         int owner = -1;
         for (int r = 0; r < gReachCount; ++r)
             if ((kQuads[gReachQuad[r]].id >> 4) == (id >> 4)) owner = gReachQuad[r];
@@ -1081,7 +1081,7 @@ bool keptBy(int i, int s, int own)
         bool sameFace = false;
         for (uint sd = kQuads[q].firstSide; sd < kQuads[q].firstSide + kQuads[q].sideCount; ++sd) {
             precise dvec3 n = kSides[sd].orient * kSides[sd].plane.xyz;
-            sameFace = sameFace || (pieceSign(0, i, kSides[sd].id) == 0 && dot3(n, gSNormal[s]) > 0.0lf);
+            sameFace = sameFace || (pieceSign(0, i, kSides[sd].id) == 0 && dot3(n, D3GET(gSNormalBits, s)) > 0.0lf);
         }
         k = sameFace && kQuads[q].id > kQuads[own].id;
     }
@@ -1213,9 +1213,9 @@ void saveTetState(uint at, bool solid)
             gStateL(5 * s + 1 + i) = gSPolyLab[4 * s + i];
         }
         gStateL(5 * s) = gSPlane[s];
-        gStateD(3 * s) = gSNormal[s].x;
-        gStateD(3 * s + 1) = gSNormal[s].y;
-        gStateD(3 * s + 2) = gSNormal[s].z;
+        gStateD(3 * s) = D3GET(gSNormalBits, s).x;
+        gStateD(3 * s + 1) = D3GET(gSNormalBits, s).y;
+        gStateD(3 * s + 2) = D3GET(gSNormalBits, s).z;
     }
 }
 
@@ -1249,7 +1249,7 @@ bool restoreTetState(uint slot, uint cell, int t, out uint at)
             gSPolyLab[4 * s + i] = gStateL(5 * s + 1 + i);
         }
         gSPlane[s] = gStateL(5 * s);
-        gSNormal[s] = dvec3(gStateD(3 * s), gStateD(3 * s + 1), gStateD(3 * s + 2));
+        D3SET(gSNormalBits, s, dvec3(gStateD(3 * s), gStateD(3 * s + 1), gStateD(3 * s + 2)));
     }
     gT = loadTet(cell, t);
     gIso = isoTriangles(gT);

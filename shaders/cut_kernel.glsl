@@ -19,6 +19,37 @@
 // tests/test_render_cut_kernel.cpp. The 2-D polygon helpers are poly2.glsl.
 #extension GL_ARB_gpu_shader_int64 : require
 
+// Doubles in private arrays are kept as their bits (unpackDouble2x32):
+// NVIDIA's driver (580.159.04, H100) kept only a float's precision of a
+// dvec2 stored in a private array indexed at run time, while buffers,
+// functions and arithmetic kept every bit (RenderPoly2.DoublesReachThe-
+// ShaderUnrounded). D1/D3/D4GET(array, i) read element i of such an array
+// (one uvec2 per double; a dvec3 is three, a dvec4 two uvec4), D*SET(array,
+// i, v) write it (a statement; i and v evaluated once). Writing a double
+// vector's component at a run-time index (v[i] = x) does not link there
+// ("can't find __setVectorIndex"): no shader does.
+#define D1GET(a, i) packDouble2x32(a[i])
+#define D1SET(a, i, v) a[i] = unpackDouble2x32(v)
+#define D3GET(a, i) dvec3(packDouble2x32(a[3 * (i)]), packDouble2x32(a[3 * (i) + 1]), packDouble2x32(a[3 * (i) + 2]))
+#define D3SET(a, i, v)                                                                                                 \
+    {                                                                                                                  \
+        const int at_ = 3 * (i);                                                                                       \
+        const dvec3 v_ = (v);                                                                                          \
+        a[at_] = unpackDouble2x32(v_.x);                                                                               \
+        a[at_ + 1] = unpackDouble2x32(v_.y);                                                                           \
+        a[at_ + 2] = unpackDouble2x32(v_.z);                                                                           \
+    }
+#define D4GET(a, i)                                                                                                    \
+    dvec4(packDouble2x32(a[2 * (i)].xy), packDouble2x32(a[2 * (i)].zw), packDouble2x32(a[2 * (i) + 1].xy),            \
+          packDouble2x32(a[2 * (i) + 1].zw))
+#define D4SET(a, i, v)                                                                                                 \
+    {                                                                                                                  \
+        const int at_ = 2 * (i);                                                                                       \
+        const dvec4 v_ = (v);                                                                                          \
+        a[at_] = uvec4(unpackDouble2x32(v_.x), unpackDouble2x32(v_.y));                                                \
+        a[at_ + 1] = uvec4(unpackDouble2x32(v_.z), unpackDouble2x32(v_.w));                                            \
+    }
+
 struct KernelCell
 {
     int x, y, z;
@@ -97,7 +128,7 @@ uint64_t gridVertexId(ivec3 g)
 // ---- one tet of a cell (RemeshKernel::loadTet)
 struct Tet
 {
-    dvec3 p[4];
+    uvec2 pBits[12]; // dvec3 p[4] as bits: D3GET(T.pBits, i)
     uint64_t id[4];
     float value[4];
     bool inside[4];
@@ -111,7 +142,7 @@ Tet loadTet(uint cell, int t)
     for (int i = 0; i < 4; ++i) {
         const uint k = kTets[20 * parity + 4 * t + i];
         const ivec3 g = ivec3(c.x, c.y, c.z) + ivec3(int(k & 1u), int((k >> 1) & 1u), int((k >> 2) & 1u));
-        T.p[i] = dvec3(g);
+        D3SET(T.pBits, i, dvec3(g));
         T.id[i] = gridVertexId(g);
         T.value[i] = c.values[k];
         T.inside[i] = ((c.insideMask >> k) & 1u) != 0u;
@@ -128,7 +159,7 @@ dvec3 mtPoint(Tet T, int a, int b)
         hi = a;
     }
     const double t = edgeCrossing(T.value[lo], T.value[hi], uIsovalue);
-    precise dvec3 r = T.p[lo] + t * (T.p[hi] - T.p[lo]);
+    precise dvec3 r = D3GET(T.pBits, lo) + t * (D3GET(T.pBits, hi) - D3GET(T.pBits, lo));
     return r;
 }
 
@@ -139,7 +170,7 @@ bool quadReaches(Tet T, uint q)
     if (!uPrism) {
         bool pos = false, neg = false;
         for (int i = 0; i < 4; ++i) {
-            const double h = planeH(Q.plane, T.p[i]), e = epsAt(T.p[i]);
+            const double h = planeH(Q.plane, D3GET(T.pBits, i)), e = epsAt(D3GET(T.pBits, i));
             pos = pos || h >= -e;
             neg = neg || h <= e;
         }
@@ -148,7 +179,7 @@ bool quadReaches(Tet T, uint q)
     bool reach = true;
     for (uint s = Q.firstSide; s < Q.firstSide + Q.sideCount; ++s) {
         bool any = false;
-        for (int i = 0; i < 4; ++i) any = any || kSides[s].orient * planeH(kSides[s].plane, T.p[i]) >= -epsAt(T.p[i]);
+        for (int i = 0; i < 4; ++i) any = any || kSides[s].orient * planeH(kSides[s].plane, D3GET(T.pBits, i)) >= -epsAt(D3GET(T.pBits, i));
         reach = reach && any;
     }
     return reach;
@@ -184,8 +215,8 @@ struct IsoPolygons
     int triCount;
     int corners[2];
     int edges[2][4];
-    dvec3 pts[2][4];
-    dvec4 plane[2];
+    uvec2 ptsBits[24]; // dvec3 pts[2][4] as bits: D3GET(r.ptsBits, 4 * k + c)
+    uvec4 planeBits[4]; // dvec4 plane[2] as bits: D4GET(r.planeBits, k)
 };
 
 IsoPolygons isoTriangles(Tet T)
@@ -241,14 +272,14 @@ IsoPolygons isoTriangles(Tet T)
     }
     for (int k = 0; k < r.triCount; ++k) {
         const int n = r.corners[k];
-        for (int c = 0; c < n; ++c) r.pts[k][c] = mtPoint(T, r.edges[k][c] & 3, r.edges[k][c] >> 2);
+        for (int c = 0; c < n; ++c) D3SET(r.ptsBits, 4 * k + c, mtPoint(T, r.edges[k][c] & 3, r.edges[k][c] >> 2));
         dvec3 nrm = dvec3(0.0lf); // Newell
-        for (int c = 0; c < n; ++c) nrm = nrm + cross3(r.pts[k][c], r.pts[k][(c + 1) % n]);
+        for (int c = 0; c < n; ++c) nrm = nrm + cross3(D3GET(r.ptsBits, 4 * (k) + (c)), D3GET(r.ptsBits, 4 * (k) + ((c + 1) % n)));
         const double len = length3(nrm);
         const dvec3 unit = len > 0.0lf ? (-nrm) / len : dvec3(0.0lf);
         dvec3 centre = dvec3(0.0lf);
-        for (int c = 0; c < n; ++c) centre = centre + r.pts[k][c] / double(n);
-        r.plane[k] = dvec4(unit, dot3(unit, centre));
+        for (int c = 0; c < n; ++c) centre = centre + D3GET(r.ptsBits, 4 * (k) + (c)) / double(n);
+        D4SET(r.planeBits, k, dvec4(unit, dot3(unit, centre)));
     }
     return r;
 }
@@ -281,7 +312,7 @@ const uint64_t kIso = 1ul, kIsoA = 2ul, kIsoB = 3ul, kMid = 4ul, kCentroid = 5ul
 int gReachQuad[TET_MAX_QUADS]; // the quads that can reach the tet (kQuads indices), the cell's order
 int gReachCount;
 uvec2 gTetPlaneIds[TET_MAX_PLANES]; // RemeshKernel::mPlanes's ids (as uvec2, as gIds), gathered order
-dvec4 gTetPlane[TET_MAX_PLANES];
+uvec4 gTetPlaneBits[2 * TET_MAX_PLANES]; // dvec4 planes as bits: D4GET(gTetPlaneBits, i)
 int gTetPlaneCount;
 bool gTetOverflow; // more quads or planes than the lists hold
 uint64_t gTetPlaneId(int i) { return packUint2x32(gTetPlaneIds[i]); }
@@ -293,7 +324,7 @@ void tetAddPlane(uint64_t id, dvec4 plane)
         return;
     }
     gTetPlaneIds[gTetPlaneCount] = unpackUint2x32(id);
-    gTetPlane[gTetPlaneCount] = plane;
+    D4SET(gTetPlaneBits, gTetPlaneCount, plane);
     ++gTetPlaneCount;
 }
 
@@ -316,7 +347,7 @@ void tetBegin(Tet T, IsoPolygons iso, uint cell)
     }
     // Iso polygons first, then each quad's plane (zero kerf) and sides, in
     // the cell's order: planeById's first match is RemeshKernel's plane.
-    for (int k = 0; k < iso.triCount; ++k) tetAddPlane(2ul + uint64_t(k), iso.plane[k]); // kIsoA, kIsoB
+    for (int k = 0; k < iso.triCount; ++k) tetAddPlane(2ul + uint64_t(k), D4GET(iso.planeBits, k)); // kIsoA, kIsoB
     for (int i = 0; i < gReachCount; ++i) {
         const int q = gReachQuad[i];
         if (!uPrism) tetAddPlane(kQuads[q].id, kQuads[q].plane);
@@ -331,7 +362,7 @@ bool planeById(uint64_t id, out dvec4 plane)
     const uvec2 x = unpackUint2x32(id);
     for (int i = 0; i < gTetPlaneCount; ++i)
         if (gTetPlaneIds[i] == x) {
-            plane = gTetPlane[i];
+            plane = D4GET(gTetPlaneBits, i);
             return true;
         }
     plane = dvec4(0.0lf);
@@ -394,12 +425,13 @@ bool faceIsoLine(Tet T, uint mask, out dvec3 p1, out dvec3 p2)
     const int ni = (T.inside[v[0]] ? 1 : 0) + (T.inside[v[1]] ? 1 : 0) + (T.inside[v[2]] ? 1 : 0);
     if (ni == 0 || ni == 3) return false;
     int k = 0;
-    dvec3 pts[2];
     const int ends[6] = int[6](v[0], v[1], v[0], v[2], v[1], v[2]);
     for (int e = 0; e < 3; ++e)
-        if (T.inside[ends[2 * e]] != T.inside[ends[2 * e + 1]]) pts[k++] = mtPoint(T, ends[2 * e], ends[2 * e + 1]);
-    p1 = pts[0];
-    p2 = pts[1];
+        if (T.inside[ends[2 * e]] != T.inside[ends[2 * e + 1]]) {
+            const dvec3 x = mtPoint(T, ends[2 * e], ends[2 * e + 1]);
+            if (k++ == 0) p1 = x;
+            else p2 = x;
+        }
     return true;
 }
 
@@ -410,7 +442,7 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
 {
     if (dim == 0u) {
         for (int i = 0; i < 4; ++i)
-            if (((support >> i) & 1u) != 0u) return T.p[i];
+            if (((support >> i) & 1u) != 0u) return D3GET(T.pBits, i);
     }
     if (dim == 3u) return pos0;
     for (uint i = 0u; i < planeCount; ++i)
@@ -422,11 +454,11 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
         if (planes[0] == kIso) return mtPoint(T, a, b);
         for (uint i = 0u; i < planeCount; ++i) {
             if (!planeById(planes[i], p)) continue;
-            const double ha = planeH(p, T.p[a]), hb = planeH(p, T.p[b]);
+            const double ha = planeH(p, D3GET(T.pBits, a)), hb = planeH(p, D3GET(T.pBits, b));
             if (!(abs(ha - hb) > 1e-12lf)) continue;
             double t = ha / (ha - hb);
             t = t < 0.0lf ? 0.0lf : 1.0lf < t ? 1.0lf : t; // std::clamp
-            precise dvec3 r = T.p[a] + t * (T.p[b] - T.p[a]);
+            precise dvec3 r = D3GET(T.pBits, a) + t * (D3GET(T.pBits, b) - D3GET(T.pBits, a));
             return r;
         }
         return pos0;
@@ -449,7 +481,7 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
     }
     int v[3];
     faceCorners(T, support, v);
-    const dvec3 A = T.p[v[0]], e1 = T.p[v[1]] - A, e2 = T.p[v[2]] - A;
+    const dvec3 A = D3GET(T.pBits, v[0]), e1 = D3GET(T.pBits, v[1]) - A, e2 = D3GET(T.pBits, v[2]) - A;
     for (uint i = 0u; i < planeCount; ++i)
         for (uint j = i + 1u; j < planeCount; ++j) {
             if (!planeById(planes[i], p) || !planeById(planes[j], q)) continue;
@@ -592,9 +624,9 @@ double faceIsoDistance(Tet T, uint mask, dvec3 x)
     }
     dvec3 p1, p2;
     faceIsoLine(T, mask, p1, p2);
-    const dvec3 nrm = cross3(T.p[v[1]] - T.p[v[0]], T.p[v[2]] - T.p[v[0]]);
+    const dvec3 nrm = cross3(D3GET(T.pBits, v[1]) - D3GET(T.pBits, v[0]), D3GET(T.pBits, v[2]) - D3GET(T.pBits, v[0]));
     const int inner = T.inside[v[0]] ? v[0] : T.inside[v[1]] ? v[1] : v[2];
-    const double s = dot3(cross3(p2 - p1, T.p[inner] - p1), nrm) > 0.0lf ? 1.0lf : -1.0lf;
+    const double s = dot3(cross3(p2 - p1, D3GET(T.pBits, inner) - p1), nrm) > 0.0lf ? 1.0lf : -1.0lf;
     precise double l = length3(p2 - p1) * length3(nrm);
     precise double r = s * dot3(cross3(p2 - p1, x - p1), nrm) / l;
     return r;
@@ -606,9 +638,9 @@ double edgeIsoDistance(Tet T, uint mask, dvec3 x)
     int a, b;
     edgeEnds(T, mask, a, b);
     if (T.inside[a] == T.inside[b]) return T.inside[a] ? 1e300lf : -1e300lf;
-    const dvec3 e = T.p[b] - T.p[a];
+    const dvec3 e = D3GET(T.pBits, b) - D3GET(T.pBits, a);
     const double len = length3(e);
-    precise double t = dot3(x - T.p[a], e) / (len * len);
+    precise double t = dot3(x - D3GET(T.pBits, a), e) / (len * len);
     const double ti = edgeCrossing(T.value[a], T.value[b], uIsovalue);
     precise double r = (T.inside[a] ? (ti - t) : (t - ti)) * len;
     return r;

@@ -38,8 +38,8 @@ void main()
         outU[u + 3u + uint(k)] = uint(iso.corners[k]);
         for (int i = 0; i < iso.corners[k]; ++i) {
             outU[u + 5u + uint(4 * k + i)] = uint(iso.edges[k][i]);
-            for (int j = 0; j < 3; ++j) outD[d + uint(12 * k + 3 * i + j)] = iso.pts[k][i][j];
+            for (int j = 0; j < 3; ++j) outD[d + uint(12 * k + 3 * i + j)] = packDouble2x32(iso.ptsBits[3 * (4 * k + i) + j]);
         }
-        for (int j = 0; j < 4; ++j) outD[d + 24u + uint(4 * k + j)] = iso.plane[k][j];
+        for (int j = 0; j < 4; ++j) outD[d + 24u + uint(4 * k + j)] = D4GET(iso.planeBits, k)[j];
     }
 }

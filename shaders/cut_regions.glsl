@@ -441,7 +441,7 @@ void traceSurface(int s)
                 ++edges;
             }
         }
-        const dvec3 normal = reverse ? -gSNormal[s] : gSNormal[s];
+        const dvec3 normal = reverse ? -D3GET(gSNormalBits, s) : D3GET(gSNormalBits, s);
         for (int root = 0; root < pieces && gFail == 0u; ++root)
             if (gRootHead(root) >= 0) traceRoot(root, s, side, normal);
     }
@@ -539,7 +539,7 @@ void triangulateRegion(int r)
         // A loop of (nearly) zero area is a slit inside the region: a hole.
         precise double perim = 0.0lf;
         for (int i = 0; i < gLoopPts[j]; ++i) {
-            const dvec2 a = poly2Pt[gLoopPt[j] + i], b = poly2Pt[gLoopPt[j] + (i + 1) % gLoopPts[j]];
+            const dvec2 a = poly2Pt(gLoopPt[j] + i), b = poly2Pt(gLoopPt[j] + (i + 1) % gLoopPts[j]);
             precise double dx = a.x - b.x, dy = a.y - b.y;
             perim += poly2Length(dx, dy);
         }
@@ -576,15 +576,15 @@ void triangulateRegion(int r)
             precise dvec2 c = dvec2(0.0lf);
             const double hn = double(gLoopPts[h]);
             for (int i = 0; i < gLoopPts[h]; ++i) {
-                c.x += poly2Pt[gLoopPt[h] + i].x / hn;
-                c.y += poly2Pt[gLoopPt[h] + i].y / hn;
+                c.x += poly2Pt(gLoopPt[h] + i).x / hn;
+                c.y += poly2Pt(gLoopPt[h] + i).y / hn;
             }
             for (int o = 0; o < loops; ++o) {
                 if (!gLoopOuter[o] || gLoopPts[o] == 0) continue;
                 bool inside = false;
                 const int L = gLoopPt[o], Ln = gLoopPts[o];
                 for (int i = 0, j = Ln - 1; i < Ln; j = i++) {
-                    const dvec2 a = poly2Pt[L + i], b = poly2Pt[L + j];
+                    const dvec2 a = poly2Pt(L + i), b = poly2Pt(L + j);
                     precise double x = (b.x - a.x) * (c.y - a.y) / (b.y - a.y) + a.x;
                     if ((a.y > c.y) != (b.y > c.y) && c.x < x) inside = !inside;
                 }
@@ -618,8 +618,8 @@ void triangulateRegion(int r)
         const int n = poly2PolyCount;
         bool convex = q >= 0 && !uPrism && outers == 1 && !hasHoles;
         for (int i = 0; i < n && convex; ++i) {
-            const dvec2 a = poly2Pt[poly2Poly[(i + n - 1) % n]], b = poly2Pt[poly2Poly[i]],
-                        c = poly2Pt[poly2Poly[(i + 1) % n]];
+            const dvec2 a = poly2Pt(poly2Poly[(i + n - 1) % n]), b = poly2Pt(poly2Poly[i]),
+                        c = poly2Pt(poly2Poly[(i + 1) % n]);
             precise double bx = b.x - a.x, by = b.y - a.y, cx = c.x - b.x, cy = c.y - b.y;
             precise double tol = -1e-9lf * poly2Length(bx, by) * poly2Length(cx, cy);
             convex = poly2Cross(a, b, c) >= tol;
@@ -742,47 +742,50 @@ ivec3 gridVertexCoord(uint64_t id)
     return ivec3(int(i - off), int(j - off), int(k - off));
 }
 
+ivec3 unitAxis(int a) { return ivec3(a == 0 ? 1 : 0, a == 1 ? 1 : 0, a == 2 ? 1 : 0); }
+
 /// CutGeometry.cpp gradientNormal: at the marching-tetrahedra vertex on
 /// grid edge (p0, p1), p0 the lower-keyed end.
 vec3 edgeGradientNormal(ivec3 cell, ivec3 p0, ivec3 p1)
 {
     const float v0 = blockValue(cell, p0), v1 = blockValue(cell, p1);
     const double t = edgeCrossing(v0, v1, uIsovalue);
-    vec3 g;
+    float ga[3]; // g's components (no vector is written at a run-time index: cut_kernel.glsl)
     for (int a = 0; a < 3; ++a) {
-        ivec3 e = ivec3(0);
-        e[a] = 1;
+        const ivec3 e = unitAxis(a);
         precise float g0 = 0.5 * (blockValue(cell, p0 + e) - blockValue(cell, p0 - e));
         precise float g1 = 0.5 * (blockValue(cell, p1 + e) - blockValue(cell, p1 - e));
         precise float d = g1 - g0;
         precise double x = -(double(g0) + t * double(d)) * (1.0lf / uSpacing[a]);
-        g[a] = float(x);
+        ga[a] = float(x);
     }
+    vec3 g = vec3(ga[0], ga[1], ga[2]);
     precise float len = sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
     if (len > 0.0 && !isinf(len) && !isnan(len)) return g / len;
     const KernelCell c = kCells[gCell];
     const ivec3 lo = p0 - ivec3(c.x, c.y, c.z);
     const bool in0 = ((c.insideMask >> uint(lo.x + 2 * lo.y + 4 * lo.z)) & 1u) != 0u;
     const float s = in0 ? 1.0 : -1.0;
-    for (int a = 0; a < 3; ++a) g[a] = s * float(double(p1[a] - p0[a]) * uSpacing[a]);
+    for (int a = 0; a < 3; ++a) ga[a] = s * float(double(p1[a] - p0[a]) * uSpacing[a]);
+    g = vec3(ga[0], ga[1], ga[2]);
     return g / sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
 }
 
 /// CutGeometry.cpp trilinearGradientNormal at index point p; zero when flat.
 vec3 trilinearGradientNormal(ivec3 cell, dvec3 p)
 {
-    precise dvec3 g = dvec3(0.0lf);
+    precise double gx = 0.0lf, gy = 0.0lf, gz = 0.0lf; // g's components (see above)
     const dvec3 f = clamp(p - dvec3(cell), dvec3(0.0lf), dvec3(1.0lf));
     for (int c = 0; c < 8; ++c) {
         const ivec3 q = cell + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         precise double w = ((c & 1) != 0 ? f.x : 1.0lf - f.x) * (((c >> 1) & 1) != 0 ? f.y : 1.0lf - f.y) *
                            (((c >> 2) & 1) != 0 ? f.z : 1.0lf - f.z);
-        for (int a = 0; a < 3; ++a) {
-            ivec3 e = ivec3(0);
-            e[a] = 1;
-            g[a] -= w * 0.5lf * (double(blockValue(cell, q + e)) - double(blockValue(cell, q - e))) / uSpacing[a];
-        }
+        const ivec3 ex = ivec3(1, 0, 0), ey = ivec3(0, 1, 0), ez = ivec3(0, 0, 1);
+        gx -= w * 0.5lf * (double(blockValue(cell, q + ex)) - double(blockValue(cell, q - ex))) / uSpacing[0];
+        gy -= w * 0.5lf * (double(blockValue(cell, q + ey)) - double(blockValue(cell, q - ey))) / uSpacing[1];
+        gz -= w * 0.5lf * (double(blockValue(cell, q + ez)) - double(blockValue(cell, q - ez))) / uSpacing[2];
     }
+    const dvec3 g = dvec3(gx, gy, gz);
     const double len = length3(g);
     return len > 0.0lf && !isinf(len) && !isnan(len) ? vec3(g / len) : vec3(0.0);
 }

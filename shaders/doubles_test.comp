@@ -1,9 +1,17 @@
 #version 450 core
-// Doubles along each path the GPU cut pass's shaders take them, written back
-// bit for bit (tests/test_render_poly2.cpp, RenderPoly2.DoublesReach...).
-// On NVIDIA 580.159.04 (H100) poly2_test.comp's answers equal double
-// arithmetic on points rounded to float: this says on which path a double
-// loses its low bits. Record i: kPaths doubles as unpackDouble2x32 pairs.
+#extension GL_ARB_gpu_shader_int64 : require
+// Doubles along each path and in each kind of storage a shader can keep them
+// in, written back bit for bit (tests/test_render_poly2.cpp,
+// RenderPoly2.DoublesReachTheShaderUnrounded). On NVIDIA 580.159.04 (H100) a
+// dvec2 kept in a private array indexed at run time came back rounded to
+// float (paths 3 and 5), while buffers, functions and arithmetic kept every
+// bit: this says which storage the cut pass's shaders may use for doubles.
+// There, writing a dvec3's component at a run-time index (v[k] = x) does not
+// link ("fatal error C9999: can't find __setVectorIndex function in
+// stdlib"), so it is not among the paths. Division and square root: GLSL
+// asks no correct rounding of them; ddiv and dsqrt are candidates that
+// correct the driver's quotient and root to the nearest double.
+// Record i: PATHS doubles as unpackDouble2x32 pairs.
 layout(local_size_x = 16) in;
 
 layout(std430, binding = 0) readonly buffer In { dvec2 uIn[]; };
@@ -12,17 +20,29 @@ layout(std430, binding = 2) writeonly buffer Out { uvec2 uOut[]; };
 layout(std430, binding = 3) readonly buffer Index { int uIndex[]; }; // a permutation of the inputs
 uniform uint uCount;
 
-#define PATHS 12
+#define PATHS 28
 
-dvec2 gArray[16]; // a per-invocation global array, as poly2Pt
+dvec2 gArray[16]; // a per-invocation global array
 int gCount;
+double gScalars[16];
+dvec3 gVec3[16];
+dvec4 gVec4[16];
+uvec4 gBits2[16];  // dvec2 as bits (poly2.glsl's poly2PtBits)
+uvec2 gBits[16];   // double as bits
+uint64_t gU64[16]; // double as doubleBitsToUint64
+struct WithArray
+{
+    dvec3 p[4];
+    int n;
+};
+WithArray gStruct;
 
 dvec2 passThrough(dvec2 p)
 {
     return p;
 }
 
-int addPoint(dvec2 p) // as poly2AddPoint
+int addPoint(dvec2 p) // a function storing into a global array
 {
     gArray[gCount] = p;
     return gCount++;
@@ -39,6 +59,72 @@ double crossPlain(dvec2 o, dvec2 a, dvec2 b) // the same without precise (may fu
     return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
 }
 
+void fillOut(dvec3 v, int k, out dvec3 pp[4]) // an out array parameter (cut_arrange's capSection)
+{
+    for (int j = 0; j < 4; ++j) pp[j] = dvec3(0.0lf);
+    pp[k] = v;
+}
+
+// The exact a - c b as a double (one rounding at the end): Dekker's product
+// (Veltkamp's split; precise: no fma), for c near a / b.
+void splitDouble(double x, out double hi, out double lo)
+{
+    precise double t = 134217729.0lf * x;
+    precise double h = t - (t - x);
+    hi = h;
+    precise double l = x - h;
+    lo = l;
+}
+double residual(double a, double c, double b)
+{
+    double ch, cl, bh, bl;
+    splitDouble(c, ch, cl);
+    splitDouble(b, bh, bl);
+    precise double p = c * b;
+    precise double e = ((ch * bh - p) + ch * bl + cl * bh) + cl * bl; // c b = p + e exactly
+    precise double r = (a - p) - e;
+    return r;
+}
+double nextToward(double x, bool up) // the neighbouring double of a finite x != 0
+{
+    const uint64_t u = doubleBitsToUint64(x);
+    return uint64BitsToDouble((x > 0.0lf) == up ? u + 1ul : u - 1ul);
+}
+// a / b rounded to nearest from q, within an ulp of it: of q and its two neighbours,
+// the one with the least |a - c b| (a quotient of doubles is never half way).
+double ddivFrom(double a, double b, double q)
+{
+    if (q == 0.0lf || isinf(q) || isnan(q)) return q;
+    double best = q, bestR = abs(residual(a, q, b));
+    for (int s = 0; s < 2; ++s) {
+        const double c = nextToward(q, s == 1);
+        const double r = abs(residual(a, c, b));
+        if (r < bestR) {
+            best = c;
+            bestR = r;
+        }
+    }
+    return best;
+}
+// sqrt(a) rounded to nearest from s, within an ulp of it: of s and its neighbours, the
+// one with the least |a - c c| (a root is never half way either; the
+// factor sqrt(a) + c between the two criteria differs by an ulp or two
+// between neighbours, which could decide only a root within that of half way).
+double dsqrtFrom(double a, double s)
+{
+    if (s == 0.0lf || isinf(s) || isnan(s)) return s;
+    double best = s, bestR = abs(residual(a, s, s));
+    for (int k = 0; k < 2; ++k) {
+        const double c = nextToward(s, k == 1);
+        const double r = abs(residual(a, c, c));
+        if (r < bestR) {
+            best = c;
+            bestR = r;
+        }
+    }
+    return best;
+}
+
 void put(uint i, int path, double v)
 {
     uOut[i * uint(PATHS) + uint(path)] = unpackDouble2x32(v);
@@ -52,22 +138,60 @@ void main()
     put(i, 0, p.x);                       // a dvec2 from a buffer
     put(i, 1, p.y);
     put(i, 2, uInScalar[2u * i]);         // a double from a buffer
-    int k = int(i % 16u);
+    int k = int(i % 16u);                 // an index known at run time only
     gArray[k] = p;
-    put(i, 3, gArray[k].x);               // through a global array, index unknown at compile time
+    put(i, 3, gArray[k].x);               // a global dvec2 array
     put(i, 4, passThrough(p).x);          // through a function
     gCount = 0;
     for (uint j = 0u; j < i % 5u; ++j) addPoint(dvec2(0.0lf));
     int at = addPoint(uIn[i]);
-    put(i, 5, gArray[at].x);              // stored by a function into a global array, as poly2AddPoint
+    put(i, 5, gArray[at].x);              // stored by a function into a global dvec2 array
     precise double d = p.x - p.y;
     put(i, 6, d);                         // a difference
     precise double m = p.x * p.y;
     put(i, 7, m);                         // a product
     precise double c = (p.x - 1.0lf) * (p.y + 1.0lf) - (p.y - 1.0lf) * (p.x + 1.0lf);
     put(i, 8, c);                         // a cross product, as poly2Cross
+    gBits2[at] = uvec4(unpackDouble2x32(p.x), unpackDouble2x32(p.y));
+    const dvec2 q = dvec2(packDouble2x32(gBits2[at].xy), packDouble2x32(gBits2[at].zw));
     dvec2 o = dvec2(1.0lf, -1.0lf), a = dvec2(-1.0lf, -1.0lf);
-    put(i, 9, crossPrecise(o, a, gArray[at])); // poly2Cross on a point from the global array
-    put(i, 10, crossPlain(o, a, gArray[at]));
-    put(i, 11, uIn[uIndex[i]].x);         // at an index read from another buffer, as poly2_test's cases
+    put(i, 9, crossPrecise(o, a, q));     // poly2Cross on a point kept as bits
+    put(i, 10, crossPlain(o, a, q));
+    put(i, 11, uIn[uIndex[i]].x);         // at an index read from another buffer
+    gScalars[k] = p.x;
+    put(i, 12, gScalars[k]);              // a global double array
+    gVec3[k] = dvec3(p.y, p.x, p.y);
+    put(i, 13, gVec3[k].y);               // a global dvec3 array (cut_arrange's gSNormal, gClip)
+    gVec4[k] = dvec4(p.y, p.y, p.x, p.y);
+    put(i, 14, gVec4[k].z);               // a global dvec4 array (cut_kernel's gTetPlane)
+    dvec2 local2[16];
+    local2[k] = p;
+    put(i, 15, local2[k].x);              // a function's dvec2 array
+    double local1[16];
+    local1[k] = p.x;
+    put(i, 16, local1[k]);                // a function's double array (poly2's best)
+    gStruct.p[k % 4] = dvec3(p.y, p.y, p.x);
+    put(i, 17, gStruct.p[k % 4].z);       // an array in a global struct (cut_kernel's Tet.p)
+    const dvec3 v = dvec3(p.x, 2.0lf * p.x, 4.0lf * p.x);
+    put(i, 18, v[k % 3]);                 // a vector's component read at a run-time index: 2^(k % 3) x
+    put(i, 19, q.x);                      // a dvec2 kept as bits (uvec4)
+    gBits[k] = unpackDouble2x32(p.x);
+    put(i, 20, packDouble2x32(gBits[k])); // a double kept as bits (uvec2)
+    gU64[k] = doubleBitsToUint64(p.x);
+    put(i, 21, uint64BitsToDouble(gU64[k])); // a double kept as uint64_t bits
+    dvec3 pp[4];
+    fillOut(dvec3(p.x, p.y, p.y), k % 4, pp);
+    put(i, 22, pp[k % 4].x);              // through an out array parameter
+    precise double quotient = p.x / p.y;
+    put(i, 23, quotient);                 // the driver's division
+    precise double root = sqrt(abs(p.x));
+    put(i, 24, root);                     // the driver's square root
+    // The corrections from a quotient and a root an ulp off (every other
+    // input; the rest from the driver's), so that they are tested anywhere.
+    const bool off = (i & 1u) == 1u, up = (i & 2u) != 0u;
+    const bool qOff = off && quotient != 0.0lf && !isinf(quotient) && !isnan(quotient);
+    const bool rOff = off && root != 0.0lf && !isinf(root) && !isnan(root);
+    put(i, 25, ddivFrom(p.x, p.y, qOff ? nextToward(quotient, up) : quotient));
+    put(i, 26, dsqrtFrom(abs(p.x), rOff ? nextToward(root, up) : root));
+    put(i, 27, crossPrecise(p, dvec2(-1.0lf, 2.0lf), p)); // (a - p) x (p - p): zero, its sign as the C++'s
 }

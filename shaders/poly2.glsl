@@ -35,7 +35,19 @@
 // kBestOfAllMax of Polygon2.h: part of the algorithm, not a capacity.
 #define POLY2_BEST_MAX 9
 
-dvec2 poly2Pt[POLY2_MAX_POINTS]; // the points, poly2PtCount of them
+#ifndef MTCUT_DOUBLE_BITS
+#define MTCUT_DOUBLE_BITS
+// NVIDIA's driver (580.159.04, H100) keeps only a float's precision of a
+// double that goes through a private array indexed at run time (through
+// buffers, functions, arithmetic it stays whole): RenderPoly2.DoublesReach-
+// TheShaderUnrounded. So the arrays of the cut pass's shaders hold their
+// doubles as bits, which every driver keeps exactly.
+uvec4 dvec2Bits(dvec2 p) { return uvec4(unpackDouble2x32(p.x), unpackDouble2x32(p.y)); }
+dvec2 dvec2Of(uvec4 b) { return dvec2(packDouble2x32(b.xy), packDouble2x32(b.zw)); }
+#endif
+
+uvec4 poly2PtBits[POLY2_MAX_POINTS]; // the points, poly2PtCount of them, as bits
+dvec2 poly2Pt(int i) { return dvec2Of(poly2PtBits[i]); }
 int poly2PtCount;
 // The polygon: the input of poly2SignedArea, poly2BestTriangulation and
 // poly2EarClip (which leave it as it is), the outer loop that
@@ -69,7 +81,7 @@ int poly2AddPoint(dvec2 p)
         poly2Overflow = true;
         return -1;
     }
-    poly2Pt[poly2PtCount] = p;
+    poly2PtBits[poly2PtCount] = dvec2Bits(p);
     return poly2PtCount++;
 }
 
@@ -188,7 +200,7 @@ double poly2SignedArea()
 {
     precise double a = 0.0lf;
     for (int i = 0; i < poly2PolyCount; ++i) {
-        dvec2 p = poly2Pt[poly2Poly[i]], q = poly2Pt[poly2Poly[(i + 1) % poly2PolyCount]];
+        dvec2 p = poly2Pt(poly2Poly[i]), q = poly2Pt(poly2Poly[(i + 1) % poly2PolyCount]);
         a += p.x * q.y - p.y * q.x;
     }
     precise double r = 0.5lf * a;
@@ -198,7 +210,7 @@ double poly2SignedArea()
 // bestTriangulation's point at position i of the polygon.
 dvec2 poly2BestP(int i)
 {
-    return poly2Pt[poly2Poly[i]];
+    return poly2Pt(poly2Poly[i]);
 }
 
 // bestTriangulation's chordOk: the chord (i, j) of the polygon (positions), not
@@ -242,24 +254,26 @@ bool poly2BestTriangulation()
     for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j)
             if (poly2Same(poly2BestP(i), poly2BestP(j))) return false;
-    // best[i][j]: the chain i..j closed by the chord (j, i); split[i][j] its apex.
-    double best[POLY2_BEST_MAX * POLY2_BEST_MAX];
+    // best[i][j]: the chain i..j closed by the chord (j, i), as bits; split[i][j] its apex.
+    uvec2 best[POLY2_BEST_MAX * POLY2_BEST_MAX];
     int split[POLY2_BEST_MAX * POLY2_BEST_MAX];
     for (int gap = 1; gap < n; ++gap)
         for (int i = 0; i + gap < n; ++i) {
             int j = i + gap, ij = i * POLY2_BEST_MAX + j;
-            best[ij] = gap == 1 ? 2.0lf : -1.0lf;
+            double bestIJ = gap == 1 ? 2.0lf : -1.0lf;
             for (int k = i + 1; k < j; ++k) {
-                double sub = poly2Min(best[i * POLY2_BEST_MAX + k], best[k * POLY2_BEST_MAX + j]);
-                if (!(sub > best[ij])) continue;
+                double sub = poly2Min(packDouble2x32(best[i * POLY2_BEST_MAX + k]),
+                                      packDouble2x32(best[k * POLY2_BEST_MAX + j]));
+                if (!(sub > bestIJ)) continue;
                 double q = poly2Min(sub, poly2BestShape(i, k, j, n));
-                if (q > best[ij]) {
-                    best[ij] = q;
+                if (q > bestIJ) {
+                    bestIJ = q;
                     split[ij] = k;
                 }
             }
+            best[ij] = unpackDouble2x32(bestIJ);
         }
-    if (!(best[n - 1] > 0.0lf)) return false;
+    if (!(packDouble2x32(best[n - 1]) > 0.0lf)) return false;
     if (poly2TriCount + 3 * (n - 2) > 3 * POLY2_MAX_TRIS) {
         poly2Overflow = true;
         return false;
@@ -289,14 +303,14 @@ bool poly2EarClip()
     while (n > 3) {
         if (n == 4) {
             // The last four: the diagonal whose two triangles have the better worst shape.
-            double split[2];
-            for (int d = 0; d < 2; ++d) {
-                int a = poly[d], b = poly[d + 1], c = poly[d + 2], e = poly[(d + 3) % 4];
-                split[d] = poly2Min(poly2MinSine(poly2Pt[a], poly2Pt[b], poly2Pt[c]),
-                                    poly2MinSine(poly2Pt[a], poly2Pt[c], poly2Pt[e]));
-            }
-            int d = split[1] > split[0] ? 1 : 0;
-            if (split[d] > 1e-9lf && !poly2Same(poly2Pt[poly[d]], poly2Pt[poly[d + 2]])) {
+            // (d = 0: the diagonal poly[0]-poly[2]; d = 1: poly[1]-poly[3])
+            const double split0 = poly2Min(poly2MinSine(poly2Pt(poly[0]), poly2Pt(poly[1]), poly2Pt(poly[2])),
+                                           poly2MinSine(poly2Pt(poly[0]), poly2Pt(poly[2]), poly2Pt(poly[3])));
+            const double split1 = poly2Min(poly2MinSine(poly2Pt(poly[1]), poly2Pt(poly[2]), poly2Pt(poly[3])),
+                                           poly2MinSine(poly2Pt(poly[1]), poly2Pt(poly[3]), poly2Pt(poly[0])));
+            const int d = split1 > split0 ? 1 : 0;
+            const double splitD = d == 1 ? split1 : split0;
+            if (splitD > 1e-9lf && !poly2Same(poly2Pt(poly[d]), poly2Pt(poly[d + 2]))) {
                 int a = poly[d], b = poly[d + 1], c = poly[d + 2], e = poly[(d + 3) % 4];
                 return poly2AddTri(a, b, c) && poly2AddTri(a, c, e);
             }
@@ -306,7 +320,7 @@ bool poly2EarClip()
         for (int pass = 0; pass < 2; ++pass) {
             precise double tol = pass == 0 ? 1e-9lf : 0.0lf;
             for (int i = 0; i < n; ++i) {
-                dvec2 pa = poly2Pt[poly[(i + n - 1) % n]], pb = poly2Pt[poly[i]], pc = poly2Pt[poly[(i + 1) % n]];
+                dvec2 pa = poly2Pt(poly[(i + n - 1) % n]), pb = poly2Pt(poly[i]), pc = poly2Pt(poly[(i + 1) % n]);
                 precise double lab = poly2Dist(pa, pb), lbc = poly2Dist(pb, pc), lca = poly2Dist(pc, pa);
                 precise double area2 = poly2Cross(pa, pb, pc);
                 precise double flatness = tol * lab * lbc;
@@ -315,12 +329,12 @@ bool poly2EarClip()
                 bool ok = true;
                 for (int j = 0; j < n && ok; ++j) {
                     if (j == i || j == (i + n - 1) % n || j == (i + 1) % n) continue;
-                    dvec2 p = poly2Pt[poly[j]];
+                    dvec2 p = poly2Pt(poly[j]);
                     if (poly2Same(p, pa) || poly2Same(p, pb) || poly2Same(p, pc)) {
                         // A copy of a corner (slit or bridge): the ear must not cut
                         // the polygon there; reject when that copy's wedge enters the ear.
                         if (!poly2Same(p, pb)) continue;
-                        dvec2 pp = poly2Pt[poly[(j + n - 1) % n]], pn = poly2Pt[poly[(j + 1) % n]];
+                        dvec2 pp = poly2Pt(poly[(j + n - 1) % n]), pn = poly2Pt(poly[(j + 1) % n]);
                         bool inPp = poly2Cross(pa, pb, pp) > 0.0lf && poly2Cross(pb, pc, pp) > 0.0lf &&
                                     poly2Cross(pc, pa, pp) > 0.0lf;
                         bool inPn = poly2Cross(pa, pb, pn) > 0.0lf && poly2Cross(pb, pc, pn) > 0.0lf &&
@@ -346,7 +360,7 @@ bool poly2EarClip()
         --n;
     }
     if (n == 3) {
-        if (!(poly2Cross(poly2Pt[poly[0]], poly2Pt[poly[1]], poly2Pt[poly[2]]) > 0.0lf)) return false;
+        if (!(poly2Cross(poly2Pt(poly[0]), poly2Pt(poly[1]), poly2Pt(poly[2])) > 0.0lf)) return false;
         return poly2AddTri(poly[0], poly[1], poly[2]);
     }
     return true;
@@ -381,13 +395,13 @@ bool poly2Splice(int o, int h, int from, int count, int tail)
 bool poly2BridgeClear(dvec2 hp, dvec2 op, uint alive)
 {
     for (int k = 0; k < poly2PolyCount; ++k)
-        if (poly2SegmentsIntersect(hp, op, poly2Pt[poly2Poly[k]], poly2Pt[poly2Poly[(k + 1) % poly2PolyCount]]))
+        if (poly2SegmentsIntersect(hp, op, poly2Pt(poly2Poly[k]), poly2Pt(poly2Poly[(k + 1) % poly2PolyCount])))
             return false;
     for (int h = 0; h < poly2HoleCount; ++h) {
         if ((alive >> uint(h) & 1u) == 0u) continue;
         int hs = poly2HoleStart[h], hn = poly2HoleStart[h + 1] - hs;
         for (int k = 0; k < hn; ++k)
-            if (poly2SegmentsIntersect(hp, op, poly2Pt[poly2Hole[hs + k]], poly2Pt[poly2Hole[hs + (k + 1) % hn]]))
+            if (poly2SegmentsIntersect(hp, op, poly2Pt(poly2Hole[hs + k]), poly2Pt(poly2Hole[hs + (k + 1) % hn])))
                 return false;
     }
     return true;
@@ -410,7 +424,7 @@ bool poly2BridgeHoles()
             int hs = poly2HoleStart[h], hn = (alive >> uint(h) & 1u) != 0u ? poly2HoleStart[h + 1] - hs : 0;
             for (int j = 0; j < hn && !touched; ++j)
                 for (int o = 0; o < poly2PolyCount && !touched; ++o) {
-                    if (!poly2Same(poly2Pt[poly2Hole[hs + j]], poly2Pt[poly2Poly[o]])) continue;
+                    if (!poly2Same(poly2Pt(poly2Hole[hs + j]), poly2Pt(poly2Poly[o]))) continue;
                     if (!poly2Splice(o, h, j + 1, hn, -1)) return false;
                     alive &= ~(1u << uint(h));
                     --left;
@@ -424,15 +438,15 @@ bool poly2BridgeHoles()
             if ((alive >> uint(h) & 1u) == 0u) continue;
             int hs = poly2HoleStart[h], hn = poly2HoleStart[h + 1] - hs;
             for (int j = 0; j < hn; ++j) {
-                dvec2 hp = poly2Pt[poly2Hole[hs + j]];
+                dvec2 hp = poly2Pt(poly2Hole[hs + j]);
                 for (int o = 0; o < poly2PolyCount; ++o) {
                     int n = poly2PolyCount;
-                    dvec2 op = poly2Pt[poly2Poly[o]];
+                    dvec2 op = poly2Pt(poly2Poly[o]);
                     precise double dx = op.x - hp.x, dy = op.y - hp.y, d2 = dx * dx + dy * dy;
                     if (d2 >= best || d2 == 0.0lf) continue;
-                    if (!poly2InWedge(poly2Pt[poly2Poly[(o + n - 1) % n]], op, poly2Pt[poly2Poly[(o + 1) % n]], hp) ||
-                        !poly2InWedge(poly2Pt[poly2Hole[hs + (j + hn - 1) % hn]], hp,
-                                      poly2Pt[poly2Hole[hs + (j + 1) % hn]], op))
+                    if (!poly2InWedge(poly2Pt(poly2Poly[(o + n - 1) % n]), op, poly2Pt(poly2Poly[(o + 1) % n]), hp) ||
+                        !poly2InWedge(poly2Pt(poly2Hole[hs + (j + hn - 1) % hn]), hp,
+                                      poly2Pt(poly2Hole[hs + (j + 1) % hn]), op))
                         continue;
                     if (!poly2BridgeClear(hp, op, alive)) continue;
                     best = d2;

@@ -63,13 +63,13 @@ void main()
     double d[4] = double[4](0.0lf, 0.0lf, 0.0lf, 0.0lf);
     if (load(c)) {
         if (c.func == POLY2_FUNC_SEGMENTS) {
-            r0 = poly2SegmentsIntersect(poly2Pt[0], poly2Pt[1], poly2Pt[2], poly2Pt[3]);
-            d[0] = poly2Cross(poly2Pt[2], poly2Pt[3], poly2Pt[0]);
-            d[1] = poly2Cross(poly2Pt[2], poly2Pt[3], poly2Pt[1]);
-            d[2] = poly2Cross(poly2Pt[0], poly2Pt[1], poly2Pt[2]);
-            d[3] = poly2Cross(poly2Pt[0], poly2Pt[1], poly2Pt[3]);
+            r0 = poly2SegmentsIntersect(poly2Pt(0), poly2Pt(1), poly2Pt(2), poly2Pt(3));
+            d[0] = poly2Cross(poly2Pt(2), poly2Pt(3), poly2Pt(0));
+            d[1] = poly2Cross(poly2Pt(2), poly2Pt(3), poly2Pt(1));
+            d[2] = poly2Cross(poly2Pt(0), poly2Pt(1), poly2Pt(2));
+            d[3] = poly2Cross(poly2Pt(0), poly2Pt(1), poly2Pt(3));
         } else if (c.func == POLY2_FUNC_TRIANGLE) {
-            dvec2 a = poly2Pt[0], b = poly2Pt[1], e = poly2Pt[2];
+            dvec2 a = poly2Pt(0), b = poly2Pt(1), e = poly2Pt(2);
             d[0] = poly2MinSine(a, b, e);
             d[1] = poly2Cross(a, b, e);
             precise double dx = b.x - a.x, dy = b.y - a.y;

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -660,33 +661,62 @@ std::vector<Input> overflowCases()
 
 } // namespace
 
-// Each path by which the kernel's shaders take a double (a buffer, a global
-// array written by a function, a parameter) and the plain operations on it
-// keep every bit. Written after poly2_test.comp's answers on an NVIDIA H100
-// (driver 580.159.04) came out as double arithmetic on float-rounded points:
-// a failure here names the path that rounds.
+// Each path by which a shader can take a double (a buffer, a function, a
+// parameter) and each kind of storage it can keep one in, with the plain
+// operations on it: those the cut pass's shaders use must keep every bit.
+// Written after poly2_test.comp's answers on an NVIDIA H100 (driver
+// 580.159.04) came out as double arithmetic on float-rounded points; this
+// test found the cause there: a dvec2 kept in a private array indexed at run
+// time comes back rounded to float. The storage the shaders avoid is only
+// reported (it describes the driver, not our code); a failure names the path.
+// Also division and square root (GLSL asks no correct rounding of them) and
+// corrections of both to the nearest double, candidates for the shaders.
 TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
 {
     MTCUT_REQUIRE_GL();
-    constexpr int kPaths = 12, kPlainCross = 10; // the one path compared loosely
-    const char* pathNames[kPaths] = {"dvec2 buffer .x",
-                                     "dvec2 buffer .y",
-                                     "double buffer",
-                                     "global array",
-                                     "function",
-                                     "global array via function",
-                                     "x - y",
-                                     "x * y",
-                                     "cross product",
-                                     "precise cross in a function, of a global array's point",
-                                     "the same without precise (within 4 ulp: it may fuse)",
-                                     "dvec2 buffer at an index from another buffer"};
+    struct Path
+    {
+        const char* name;
+        bool must; // used by the cut pass's shaders (poly2.glsl, cut_*.glsl), or meant to be: asserted
+    };
+    constexpr int kPaths = 28, kPlainCross = 10; // the one path compared loosely
+    const Path paths[kPaths] = {{"dvec2 buffer .x", true},
+                                {"dvec2 buffer .y", true},
+                                {"double buffer", true},
+                                {"global dvec2 array (run-time index)", false},
+                                {"function", true},
+                                {"global dvec2 array via function", false},
+                                {"x - y", true},
+                                {"x * y", true},
+                                {"cross product", true},
+                                {"precise cross in a function, of a point kept as bits", true},
+                                {"the same without precise (within 4 ulp: it may fuse)", true},
+                                {"dvec2 buffer at an index from another buffer", true},
+                                {"global double array", true},
+                                {"global dvec3 array", true},
+                                {"global dvec4 array", true},
+                                {"a function's dvec2 array", false},
+                                {"a function's double array", true},
+                                {"dvec3 array in a global struct", true},
+                                {"dvec3 component read at a run-time index", true},
+                                {"dvec2 as bits (uvec4 array)", true},
+                                {"double as bits (uvec2 array)", true},
+                                {"double as uint64_t bits", false},
+                                {"out dvec3[4] parameter", true},
+                                {"x / y", true},
+                                {"sqrt(|x|)", true},
+                                {"x / y corrected from the driver's (or an ulp off)", true},
+                                {"sqrt(|x|) corrected likewise", true},
+                                {"a cross product that is zero: its sign", true}};
     std::mt19937_64 rng(77);
     std::uniform_real_distribution<double> u(-2000.0, 2000.0);
     std::vector<Vec2> in(4096);
     for (Vec2& p : in) p = {u(rng), u(rng) * 1e-3};
     in[0] = {1.0 / 3.0, 2.0 / 3.0};
     in[1] = {1000.0000018057766, 1099.9999986812238}; // poly2's case 9 on the H100
+    in[2] = {-1.0, 0.0}; // zeros' signs: (-1)(+0), -0 - +0, 1 (-0)
+    in[3] = {-0.0, 0.0};
+    in[4] = {1.0, -0.0};
     const Program program = buildProgram({"doubles_test.comp"});
     const Buffer inBuf(in.size() * sizeof(Vec2), in.data());
     const Buffer scalarBuf(in.size() * sizeof(Vec2), in.data());
@@ -714,18 +744,28 @@ TEST(RenderPoly2, DoublesReachTheShaderUnrounded)
         // poly2Cross((1, -1), (-1, -1), (x, y)) = (-2) (y + 1) - 0 (x - 1)
         volatile double e1 = -2.0 * (y - -1.0), e2 = 0.0 * (x - 1.0);
         const double cross = e1 - e2;
-        const double want[kPaths] = {x, y, x, x, x, x, d, m, c1 - c2, cross, cross, in[size_t(index[i])].x};
+        volatile double q = x / y, r = std::sqrt(std::abs(x));
+        volatile double z1 = (-1.0 - x) * (y - y), z2 = (2.0 - y) * (x - x); // poly2Cross(p, (-1, 2), p)
+        const double zeroCross = z1 - z2;
+        const double want[kPaths] = {x, y, x, x, x, x, d, m, c1 - c2, cross, cross, in[size_t(index[i])].x,
+                                     x, x, x, x, x, x, std::ldexp(x, int(i % 16 % 3)), x, x, x, x, q, r, q, r, zeroCross};
         for (int k = 0; k < kPaths; ++k) {
             const double got = out[i * kPaths + k];
-            if (bitsOf(got) == bitsOf(want[k])) continue;
+            if (bitsOf(got) == bitsOf(want[k]) || (std::isnan(got) && std::isnan(want[k]))) continue;
             if (k == kPlainCross && std::abs(got - want[k]) <= 4 * std::numeric_limits<double>::epsilon() * std::abs(want[k]))
                 continue;
-            if (++bad[k] <= 2)
-                ADD_FAILURE() << pathNames[k] << ", input " << i << ": shader " << std::hexfloat << got << " want "
+            if (++bad[k] <= 2 && paths[k].must)
+                ADD_FAILURE() << paths[k].name << ", input " << i << ": shader " << std::hexfloat << got << " want "
                               << want[k] << std::defaultfloat;
         }
     }
-    for (int k = 0; k < kPaths; ++k) EXPECT_EQ(bad[k], 0u) << pathNames[k] << ": of " << in.size();
+    for (int k = 0; k < kPaths; ++k) {
+        if (paths[k].must)
+            EXPECT_EQ(bad[k], 0u) << paths[k].name << ": of " << in.size();
+        else if (bad[k] != 0)
+            std::printf("this driver changes %zu of %zu doubles kept as \"%s\" (the shaders keep none so)\n", bad[k],
+                        in.size(), paths[k].name);
+    }
 }
 
 TEST(RenderPoly2, ShaderDecidesAsTheCpuBitForBit)
@@ -758,6 +798,12 @@ TEST(RenderPoly2, ShaderDecidesAsTheCpuBitForBit)
 
     size_t count[kFuncCount] = {}, trueCount[kFuncCount] = {}, overflowCount[kFuncCount] = {}, tris[kFuncCount] = {};
     size_t mismatches = 0, mismatchCount[kFuncCount] = {};
+    struct Tally
+    {
+        size_t outcome = 0, value[4] = {}, zeroSign[4] = {}, oneUlp[4] = {};
+        uint64_t maxUlps[4] = {};
+    };
+    Tally tally[kFuncCount];
     for (size_t i = 0; i < inputs.size(); ++i) {
         const Answer cpu = cpuAnswer(inputs[i]), gpu = gpuAnswer(records.data() + i * kRecord);
         const int f = inputs[i].func;
@@ -766,9 +812,37 @@ TEST(RenderPoly2, ShaderDecidesAsTheCpuBitForBit)
         overflowCount[f] += cpu.overflow;
         tris[f] += cpu.overflow ? 0 : cpu.tris.size() / 3;
         const std::string d = difference(cpu, gpu);
-        mismatchCount[f] += !d.empty();
-        if (!d.empty() && ++mismatches <= 10)
+        if (d.empty()) continue;
+        ++mismatches;
+        if (++mismatchCount[f] <= 3) // the first few of each function
             ADD_FAILURE() << "case " << i << ":" << d << "\n  " << inputText(inputs[i]);
+        if (cpu.overflow) continue;
+        // What differs, to tell a driver's rounding from a sign of zero.
+        Tally& t = tally[f];
+        t.outcome += cpu.r0 != gpu.r0 || cpu.r1 != gpu.r1 || cpu.tris != gpu.tris || cpu.poly != gpu.poly;
+        for (int k = 0; k < 4; ++k) {
+            if (cpu.bits[k] == gpu.bits[k]) continue;
+            ++t.value[k];
+            if (doubleOf(cpu.bits[k]) == 0.0 && doubleOf(gpu.bits[k]) == 0.0) {
+                ++t.zeroSign[k];
+            } else if ((cpu.bits[k] >> 63) == (gpu.bits[k] >> 63)) {
+                const uint64_t ulps = cpu.bits[k] > gpu.bits[k] ? cpu.bits[k] - gpu.bits[k] : gpu.bits[k] - cpu.bits[k];
+                t.oneUlp[k] += ulps == 1;
+                t.maxUlps[k] = std::max(t.maxUlps[k], ulps);
+            } else {
+                t.maxUlps[k] = UINT64_MAX; // opposite signs
+            }
+        }
+    }
+    for (int f = 0; f < kFuncCount; ++f) {
+        const Tally& t = tally[f];
+        if (mismatchCount[f] == 0) continue;
+        std::printf("%s: the outcome (bools, triangles, polygon) differs in %zu;", kFuncNames[f], t.outcome);
+        for (int k = 0; k < 4; ++k)
+            if (t.value[k])
+                std::printf(" double %d in %zu (%zu only the sign of zero, %zu by 1 ulp, at most %llu ulp);", k,
+                            t.value[k], t.zeroSign[k], t.oneUlp[k], (unsigned long long)t.maxUlps[k]);
+        std::printf("\n");
     }
     EXPECT_EQ(mismatches, 0u) << "cases where the shader differs from the C++";
     for (int f = 0; f < kFuncCount; ++f) {
