@@ -13,9 +13,10 @@
 //   (render/Shaders.h), to try a driver's pragmas.
 // Mesa (llvmpipe) defers most of its compiling to the first draw or
 // dispatch, so its build_ms are small and say little; on NVIDIA the build is
-// done at link. One line per program: "case=shader program=NAME source_kb=N build_ms=T",
-// or "... error=..." when it does not build. Run one program per process
-// (under `timeout`) where a driver may not finish.
+// done at link. One line per program: "case=shader program=NAME source_kb=N
+// build_ms=T", or "... failed_ms=T warnings=N error=..." (the whole log less
+// its warnings) when it does not build. Run one program per process (under
+// `timeout`) where a driver may not finish.
 #include "benchmarks/BenchUtil.h"
 #include "render/Context.h"
 #include "render/CutKernelGpu.h"
@@ -25,6 +26,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -75,20 +77,29 @@ int main(int argc, char** argv)
         for (const std::string& name : names) {
             size_t bytes = 0;
             Build b;
+            const Clock::time_point t0 = Clock::now();
             try {
                 b = buildOf(name);
                 for (const std::string& f : b.files) bytes += render::shaderSource(f).size();
                 bytes += b.defines.size();
-                const Clock::time_point t0 = Clock::now();
                 const render::Program program = render::buildProgram(b.files, b.defines);
                 std::printf("case=shader program=%s source_kb=%.0f build_ms=%.0f\n", name.c_str(), bytes / 1024.0,
                             msSince(t0));
             } catch (const std::exception& e) {
-                std::string what = e.what();
-                for (char& c : what)
-                    if (c == '\n') c = ' ';
-                std::printf("case=shader program=%s source_kb=%.0f error=\"%.300s\"\n", name.c_str(), bytes / 1024.0,
-                            what.c_str());
+                // The whole log but its warnings (NVIDIA's runs to hundreds of
+                // "might be used before being initialized" lines before the error).
+                std::istringstream log(e.what());
+                std::string line, kept;
+                int warnings = 0;
+                while (std::getline(log, line)) {
+                    if (line.find(": warning ") != std::string::npos) {
+                        ++warnings;
+                    } else if (!line.empty()) {
+                        kept += (kept.empty() ? "" : " | ") + line;
+                    }
+                }
+                std::printf("case=shader program=%s source_kb=%.0f failed_ms=%.0f warnings=%d error=\"%s\"\n", name.c_str(),
+                            bytes / 1024.0, msSince(t0), warnings, kept.c_str());
             }
             std::fflush(stdout);
         }
