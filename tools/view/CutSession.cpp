@@ -216,6 +216,7 @@ void CutSession::updateCut(bool mayDefer)
         if (r.outcome == cutter::LiveStroke::Outcome::Stopped)
             message(true, "cut refused, the stroke stops here: " +
                               cli::describeRefusal(r.refusal, s.mask->frame(), s.mask->kerf()));
+        if (r.outcome == cutter::LiveStroke::Outcome::Deferred) mLastUpdate = secondsSince(t0); // it took its time too
         if (r.outcome == cutter::LiveStroke::Outcome::Unchanged ||
             r.outcome == cutter::LiveStroke::Outcome::Deferred)
             return;

@@ -129,7 +129,8 @@ public:
     int percent() const { return mPercent.load(); }
     /// Messages posted since the last call, oldest first.
     std::vector<Message> takeMessages();
-    /// Seconds the last cut update took (mask + re-mesh + geometry), for the overlay.
+    /// Seconds the last cut update took (mask + re-mesh + geometry; also one
+    /// a live stroke deferred, refused where the blade was), for the overlay.
     double lastUpdateSeconds() const { return mLastUpdate.load(); }
 
 private:
