@@ -44,11 +44,12 @@ grep -v '^|' "$results/bench_render.txt" | cut -c1-300
 
 # Each program in a process of its own, killed after SHADER_S seconds ('-k':
 # an NVIDIA 580 driver's compile did not end on TERM). The GPU cut pass's
-# five programs build side by side twice: as they are, and with NVIDIA's
-# pragma against unrolling (on the H100, 580.159.04: cut_arrange.vert did
-# not build in 270 s as it is, and built in 114 s without unrolling; with
-# `inline none` as well the driver crashed). The error lines carry the
-# driver's whole log less its warnings.
+# five programs build side by side, as the renderer builds them (on NVIDIA
+# cut_arrange.vert and cut_regions.vert with `unroll none`: cutPassLibrary;
+# on the H100, 580.159.04, cut_arrange.vert did not build in 270 s without
+# it, and in 114 s with it; with `inline none` the driver crashed), which
+# also fills the driver's shader cache for the tests after. The error lines
+# carry the driver's whole log less its warnings.
 builds() { # LABEL PREAMBLE PROGRAM...
     local label=$1 preamble=$2 tmp pids=()
     shift 2
@@ -70,10 +71,7 @@ builds() { # LABEL PREAMBLE PROGRAM...
 echo "== program build times"
 for p in surface mask_query.comp poly2_test.comp; do builds default "" "$p"; done
 cut=(cut_phase_one.comp cut_vertex_positions.comp cut_names.comp cut_arrange.vert cut_regions.vert)
-builds default "" "${cut[@]}" &
-b1=$!
-builds unroll-none '#pragma optionNV(unroll none)' "${cut[@]}" &
-wait $b1 $!
+builds default "" "${cut[@]}"
 
 for t in test_render_gl test_render_mask test_render_frame test_render_kerf test_render_overlay test_render_timer \
          test_render_poly2 test_render_cut_kernel; do

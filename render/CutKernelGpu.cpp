@@ -276,8 +276,11 @@ void PointPass::draw(size_t count) const { glDrawArrays(GL_POINTS, 0, GLsizei(co
 
 std::string cutPassLibrary(const std::string& name)
 {
-    std::string library = shaderSource("cut_kernel.glsl");
-    if (name == "cut_arrange.vert" || name == "cut_regions.vert") library += arrangeDefines() + shaderSource("cut_arrange.glsl");
+    const bool big = name == "cut_arrange.vert" || name == "cut_regions.vert";
+    const char* vendor = reinterpret_cast<const char*>(glGetString(GL_VENDOR));
+    std::string library = big && vendor && std::strstr(vendor, "NVIDIA") ? "#pragma optionNV(unroll none)\n" : "";
+    library += shaderSource("cut_kernel.glsl");
+    if (big) library += arrangeDefines() + shaderSource("cut_arrange.glsl");
     if (name == "cut_regions.vert") library += shaderSource("poly2.glsl") + shaderSource("cut_regions.glsl");
     return library;
 }
