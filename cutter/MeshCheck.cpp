@@ -191,6 +191,16 @@ std::string MeshCheck::report() const
     return os.str();
 }
 
+
+namespace {
+
+/// A shell that can be a cavity (facing inward, or flat) and one that can be
+/// an outer shell (facing outward, not flat): Shell::flat.
+bool inward(const Shell& s) { return s.volume < 0.0 || s.flat; }
+bool outward(const Shell& s) { return s.volume > 0.0 && !s.flat; }
+
+} // namespace
+
 MeshCheck checkMesh(const Mesh& mesh)
 {
     MeshCheck r;
@@ -346,8 +356,8 @@ MeshCheck checkMesh(const Mesh& mesh)
     for (size_t s = 0; s < shells.size(); ++s) {
         int winding = 0;
         for (const auto& w : byShell[s]) winding += w.second;
-        const bool cavity = shells[s].volume < 0.0 && winding == 1;
-        const bool outer = shells[s].volume > 0.0 && winding == 0;
+        const bool cavity = inward(shells[s]) && winding == 1;
+        const bool outer = outward(shells[s]) && winding == 0;
         r.cavities += cavity;
         r.negativeVolumeShells += !cavity && !outer;
     }
@@ -357,15 +367,15 @@ MeshCheck checkMesh(const Mesh& mesh)
 std::vector<int> enclosingShells(const Mesh& mesh, const std::vector<Shell>& shells)
 {
     std::vector<int> out(shells.size(), -1);
-    if (std::none_of(shells.begin(), shells.end(), [](const Shell& s) { return s.volume < 0.0; })) return out;
+    if (std::none_of(shells.begin(), shells.end(), inward)) return out;
     const auto byShell = windingByOtherShell(mesh, shells);
     for (size_t s = 0; s < shells.size(); ++s) {
-        if (!(shells[s].volume < 0.0)) continue;
+        if (!inward(shells[s])) continue;
         int winding = 0;
         for (const auto& w : byShell[s]) winding += w.second;
         if (winding != 1) continue; // not a cavity: wrong way for its nesting
         for (const auto& [other, w] : byShell[s])
-            if (w == 1 && shells[other].volume > 0.0 &&
+            if (w == 1 && outward(shells[other]) &&
                 (out[s] < 0 || shells[other].volume < shells[size_t(out[s])].volume))
                 out[s] = int(other);
     }
@@ -384,6 +394,7 @@ std::vector<Shell> findShells(const Mesh& mesh)
     std::vector<Shell> shells;
     std::vector<uint32_t> shellOfRoot(mesh.positions.size(), UINT32_MAX);
     std::vector<glm::dvec3> reference;
+    std::vector<double> magnitude; // per shell: the sum of its volume terms' magnitude bounds
     for (size_t t = 0; t < nT; ++t) {
         if (!validTriangle(mesh, t)) continue;
         const uint32_t root = sets.find(mesh.indices[3 * t]);
@@ -393,6 +404,7 @@ std::vector<Shell> findShells(const Mesh& mesh)
             shells.emplace_back();
             const glm::dvec3 p = pos(mesh, mesh.indices[3 * t]);
             reference.push_back(p);
+            magnitude.push_back(0.0);
             shells.back().boundsMin = shells.back().boundsMax = p;
         }
         Shell& shell = shells[s];
@@ -402,6 +414,7 @@ std::vector<Shell> findShells(const Mesh& mesh)
         const glm::dvec3 a = pos(mesh, mesh.indices[3 * t]) - o, b = pos(mesh, mesh.indices[3 * t + 1]) - o,
                          c = pos(mesh, mesh.indices[3 * t + 2]) - o;
         shell.volume += glm::dot(a, glm::cross(b, c)) / 6.0;
+        magnitude[s] += glm::length(a) * glm::length(b) * glm::length(c) / 6.0;
         shell.area += 0.5 * glm::length(glm::cross(b - a, c - a));
         for (const glm::dvec3& p : {a, b, c}) {
             shell.boundsMin = glm::min(shell.boundsMin, p + o);
@@ -409,6 +422,7 @@ std::vector<Shell> findShells(const Mesh& mesh)
         }
     }
     std::vector<uint8_t> seen(mesh.positions.size(), 0);
+    for (size_t s = 0; s < shells.size(); ++s) shells[s].flat = std::abs(shells[s].volume) <= 1e-12 * magnitude[s];
     for (Shell& shell : shells) {
         for (uint32_t t : shell.triangles) {
             for (int k = 0; k < 3; ++k) {

@@ -59,6 +59,12 @@ struct Shell
     size_t vertexCount = 0;
     double volume = 0.0; ///< signed, mm^3 (positive when outward oriented and closed)
     double area = 0.0;   ///< mm^2
+    /// The volume is zero within its rounding (|volume| at most 1e-12 of the
+    /// sum of its terms' magnitudes): a crack, both sides of a zero-width
+    /// cut that ends inside the solid, whose volume's sign is noise. Such a
+    /// shell is a cavity where it is enclosed (winding number 1), and never
+    /// an outer shell.
+    bool flat = false;
     glm::dvec3 boundsMin{0.0}, boundsMax{0.0}; ///< world mm
 };
 
@@ -67,8 +73,8 @@ struct Shell
 std::vector<Shell> findShells(const Mesh& mesh);
 
 /// For each shell of `shells` (findShells(mesh)), the shell that directly
-/// encloses it when it is a cavity (negative volume, winding number 1 of the
-/// other shells): the smallest positive shell whose own winding number is 1
+/// encloses it when it is a cavity (negative volume or flat, winding number 1
+/// of the other shells): the smallest positive shell whose own winding number is 1
 /// there. -1 for every other shell (outer shells, islands, and shells facing
 /// the wrong way for their nesting). Cost O(triangles) when there are
 /// cavities, nothing otherwise.

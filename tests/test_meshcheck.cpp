@@ -152,6 +152,42 @@ TEST(MeshCheck, ShellsTouchingOverAFaceAreNotNestedByTheirCommonFace)
     EXPECT_EQ(checkMesh(bad).negativeVolumeShells, 1u);
 }
 
+// A crack: both sides of a zero-width cut that ends inside the solid, a
+// closed shell of zero volume (here a square in z = 1.5, split along one
+// diagonal on top and the other below). Its volume's sign is rounding noise
+// (here exactly 0), so it is judged flat: a cavity where the solid encloses
+// it, which checkMesh accepts and fragments keep with their solid; a defect
+// on its own. Before Shell::flat a crack counted by its sign: a cut that
+// re-triangulated its caps turned the blade-inside-the-ball test red.
+TEST(MeshCheck, AFlatShellInsideTheSolidIsACrackNotADefect)
+{
+    const auto addCrack = [](Mesh& m) {
+        const uint32_t b = uint32_t(m.positions.size());
+        for (const glm::vec3 p : {glm::vec3(1.1f, 1.2f, 1.5f), glm::vec3(1.9f, 1.3f, 1.5f), glm::vec3(1.8f, 1.7f, 1.5f),
+                                  glm::vec3(1.2f, 1.9f, 1.5f)})
+            m.positions.push_back(p);
+        // top (+z) along the diagonal 0-2, bottom (-z) along 1-3
+        for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u, 1u, 0u, 3u, 1u, 3u, 2u}) m.indices.push_back(b + i);
+    };
+    Mesh m;
+    addCube(m, glm::vec3(0.0f), 3.0f);
+    addCrack(m);
+    const MeshCheck c = checkMesh(m);
+    EXPECT_TRUE(c.ok()) << c.report();
+    EXPECT_EQ(c.cavities, 1u);
+    const std::vector<Shell> shells = findShells(m);
+    ASSERT_EQ(shells.size(), 2u);
+    EXPECT_FALSE(shells[0].flat);
+    EXPECT_TRUE(shells[1].flat);
+    EXPECT_EQ(shells[1].volume, 0.0);
+    EXPECT_NEAR(shells[1].area, 2 * 0.385, 1e-6); // both sides of the square (shoelace: 0.385 mm^2)
+    EXPECT_EQ(enclosingShells(m, shells), (std::vector<int>{-1, 0}));
+
+    Mesh alone; // the same crack with no solid round it
+    addCrack(alone);
+    EXPECT_EQ(checkMesh(alone).negativeVolumeShells, 1u);
+}
+
 TEST(MeshCheck, ShellsSplitInFirstTriangleOrder)
 {
     Mesh m;
