@@ -2394,16 +2394,18 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                 // chord's Steiner midpoint are collinear only up to rounding.
                 convex = cross2(a, b, c) >= -1e-9 * poly2::length2(b.x - a.x, b.y - a.y) * poly2::length2(c.x - b.x, c.y - b.y);
             }
-            // A triangle inside its own slit (every corner tagged with this
-            // cap's side, so the other side's triangle shares no vertex)
-            // needs no centre: a centre would add three triangles, and in a
-            // region a few float ulps wide one of them has zero area once
-            // rounded to float mm (seed 1021).
-            const bool ownSlit = convex && poly.size() == 3 && std::all_of(poly.begin(), poly.end(), [&](int i) {
+            // A triangle with a corner that only this side of the cap has
+            // (tagged with its side) needs no centre: it has no chord, and
+            // the other side's triangle cannot have its three vertices. A
+            // centre would add three triangles, and in a region a few float
+            // ulps wide one of them has zero area once rounded to float mm
+            // (tooth seed 1021; kerf 0, updated after every quad: 2 mm head
+            // seed 8006, 4 mm head seed 8014).
+            const bool ownCorner = convex && poly.size() == 3 && std::any_of(poly.begin(), poly.end(), [&](int i) {
                 const auto& tags = nodes[size_t(ptNode[size_t(i)])].tags;
                 return std::binary_search(tags.begin(), tags.end(), r.cap->id << 1 | (r.side < 0 ? 1u : 0u));
             });
-            if (ownSlit || lone) {
+            if (ownCorner || lone) {
                 tris.insert(tris.end(), poly.begin(), poly.end());
             } else if (convex) {
                 // A cap region: fan from a tagged centre, so no chord joins two rim

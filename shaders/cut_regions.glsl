@@ -624,10 +624,11 @@ void triangulateRegion(int r)
             precise double tol = -1e-9lf * poly2Length(bx, by) * poly2Length(cx, cy);
             convex = poly2Cross(a, b, c) >= tol;
         }
-        // A triangle inside its own slit needs no centre.
-        bool ownSlit = convex && n == 3;
-        for (int i = 0; i < n && ownSlit; ++i) ownSlit = nodeHasTag(gPtNode[poly2Poly[i]], sideTag(q, gRegionSide(r)));
-        if (ownSlit || lone) {
+        // A triangle with a corner only this side has needs no centre.
+        bool ownCorner = false;
+        for (int i = 0; i < n && convex && n == 3; ++i)
+            ownCorner = ownCorner || nodeHasTag(gPtNode[poly2Poly[i]], sideTag(q, gRegionSide(r)));
+        if (ownCorner || lone) {
             poly2AddTri(poly2Poly[0], poly2Poly[1], poly2Poly[2]); // (n is 3 here)
         } else if (convex) {
             // A cap region: a fan from a tagged centre.

@@ -1750,6 +1750,22 @@ TEST(CutPropsDefects, TrianglesThatSnapRoundingFoldsBackOntoEachOtherGo)
     expectCleanRandomCut(path, "4 mm head", 8043, 4, 0.0);
 }
 
+// Kerf 0, random strokes seed 8006 on the 2 mm head and 8014 on the 4 mm
+// head (found updating after every quad; refused just the same updated once
+// per stroke): a cap region of three corners a few float steps across, in a
+// cell face, was fanned from its centre because not all its corners were
+// tagged with the cap's side, and one fan triangle had zero area in float
+// mm (refused). A triangle with a corner only its side has needs no centre
+// (the other side's triangle cannot have its three vertices): it is kept as
+// it is, and both cuts are accepted and clean.
+TEST(CutPropsDefects, ACapTriangleWithACornerOfItsOwnSideGetsNoCentre)
+{
+    MTCUT_REQUIRE_DATA(path2, "vhm_head_2mm.nhdr");
+    expectCleanRandomCut(path2, "2 mm head", 8006, 4, 0.0);
+    MTCUT_REQUIRE_DATA(path4, "vhm_head_4mm.nhdr");
+    expectCleanRandomCut(path4, "4 mm head", 8014, 4, 0.0);
+}
+
 // The 1 mm head at kerf 0, random strokes seed 2013 (the strokes of
 // RandomKerfStrokesOnThe1mmHead...): the blade pivots near its tip, so quad
 // 201 of the second stroke is a dart (its sticks cross 1.4 mm from the tip)
