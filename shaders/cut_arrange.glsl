@@ -518,7 +518,7 @@ void gatherPlanes()
     tetBegin(gT, gIso, gCell);
     if (gTetOverflow) gFail |= kFailPlanes;
     gFoldConvex = true;
-    if (gIso.triCount == 2) gFoldConvex = planeH(D4GET(gIso.planeBits, 0), D3GET(gIso.ptsBits, 4 * (1) + (2))) >= 0.0lf;
+    if (gIso.triCount == 2) gFoldConvex = planeH(D4GET(gIso.planeBits, 0), D3GET(gIso.ptsBits, 4 * 1 + 2)) >= 0.0lf;
 }
 
 bool openSurface(uint64_t plane, int quad, int sides, dvec3 normal)
@@ -548,7 +548,7 @@ void isoSurfaces()
             const int e = gIso.edges[k][c];
             uint64_t def[8];
             def[0] = kIsoA + uint64_t(k);
-            const int v = makeVertex((1u << (e & 3)) | (1u << (e >> 2)), def, 1, D3GET(gIso.ptsBits, 4 * (k) + (c)));
+            const int v = makeVertex((1u << (e & 3)) | (1u << (e >> 2)), def, 1, D3GET(gIso.ptsBits, 4 * k + c));
             if (v < 0) return;
             gSPolyV[4 * s + c] = v;
             gTriVert[4 * k + c] = v;

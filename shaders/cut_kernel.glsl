@@ -274,11 +274,11 @@ IsoPolygons isoTriangles(Tet T)
         const int n = r.corners[k];
         for (int c = 0; c < n; ++c) D3SET(r.ptsBits, 4 * k + c, mtPoint(T, r.edges[k][c] & 3, r.edges[k][c] >> 2));
         dvec3 nrm = dvec3(0.0lf); // Newell
-        for (int c = 0; c < n; ++c) nrm = nrm + cross3(D3GET(r.ptsBits, 4 * (k) + (c)), D3GET(r.ptsBits, 4 * (k) + ((c + 1) % n)));
+        for (int c = 0; c < n; ++c) nrm = nrm + cross3(D3GET(r.ptsBits, 4 * k + c), D3GET(r.ptsBits, 4 * k + (c + 1) % n));
         const double len = length3(nrm);
         const dvec3 unit = len > 0.0lf ? (-nrm) / len : dvec3(0.0lf);
         dvec3 centre = dvec3(0.0lf);
-        for (int c = 0; c < n; ++c) centre = centre + D3GET(r.ptsBits, 4 * (k) + (c)) / double(n);
+        for (int c = 0; c < n; ++c) centre = centre + D3GET(r.ptsBits, 4 * k + c) / double(n);
         D4SET(r.planeBits, k, dvec4(unit, dot3(unit, centre)));
     }
     return r;
