@@ -59,7 +59,7 @@ double crossPlain(dvec2 o, dvec2 a, dvec2 b) // the same without precise (may fu
     return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
 }
 
-void fillOut(dvec3 v, int k, out dvec3 pp[4]) // an out array parameter (cut_arrange's capSection)
+void fillOut(dvec3 v, int k, out dvec3 pp[4]) // an out array parameter (as cut_arrange's capSection had)
 {
     for (int j = 0; j < 4; ++j) pp[j] = dvec3(0.0lf);
     pp[k] = v;
@@ -161,17 +161,17 @@ void main()
     gScalars[k] = p.x;
     put(i, 12, gScalars[k]);              // a global double array
     gVec3[k] = dvec3(p.y, p.x, p.y);
-    put(i, 13, gVec3[k].y);               // a global dvec3 array (cut_arrange's gSNormal, gClip)
+    put(i, 13, gVec3[k].y);               // a global dvec3 array (as cut_arrange's gSNormal was)
     gVec4[k] = dvec4(p.y, p.y, p.x, p.y);
-    put(i, 14, gVec4[k].z);               // a global dvec4 array (cut_kernel's gTetPlane)
+    put(i, 14, gVec4[k].z);               // a global dvec4 array (as cut_kernel's gTetPlane was)
     dvec2 local2[16];
     local2[k] = p;
     put(i, 15, local2[k].x);              // a function's dvec2 array
     double local1[16];
     local1[k] = p.x;
-    put(i, 16, local1[k]);                // a function's double array (poly2's best)
+    put(i, 16, local1[k]);                // a function's double array (as poly2's best was)
     gStruct.p[k % 4] = dvec3(p.y, p.y, p.x);
-    put(i, 17, gStruct.p[k % 4].z);       // an array in a global struct (cut_kernel's Tet.p)
+    put(i, 17, gStruct.p[k % 4].z);       // an array in a global struct (as cut_kernel's Tet.p was)
     const dvec3 v = dvec3(p.x, 2.0lf * p.x, 4.0lf * p.x);
     put(i, 18, v[k % 3]);                 // a vector's component read at a run-time index: 2^(k % 3) x
     put(i, 19, q.x);                      // a dvec2 kept as bits (uvec4)

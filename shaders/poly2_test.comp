@@ -60,23 +60,23 @@ void main()
     if (i >= uCount) return;
     Poly2Case c = uCases[i];
     bool r0 = false, r1 = false;
-    double d[4] = double[4](0.0lf, 0.0lf, 0.0lf, 0.0lf);
+    uvec2 d[4] = uvec2[4](uvec2(0u), uvec2(0u), uvec2(0u), uvec2(0u)); // the doubles as bits (poly2.glsl)
     if (load(c)) {
         if (c.func == POLY2_FUNC_SEGMENTS) {
             r0 = poly2SegmentsIntersect(poly2Pt(0), poly2Pt(1), poly2Pt(2), poly2Pt(3));
-            d[0] = poly2Cross(poly2Pt(2), poly2Pt(3), poly2Pt(0));
-            d[1] = poly2Cross(poly2Pt(2), poly2Pt(3), poly2Pt(1));
-            d[2] = poly2Cross(poly2Pt(0), poly2Pt(1), poly2Pt(2));
-            d[3] = poly2Cross(poly2Pt(0), poly2Pt(1), poly2Pt(3));
+            d[0] = unpackDouble2x32(poly2Cross(poly2Pt(2), poly2Pt(3), poly2Pt(0)));
+            d[1] = unpackDouble2x32(poly2Cross(poly2Pt(2), poly2Pt(3), poly2Pt(1)));
+            d[2] = unpackDouble2x32(poly2Cross(poly2Pt(0), poly2Pt(1), poly2Pt(2)));
+            d[3] = unpackDouble2x32(poly2Cross(poly2Pt(0), poly2Pt(1), poly2Pt(3)));
         } else if (c.func == POLY2_FUNC_TRIANGLE) {
             dvec2 a = poly2Pt(0), b = poly2Pt(1), e = poly2Pt(2);
-            d[0] = poly2MinSine(a, b, e);
-            d[1] = poly2Cross(a, b, e);
+            d[0] = unpackDouble2x32(poly2MinSine(a, b, e));
+            d[1] = unpackDouble2x32(poly2Cross(a, b, e));
             precise double dx = b.x - a.x, dy = b.y - a.y;
-            d[2] = poly2Length(dx, dy);
+            d[2] = unpackDouble2x32(poly2Length(dx, dy));
             r0 = poly2Same(a, b);
         } else if (c.func == POLY2_FUNC_AREA) {
-            d[0] = poly2SignedArea();
+            d[0] = unpackDouble2x32(poly2SignedArea());
         } else if (c.func == POLY2_FUNC_BEST || c.func == POLY2_FUNC_EARCLIP) {
             for (int k = 0; k < c.repeat; ++k) {
                 r0 = c.func == POLY2_FUNC_BEST ? poly2BestTriangulation() : poly2EarClip();
@@ -95,7 +95,7 @@ void main()
     uResults[base + 4u] = uint(poly2PolyCount);
     for (uint k = 5u; k < 8u; ++k) uResults[base + k] = 0u;
     for (int k = 0; k < 4; ++k) {
-        uvec2 w = unpackDouble2x32(d[k]);
+        uvec2 w = d[k];
         uResults[base + 8u + 2u * uint(k)] = w.x;
         uResults[base + 9u + 2u * uint(k)] = w.y;
     }
