@@ -191,7 +191,6 @@ std::string MeshCheck::report() const
     return os.str();
 }
 
-
 namespace {
 
 /// A shell that can be a cavity (facing inward, or flat) and one that can be

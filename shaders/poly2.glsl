@@ -35,8 +35,6 @@
 // kBestOfAllMax of Polygon2.h: part of the algorithm, not a capacity.
 #define POLY2_BEST_MAX 9
 
-#ifndef MTCUT_DOUBLE_BITS
-#define MTCUT_DOUBLE_BITS
 // NVIDIA's driver (580.159.04, H100) keeps only a float's precision of a
 // double that goes through a private array indexed at run time (through
 // buffers, functions, arithmetic it stays whole): RenderPoly2.DoublesReach-
@@ -44,7 +42,6 @@
 // doubles as bits, which every driver keeps exactly.
 uvec4 dvec2Bits(dvec2 p) { return uvec4(unpackDouble2x32(p.x), unpackDouble2x32(p.y)); }
 dvec2 dvec2Of(uvec4 b) { return dvec2(packDouble2x32(b.xy), packDouble2x32(b.zw)); }
-#endif
 
 uvec4 poly2PtBits[POLY2_MAX_POINTS]; // the points, poly2PtCount of them, as bits
 dvec2 poly2Pt(int i) { return dvec2Of(poly2PtBits[i]); }
