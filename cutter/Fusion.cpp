@@ -189,6 +189,8 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     std::vector<std::pair<uint32_t, const CutVertexId*>> welded; // uncut vertex, its iso edge vertex id
     std::vector<uint32_t> newIndices;
     std::vector<glm::ivec3> newVoxels;
+    std::vector<char> intoFace; // per new triangle (CutCellGeometry::intoFace); empty when none is
+    size_t intoFaceCount = 0;
     std::vector<uint32_t> index;
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
@@ -215,11 +217,18 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
             }
             index[v] = it->second;
         }
+        const size_t firstOfCell = newVoxels.size();
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             for (int j = 0; j < 3; ++j) newIndices.push_back(index[geom.indices[i + size_t(j)]]);
             newVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
         }
+        if (!geom.intoFace.empty()) {
+            intoFace.resize(newVoxels.size(), 0);
+            for (uint32_t t : geom.intoFace) intoFace[firstOfCell + t] = 1;
+            intoFaceCount += geom.intoFace.size();
+        }
     }
+    if (intoFaceCount) intoFace.resize(newVoxels.size(), 0);
     // Snap rounding: two vertices joined by an edge that land on the same
     // float position (a sub-micron sliver of the exact geometry, e.g. where a
     // grid plane passes within 1e-5 voxel of a blade corner) are one vertex
@@ -320,20 +329,22 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     for (; p < patches.size(); ++p) emitPatch(patches[p]);
     copyTo(nt);
     // Then the cut cells' triangles, cells ascending, less those that snap
-    // rounding collapsed or made a cancelling pair (markCancellingPairs).
+    // rounding collapsed, and the cancelling pairs that snap rounding or the
+    // float repair's face rule made (markCancellingPairs).
     const size_t firstNew = m.triangleCount();
     std::vector<char> cancelled;
-    if (!rep.empty()) {
+    const bool pairs = !rep.empty() || intoFaceCount != 0;
+    if (pairs) {
         std::vector<std::array<uint32_t, 3>> snapped(newIndices.size() / 3), before(snapped.size());
         for (size_t t = 0; t < snapped.size(); ++t) {
             before[t] = {newIndices[3 * t], newIndices[3 * t + 1], newIndices[3 * t + 2]};
             snapped[t] = {find(before[t][0]), find(before[t][1]), find(before[t][2])};
         }
-        remesh_detail::markCancellingPairs(snapped, before, cancelled);
+        remesh_detail::markCancellingPairs(snapped, before, intoFace, cancelled);
     }
     for (size_t i = 0, t = 0; i < newIndices.size(); i += 3, ++t) {
         uint32_t a = newIndices[i], b = newIndices[i + 1], c = newIndices[i + 2];
-        if (!rep.empty()) {
+        if (pairs) {
             a = find(a);
             b = find(b);
             c = find(c);
@@ -364,9 +375,13 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
 namespace remesh_detail {
 
 void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
-                         const std::vector<std::array<uint32_t, 3>>& before, std::vector<char>& drop)
+                         const std::vector<std::array<uint32_t, 3>>& before, const std::vector<char>& intoFace,
+                         std::vector<char>& drop)
 {
     if (before.size() != tris.size()) throw std::logic_error("markCancellingPairs: one unsnapped triangle per triangle");
+    if (!intoFace.empty() && intoFace.size() != tris.size())
+        throw std::logic_error("markCancellingPairs: one intoFace flag per triangle");
+    auto moved = [&](uint32_t t) { return (!intoFace.empty() && intoFace[t]) || tris[t] != before[t]; };
     auto sameSet = [](std::array<uint32_t, 3> a, std::array<uint32_t, 3> b) {
         std::sort(a.begin(), a.end());
         std::sort(b.begin(), b.end());
@@ -387,19 +402,20 @@ void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
         if (flipped) std::swap(v[1], v[2]);
         return Entry{v, flipped, t};
     };
-    // A pair has a triangle that snapping changed: those, and the unchanged
-    // ones on a set that a changed one has (most of a mesh is neither).
+    // A pair has a triangle that snapping or the face rule changed: those,
+    // and the unchanged ones on a set that a changed one has (most of a mesh
+    // is neither).
     std::vector<Entry> e;
     std::vector<std::array<uint32_t, 3>> changedSets;
     for (uint32_t t = 0; t < uint32_t(tris.size()); ++t)
-        if (tris[t] != before[t]) {
+        if (moved(t)) {
             e.push_back(entryOf(t, tris[t]));
             changedSets.push_back(e.back().set);
         }
     if (e.empty()) return;
     std::sort(changedSets.begin(), changedSets.end());
     for (uint32_t t = 0; t < uint32_t(tris.size()); ++t) {
-        if (tris[t] != before[t]) continue;
+        if (moved(t)) continue;
         const Entry x = entryOf(t, tris[t]);
         if (std::binary_search(changedSets.begin(), changedSets.end(), x.set)) e.push_back(x);
     }
@@ -412,7 +428,9 @@ void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
         for (size_t a = i; a < j; ++a) {
             if (drop[e[a].t]) continue;
             for (size_t b = a + 1; b < j; ++b)
-                if (!drop[e[b].t] && e[b].flipped != e[a].flipped && !sameSet(before[e[a].t], before[e[b].t])) {
+                if (!drop[e[b].t] && e[b].flipped != e[a].flipped &&
+                    ((!intoFace.empty() && (intoFace[e[a].t] || intoFace[e[b].t])) ||
+                     !sameSet(before[e[a].t], before[e[b].t]))) {
                     drop[e[a].t] = drop[e[b].t] = 1;
                     break;
                 }

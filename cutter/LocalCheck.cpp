@@ -134,6 +134,7 @@ struct RegionTriangle
     Coord cell;
     bool cut;     ///< a cut cell's (new geometry), else an uncut cell's
     bool changed; ///< its cell is a changed cell
+    bool intoFace = false; ///< put into a cell face by the float repair (CutCellGeometry::intoFace)
 };
 using Tri = RegionTriangle;
 
@@ -156,6 +157,7 @@ struct LocalRegion
     std::vector<std::pair<uint32_t, uint32_t>> joined;
     bool debug = false;                          ///< MTCUT_REMESH_DEBUG
     bool kerf = false;                           ///< the cut has a width (pinches are split in fusion)
+    bool anyIntoFace = false;                    ///< a triangle has intoFace set
     /// The changed cells' box [lo, lo + dim) as a bitmap, when it is small
     /// next to the region (a haptic step's, a straight cut's); else empty,
     /// and isChanged() searches `changed`.
@@ -456,17 +458,20 @@ void snapRound(LocalRegion& reg)
         if (find(v) != v) reg.joined.push_back({find(v), v});
     std::sort(reg.joined.begin(), reg.joined.end());
     // The cut cells' triangles that become cancelling pairs go, as in
-    // fusedMesh (only where snap rounding joined something).
+    // fusedMesh (only where snap rounding joined something, or the float
+    // repair put a triangle into a cell face).
     std::vector<std::array<uint32_t, 3>> cutTris, before;
+    std::vector<char> intoFace;
     std::vector<size_t> cutAt;
-    for (size_t t = 0; t < tris.size() && !reg.joined.empty(); ++t) {
+    for (size_t t = 0; t < tris.size() && (!reg.joined.empty() || reg.anyIntoFace); ++t) {
         if (!tris[t].cut) continue;
         before.push_back({tris[t].v[0], tris[t].v[1], tris[t].v[2]});
         cutTris.push_back({find(tris[t].v[0]), find(tris[t].v[1]), find(tris[t].v[2])});
+        intoFace.push_back(tris[t].intoFace);
         cutAt.push_back(t);
     }
     std::vector<char> cancelled, drop(tris.size(), 0);
-    remesh_detail::markCancellingPairs(cutTris, before, cancelled);
+    remesh_detail::markCancellingPairs(cutTris, before, intoFace, cancelled);
     for (size_t i = 0; i < cutAt.size(); ++i) drop[cutAt[i]] = cancelled[i];
     std::vector<Tri> kept;
     for (size_t t = 0; t < tris.size(); ++t) {
@@ -813,9 +818,16 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
             const size_t base = localNames.size();
             for (const CutVertexId& id : g.vertexIds) localNames.push_back(nameOf(id));
             const uint32_t* local = localNames.data() + base;
-            for (size_t k = 0; k + 2 < g.indices.size(); k += 3)
+            auto face = g.intoFace.begin();
+            for (size_t k = 0; k + 2 < g.indices.size(); k += 3) {
                 tris.push_back({{local[g.indices[k]], local[g.indices[k + 1]], local[g.indices[k + 2]]}, c, true,
                                 reg.cellChanged[i] != 0});
+                if (face != g.intoFace.end() && *face == k / 3) {
+                    tris.back().intoFace = true;
+                    reg.anyIntoFace = true;
+                    ++face;
+                }
+            }
         } else {
             for (size_t k = cornerStart[i]; k + 2 < cornerStart[i + 1]; k += 3)
                 tris.push_back({{edgeNameOf(corners[k]), edgeNameOf(corners[k + 1]), edgeNameOf(corners[k + 2])}, c,

@@ -125,11 +125,17 @@ struct CutCellGeometry
     std::vector<CutVertexId> vertexIds;
     std::vector<glm::dvec3> indexPositions; ///< index space (voxels), one per vertex
     std::vector<uint32_t> indices;          ///< 3 per triangle, CCW seen from outside the solid
+    /// The triangles (ascending) that the float repair's face rule moved
+    /// into a cell face (repairFloatFolds): the cell across that face may
+    /// make the same one facing the other way, a pair that bounds nothing
+    /// and goes in fusion and the local check (markCancellingPairs).
+    std::vector<uint32_t> intoFace;
     void clear()
     {
         vertexIds.clear();
         indexPositions.clear();
         indices.clear();
+        intoFace.clear();
     }
 };
 

@@ -2710,6 +2710,12 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     std::vector<uint32_t> mergedInto(nv);
     for (size_t i = 0; i < nv; ++i) mergedInto[i] = uint32_t(i);
     size_t removed = 0;
+    // The triangles the face rule moves into a cell face (out.intoFace:
+    // kept from an earlier repair of this geometry).
+    std::vector<char> intoFace(nt, 0);
+    for (uint32_t t : out.intoFace)
+        if (t < nt) intoFace[t] = 1;
+    auto inCellFace = [&](const std::array<uint32_t, 3>& v) { return (faces[v[0]] & faces[v[1]] & faces[v[2]]) != 0; };
     // Triangles at a vertex, rebuilt after each collapse (cells hold tens to
     // a few hundred triangles, and collapses are rare).
     auto trianglesAt = [&](uint32_t v, std::vector<size_t>& list) {
@@ -2795,6 +2801,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             }
         for (size_t t : onEdge) alive[t] = 0;
         for (size_t i = 0; i < touched.size(); ++i) {
+            if (keep[i] && !inCellFace(tris[touched[i]]) && inCellFace(moved[i])) intoFace[touched[i]] = 1;
             tris[touched[i]] = moved[i];
             alive[touched[i]] = keep[i];
         }
@@ -2846,9 +2853,13 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             if (faces[moved[0]] & faces[moved[1]] & faces[moved[2]]) return false;
         }
         for (size_t t : onEdge) alive[t] = 0;
-        for (size_t t : atP)
+        for (size_t t : atP) {
+            const bool wasInFace = inCellFace(tris[t]);
             for (uint32_t& w : tris[t])
                 if (w == p) w = q;
+            // (Only the face rule can: a round's collapse refuses it above.)
+            if (alive[t] && !wasInFace && inCellFace(tris[t])) intoFace[t] = 1;
+        }
         mergedInto[p] = q;
         ++removed;
         return true;
@@ -2976,6 +2987,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     }
     for (size_t t = 0; t < nt; ++t) {
         if (!alive[t]) continue;
+        if (intoFace[t]) kept.intoFace.push_back(uint32_t(kept.indices.size() / 3));
         for (uint32_t w : tris[t]) kept.indices.push_back(newIndex[w]);
     }
     out = std::move(kept);

@@ -256,7 +256,8 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 ///   the link be, the seam opens and the local check refuses the update:
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an
 ///   unmitred joint that tooSharpForMitre now mitres; none of test_cut_props'
-///   strokes does it);
+///   strokes does it); a triangle it moves into another cell face is listed
+///   in out.intoFace (the cell across may make its twin: markCancellingPairs);
 /// - then, in rounds, every short edge of the cell, shortest first, and only
 ///   when none of them can go, a folded triangle's edges (any, shortest
 ///   first), is collapsed where it can be: a vertex private to the cell
@@ -290,19 +291,27 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
 /// gets its own copy of the vertex. Cost O(link log link).
 int linkFans(const std::vector<std::pair<uint32_t, uint32_t>>& link, std::vector<int>& fanOf);
 
-/// Snap rounding's cancelling pairs: two triangles that snap rounding has
-/// made into one vertex set facing opposite ways (`tris`, snapped), though
-/// they were not on one vertex set before (`before`, the same triangles
-/// unsnapped): a cap region a float step across, fanned from its centre,
-/// whose corners joined (4 mm head, kerf 0, random strokes seed 8043: three
-/// quads' planes through one point 4e-5 mm from a cell face). They coincide
-/// and bound nothing, and they use each of their edges once each way, so
-/// both go (fusedMesh and the local check alike). A pair the kernel made as
-/// it is (two cells' triangles back to back in their common face) is not
-/// snap rounding's and stays, for the check to refuse. Marks them in `drop`
-/// (one entry per triangle); pairs are taken in triangle order, so a third
-/// triangle on the set stays. Cost O(n log n).
+/// Cancelling pairs once written: two triangles on one vertex set facing
+/// opposite ways (`tris`, snapped) that
+/// - snap rounding made so, not being on one vertex set before (`before`,
+///   the same triangles unsnapped): a cap region a float step across,
+///   fanned from its centre, whose corners joined (4 mm head, kerf 0,
+///   random strokes seed 8043: three quads' planes through one point 4e-5 mm
+///   from a cell face); or
+/// - of which one at least the float repair's face rule put into a cell
+///   face (`intoFace`, one flag per triangle, or empty for none;
+///   CutCellGeometry::intoFace): a solid sliver thinner than a float step
+///   round a grid edge, flattened into the face between two cells by both
+///   (2 mm head, kerf 0, random strokes seed 8023: the blade 8e-5 mm from
+///   the isosurface's vertex on the edge).
+/// They coincide and bound nothing, and they use each of their edges once
+/// each way, so both go (fusedMesh and the local check alike). A pair the
+/// kernel made as it is (two cells' triangles back to back in their common
+/// face) is neither and stays, for the check to refuse. Marks them in
+/// `drop` (one entry per triangle); pairs are taken in triangle order, so a
+/// third triangle on the set stays. Cost O(n log n).
 void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
-                         const std::vector<std::array<uint32_t, 3>>& before, std::vector<char>& drop);
+                         const std::vector<std::array<uint32_t, 3>>& before, const std::vector<char>& intoFace,
+                         std::vector<char>& drop);
 
 } // namespace mtcut::cutter::remesh_detail

@@ -1766,6 +1766,90 @@ TEST(CutPropsDefects, ACapTriangleWithACornerOfItsOwnSideGetsNoCentre)
     expectCleanRandomCut(path4, "4 mm head", 8014, 4, 0.0);
 }
 
+/// The random strokes of `seed` on `path` at 400 with kerf w: the strokes
+/// before `stroke` whole and its quads up to `lastQuad`, cut from scratch.
+struct PartStrokeCut
+{
+    PartStrokeCut(const std::string& path, double kerf, uint32_t seed, size_t stroke, size_t lastQuad)
+        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false})),
+          mask(frameOf(vol), kerf), remesher(vol, 400.0f, uncut)
+    {
+        const auto strokes = randomStrokes(mask.frame(), seed, int(stroke) + 1);
+        for (size_t s = 0; s <= stroke; ++s) {
+            const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
+            mask.beginStroke();
+            for (size_t q = 0; q < quads.size() && (s < stroke || q <= lastQuad); ++q) mask.addQuad(quads[q]);
+        }
+        result = tryUpdate(remesher, mask);
+    }
+    vdb::Volume vol;
+    Mesh uncut;
+    CutMask mask;
+    CutRemesher remesher;
+    UpdateResult result;
+};
+
+// The 2 mm head at kerf 0, random strokes seed 8023, updated after every
+// quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
+// 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between
+// them is a sliver round the edge in its four cells, thinner than a float
+// step. The float repair's face rule joins the sliver's corner in face
+// z = 83 to the iso vertex, in each pair of cells across that face alike,
+// which flattens the sliver's cap in cells (65, 36, 82) and (65, 37, 82)
+// into their common face y = 37: the same triangle in both, facing opposite
+// ways, each of its edges used twice each way (refused, and the live stroke
+// stopped at quad 41). The face rule lists such triangles
+// (CutCellGeometry::intoFace), and the pair goes in fusion and the local
+// check as snap rounding's pairs do (markCancellingPairs). The tooth at kerf
+// 0.5, seed 8035, stroke 1, quad 41, was refused the same way (cell (74, 24,
+// 11)) and is mended too.
+TEST(CutPropsDefects, ASliverFlattenedIntoACellFaceFromBothSidesGoes)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    PartStrokeCut cut(path, 0.0, 8023, 3, 41);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const CutRemesher& remesher = cut.remesher;
+    // The two cells each have a triangle the face rule put into face y = 37,
+    // on one vertex set, facing opposite ways.
+    std::vector<std::array<CutVertexId, 3>> moved[2];
+    const Coord cells[2] = {Coord(65, 36, 82), Coord(65, 37, 82)};
+    for (int i = 0; i < 2; ++i) {
+        const auto it = remesher.cells().find(cells[i]);
+        ASSERT_NE(it, remesher.cells().end());
+        const CutCellGeometry& g = it->second;
+        for (uint32_t t : g.intoFace)
+            moved[i].push_back({g.vertexIds[g.indices[3 * t]], g.vertexIds[g.indices[3 * t + 1]],
+                                g.vertexIds[g.indices[3 * t + 2]]});
+    }
+    ASSERT_EQ(moved[0].size(), 1u);
+    ASSERT_EQ(moved[1].size(), 1u);
+    const auto& a = moved[0][0];
+    const auto& b = moved[1][0];
+    const bool reversed = (a[0] == b[0] && a[1] == b[2] && a[2] == b[1]) || (a[0] == b[1] && a[1] == b[0] && a[2] == b[2]) ||
+                          (a[0] == b[2] && a[1] == b[1] && a[2] == b[0]);
+    EXPECT_TRUE(reversed) << "the two cells' face triangles are not one triangle facing both ways";
+    for (const CutVertexId& id : a) EXPECT_EQ(gridVertexCoord(id.feature[0]).y(), 37) << "a corner off the face y = 37";
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    // Neither is in the fused mesh: the cut cells' triangles there are the
+    // cells' less the pair.
+    size_t inCells = 0, written = 0;
+    for (const Coord& c : cells) inCells += remesher.cells().at(c).indices.size() / 3;
+    for (const glm::ivec3& v : fused.triangleVoxels)
+        for (const Coord& c : cells) written += v == glm::ivec3(c.x(), c.y(), c.z());
+    EXPECT_EQ(written + 2, inCells);
+
+    MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
+    PartStrokeCut toothCut(tooth, 0.5, 8035, 1, 41);
+    ASSERT_EQ(toothCut.result.outcome, Outcome::Ok) << "tooth: " << toothCut.result.message;
+    size_t intoFace = 0;
+    for (const auto& [c, g] : toothCut.remesher.cells()) intoFace += g.intoFace.size();
+    EXPECT_GE(intoFace, 2u) << "tooth: the face rule put no pair into a cell face";
+    const MeshCheck toothCheck = checkMesh(toothCut.remesher.fusedMesh());
+    EXPECT_TRUE(toothCheck.ok()) << "tooth:" << toothCheck.report();
+}
+
 // The 1 mm head at kerf 0, random strokes seed 2013 (the strokes of
 // RandomKerfStrokesOnThe1mmHead...): the blade pivots near its tip, so quad
 // 201 of the second stroke is a dart (its sticks cross 1.4 mm from the tip)

@@ -518,29 +518,43 @@ TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
 
 // remesh_detail::markCancellingPairs (fusedMesh and the local check): two
 // triangles that snap rounding made into one vertex set facing opposite
-// ways both go; a pair that was one vertex set before snapping (the
-// kernel's own, back to back) stays, and so do two facing the same way and
-// a third on the set.
-TEST(CancellingPairs, OnlyPairsMadeBySnapRoundingGo)
+// ways both go, and so do two such of which the float repair's face rule
+// put one at least into a cell face; a pair that was one vertex set before
+// snapping and that the repair did not make (the kernel's own, back to
+// back) stays, and so do two facing the same way and a third on the set.
+TEST(CancellingPairs, OnlyPairsMadeOnceWrittenGo)
 {
     using mtcut::cutter::remesh_detail::markCancellingPairs;
     using T = std::array<uint32_t, 3>;
+    using F = std::vector<char>;
     std::vector<char> drop;
     // A fan from centre 0 over corners 1, 2, 3 after 3 joined 2: (0, 1, 2) collapsed
     // elsewhere; (0, 2, 3) -> (0, 2, 2) collapsed; (0, 3, 1) -> (0, 2, 1) cancels (0, 1, 2).
-    markCancellingPairs({T{0, 1, 2}, T{4, 5, 6}, T{0, 2, 1}}, {T{0, 1, 2}, T{4, 5, 6}, T{0, 3, 1}}, drop);
+    markCancellingPairs({T{0, 1, 2}, T{4, 5, 6}, T{0, 2, 1}}, {T{0, 1, 2}, T{4, 5, 6}, T{0, 3, 1}}, {}, drop);
     EXPECT_EQ(drop, (std::vector<char>{1, 0, 1}));
     // Rotations count as the same triangle; the pair is found across the list.
-    markCancellingPairs({T{2, 0, 1}, T{7, 8, 9}, T{1, 0, 2}}, {T{2, 0, 1}, T{7, 8, 9}, T{1, 0, 3}}, drop);
+    markCancellingPairs({T{2, 0, 1}, T{7, 8, 9}, T{1, 0, 2}}, {T{2, 0, 1}, T{7, 8, 9}, T{1, 0, 3}}, {}, drop);
     EXPECT_EQ(drop, (std::vector<char>{1, 0, 1}));
     // The kernel's own back-to-back pair stays (the check refuses it).
-    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}}, {T{0, 1, 2}, T{0, 2, 1}}, drop);
+    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}}, {T{0, 1, 2}, T{0, 2, 1}}, {}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{0, 0}));
+    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}}, {T{0, 1, 2}, T{0, 2, 1}}, F{0, 0}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{0, 0}));
+    // Two cells' triangles that the face rule put into their common face
+    // (no snapping): both go, whether one or both are flagged.
+    markCancellingPairs({T{4, 5, 6}, T{0, 1, 2}, T{0, 2, 1}}, {T{4, 5, 6}, T{0, 1, 2}, T{0, 2, 1}}, F{0, 1, 1}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{0, 1, 1}));
+    markCancellingPairs({T{0, 1, 2}, T{1, 0, 2}}, {T{0, 1, 2}, T{1, 0, 2}}, F{0, 1}, drop);
+    EXPECT_EQ(drop, (std::vector<char>{1, 1}));
+    // ... but not two facing the same way.
+    markCancellingPairs({T{0, 1, 2}, T{1, 2, 0}}, {T{0, 1, 2}, T{1, 2, 0}}, F{1, 1}, drop);
     EXPECT_EQ(drop, (std::vector<char>{0, 0}));
     // Facing the same way: no pair.
-    markCancellingPairs({T{0, 1, 2}, T{1, 2, 0}}, {T{0, 1, 2}, T{1, 2, 3}}, drop);
+    markCancellingPairs({T{0, 1, 2}, T{1, 2, 0}}, {T{0, 1, 2}, T{1, 2, 3}}, {}, drop);
     EXPECT_EQ(drop, (std::vector<char>{0, 0}));
     // Three on one set: the first pair in triangle order goes, the third stays.
-    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}, T{0, 1, 2}}, {T{0, 1, 2}, T{0, 2, 3}, T{0, 1, 4}}, drop);
+    markCancellingPairs({T{0, 1, 2}, T{0, 2, 1}, T{0, 1, 2}}, {T{0, 1, 2}, T{0, 2, 3}, T{0, 1, 4}}, {}, drop);
     EXPECT_EQ(drop, (std::vector<char>{1, 1, 0}));
-    EXPECT_THROW(markCancellingPairs({T{0, 1, 2}}, {}, drop), std::logic_error);
+    EXPECT_THROW(markCancellingPairs({T{0, 1, 2}}, {}, {}, drop), std::logic_error);
+    EXPECT_THROW(markCancellingPairs({T{0, 1, 2}}, {T{0, 1, 2}}, F{0, 0}, drop), std::logic_error);
 }
