@@ -335,6 +335,34 @@ TEST(CutVdb, LevelSetVoxelSizeIsAnOption)
     EXPECT_EQ(filesIn(dir.path()), std::vector<std::string>{"cut.vdb"});
 }
 
+// Some fragments written (the viewer's "save selected", `mtcut cut
+// --min-volume`): each level set is named by its fragment's number, as its
+// file is, not by its position in the list; a bad one is reported by it.
+TEST(CutVdb, LevelSetsOfSomeFragmentsKeepTheirNumbers)
+{
+    const Scene s;
+    test::TempDir dir;
+    const std::string path = dir.file("cut.vdb");
+    FragmentMesh a = s.boxA.view(), b = s.boxB.view();
+    a.index = 2;
+    b.index = 7;
+    writeCutVdb(path, s.volume, *s.carved, *s.mask, {a, b}, s.info);
+    openvdb::io::File file(path);
+    file.open();
+    std::vector<std::string> names;
+    for (auto it = file.beginName(); it != file.endName(); ++it) names.push_back(it.gridName());
+    file.close();
+    EXPECT_EQ(names, (std::vector<std::string>{"carved", "cut_mask", "fragment_002", "fragment_007"}));
+    FragmentMesh bad;
+    bad.index = 5;
+    try {
+        writeCutVdb(dir.file("bad.vdb"), s.volume, *s.carved, *s.mask, {a, bad}, s.info);
+        ADD_FAILURE() << "no error for an empty fragment";
+    } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()), "fragment 5: mesh has no triangles");
+    }
+}
+
 TEST(CutVdb, BadFragmentsAreInputErrorsAndWriteNothing)
 {
     const Scene s;

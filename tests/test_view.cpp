@@ -26,6 +26,7 @@
 #include <ImfInputFile.h>
 
 #include <glm/geometric.hpp>
+#include <openvdb/io/File.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -361,6 +362,17 @@ TEST_F(ViewScript, PickSelectsTheFragmentUnderTheCursorAndSavesIt)
     }
     EXPECT_EQ(files, 1u) << r.output;
     EXPECT_TRUE(cutter::checkMesh(cutter::readMesh(dir.file(std::string("out/") + name))).ok());
+    // Its level set in cut.vdb has its number too (it was fragment_000, by
+    // its place among the saved ones).
+    std::vector<std::string> grids;
+    {
+        openvdb::initialize();
+        openvdb::io::File vdbFile(dir.file("out/cut.vdb"));
+        vdbFile.open();
+        for (auto it = vdbFile.beginName(); it != vdbFile.endName(); ++it) grids.push_back(it.gridName());
+    }
+    const std::string levelSet = std::string(name).substr(0, std::string(name).size() - 4);
+    EXPECT_EQ(grids, (std::vector<std::string>{"carved", "cut_mask", levelSet}));
 
     writeText(dir.file("bad.txt"), "pick 3\n");
     const test::RunResult bad = runView(mHead + " --script " + dir.file("bad.txt"));

@@ -173,6 +173,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         fm.vertexCount = f.mesh.positions.size();
         fm.triangleIndices = f.mesh.indices.data();
         fm.triangleCount = f.mesh.triangleCount();
+        fm.index = i; // its level set is named as its file, also when only some are written
         fragmentMeshes.push_back(fm);
     }
     removeStaleFragments(outDir, written);

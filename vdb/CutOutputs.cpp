@@ -178,7 +178,8 @@ void writeCutVdb(const std::string& path, const Volume& volume, const openvdb::F
     // Check every fragment before the (long) level sets are made.
     std::vector<FragmentStats> stats;
     stats.reserve(fragments.size());
-    for (size_t f = 0; f < fragments.size(); ++f) stats.push_back(checkFragmentMesh(fragments[f], f));
+    auto numberOf = [&](size_t f) { return fragments[f].index == FragmentMesh::kByPosition ? f : fragments[f].index; };
+    for (size_t f = 0; f < fragments.size(); ++f) stats.push_back(checkFragmentMesh(fragments[f], numberOf(f)));
 
     openvdb::GridCPtrVec grids;
 
@@ -211,7 +212,7 @@ void writeCutVdb(const std::string& path, const Volume& volume, const openvdb::F
     std::atomic<size_t> done{0};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, fragments.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t f = range.begin(); f != range.end(); ++f) {
-            openvdb::FloatGrid::Ptr ls = fragmentToLevelSet(fragments[f], f, voxelMm, volume.origin(),
+            openvdb::FloatGrid::Ptr ls = fragmentToLevelSet(fragments[f], numberOf(f), voxelMm, volume.origin(),
                                                             options.halfWidthVoxels, interrupter ? &cancelOnly : nullptr);
             ls->insertMeta("mtcut:volume_mm3", openvdb::DoubleMetadata(stats[f].volumeMm3));
             ls->insertMeta("mtcut:area_mm2", openvdb::DoubleMetadata(stats[f].areaMm2));

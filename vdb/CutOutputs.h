@@ -48,7 +48,8 @@ extern const char* const kMtcutVersion;
 /// Names of the grids in cut.vdb.
 inline constexpr const char* kCarvedGridName = "carved";
 inline constexpr const char* kCutMaskGridName = "cut_mask";
-/// "fragment_000", "fragment_001", ... (index in the order given).
+/// "fragment_000", "fragment_001", ... (FragmentMesh::index, or the
+/// position in the order given).
 std::string fragmentGridName(size_t index);
 
 /// A closed triangle mesh as caller-owned flat arrays (not copied).
@@ -58,6 +59,12 @@ struct FragmentMesh
     size_t vertexCount = 0;
     const uint32_t* triangleIndices = nullptr; ///< 3 vertex indices per triangle, CCW seen from outside
     size_t triangleCount = 0;
+    /// Its number in the grid name (fragmentGridName) and in messages: the
+    /// fragment's file number when only some fragments are written (the
+    /// viewer's "save selected", `mtcut cut --min-volume`); kByPosition: its
+    /// position in the list given to writeCutVdb.
+    static constexpr size_t kByPosition = size_t(-1);
+    size_t index = kByPosition;
 };
 
 /// What produced the cut; goes into the file metadata.
