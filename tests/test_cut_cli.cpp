@@ -429,6 +429,67 @@ TEST(CutCli, CrumbIsListedWithTwoSignificantDigits)
     EXPECT_NEAR(std::stod(printed), volume, 0.0005);
 }
 
+// --min-volume: the same crumb (0.019 mm^3) gets no file and no level set;
+// the report and summary.json count it; a threshold above every fragment,
+// or not a volume, fails at once and writes nothing.
+TEST(CutCli, MinVolumeLeavesOutTheCrumbAndCountsIt)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = dir.file("cap.csv");
+    {
+        std::ofstream f(path);
+        for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",-22,14.97,0,1,0,45\n";
+    }
+    const std::string out = dir.file("out");
+    const auto r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check --min-volume 0.1");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(filesIn(out), (std::vector<std::string>{"cut.vdb", "fragment_000.stl", "slices.exr", "summary.json"}));
+    EXPECT_NE(r.output.find("left out:   1 fragment(s) under 0.1 mm^3 (--min-volume),      0.019 mm^3 in all, 1 with "
+                            "cut faces"),
+              std::string::npos)
+        << r.output;
+    EXPECT_NE(r.output.find("fragment_000..000.stl"), std::string::npos) << r.output;
+    const std::string json = readText(out + "/summary.json");
+    EXPECT_EQ(jsonValue(json, "min_volume_mm3"), 0.1) << json;
+    const size_t at = json.find("\"not_written\"");
+    ASSERT_NE(at, std::string::npos) << json;
+    EXPECT_EQ(jsonValue(json.substr(at), "fragments"), 1.0) << json;
+    EXPECT_NEAR(jsonValue(json.substr(at), "volume_mm3"), 0.019, 0.0005) << json;
+    EXPECT_EQ(jsonValue(json.substr(at), "with_cut_faces"), 1.0) << json;
+    EXPECT_EQ(countOf(json, "\"file\""), 1u) << json;
+    openvdb::io::File vdbFile(out + "/cut.vdb");
+    vdbFile.open();
+    std::vector<std::string> grids;
+    for (auto it = vdbFile.beginName(); it != vdbFile.endName(); ++it) grids.push_back(it.gridName());
+    vdbFile.close();
+    EXPECT_EQ(grids, (std::vector<std::string>{"carved", "cut_mask", "fragment_000"}));
+
+    // Without it, the default: both written, none counted out.
+    const auto all = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + dir.file("all"));
+    ASSERT_EQ(all.exitCode, 0) << all.output;
+    EXPECT_EQ(all.output.find("left out"), std::string::npos) << all.output;
+    const std::string allJson = readText(dir.file("all/summary.json"));
+    EXPECT_EQ(jsonValue(allJson, "min_volume_mm3"), 0.0);
+    EXPECT_EQ(jsonValue(allJson.substr(allJson.find("\"not_written\"")), "fragments"), 0.0) << allJson;
+
+    const std::string none = dir.file("none");
+    const auto big = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + none + " --min-volume 1e6");
+    EXPECT_EQ(big.exitCode, 1) << big.output;
+    EXPECT_NE(big.output.find("mtcut: error: --min-volume 1e6: every fragment is smaller (the largest is 1.41e+04 mm^3): "
+                              "nothing to write"),
+              std::string::npos)
+        << big.output;
+    EXPECT_TRUE(filesIn(none).empty());
+    for (const char* bad : {"-1", "nan", "inf", "abc"}) {
+        const auto b = runMtcut("cut " + ball + " --iso 0 -o " + none + " --min-volume " + bad);
+        EXPECT_EQ(b.exitCode, 1) << b.output;
+        EXPECT_NE(b.output.find(std::string("--min-volume ") + bad + ": expected"), std::string::npos) << b.output;
+        EXPECT_TRUE(filesIn(none).empty());
+    }
+}
+
 TEST(CutCli, BladeMissingTheSolidIsReportedAsNoCut)
 {
     openvdb::initialize();

@@ -59,8 +59,16 @@ std::string jsonNumber(double v)
     return buf;
 }
 
+/// The fragments not written (not selected): how many, their solid volume,
+/// and how many of them the blade touched.
+struct NotWritten
+{
+    size_t fragments = 0, withCutFaces = 0;
+    double volume = 0.0;
+};
+
 std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::vector<FragmentRecord>& fragments,
-                        const cutter::MeshCheck& c, const CutTimings& t)
+                        const NotWritten& notWritten, const cutter::MeshCheck& c, const CutTimings& t)
 {
     const std::string stroke =
         !r.strokeLabel.empty() ? r.strokeLabel : r.pathFile.empty() ? "built-in LeFort I" : "path file";
@@ -89,6 +97,10 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
            << ", \"cavities\": " << f.cavities << ", \"cut_area_mm2\": " << jsonNumber(f.cutArea) << "}";
     }
     os << (fragments.empty() ? "],\n" : "\n  ],\n");
+    os << "  \"min_volume_mm3\": " << jsonNumber(r.minVolumeMm3) << ",\n";
+    os << "  \"not_written\": {\"fragments\": " << notWritten.fragments
+       << ", \"volume_mm3\": " << jsonNumber(notWritten.volume) << ", \"with_cut_faces\": " << notWritten.withCutFaces
+       << "},\n";
     os << "  \"check\": {\"triangles\": " << c.triangles << ", \"vertices\": " << c.vertices
        << ", \"shells\": " << c.shells << ", \"unused_vertices\": " << c.unusedVertices
        << ", \"bad_index_triangles\": " << c.badIndexTriangles << ", \"boundary_edges\": " << c.boundaryEdges
@@ -159,6 +171,13 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     std::vector<FragmentRecord> records;
     std::set<std::string> written;
     std::vector<vdb::FragmentMesh> fragmentMeshes;
+    NotWritten notWritten;
+    for (size_t i = 0; i < fragments.size(); ++i) {
+        if (isSelected(i)) continue;
+        ++notWritten.fragments;
+        notWritten.volume += fragments[i].volume;
+        notWritten.withCutFaces += fragments[i].cutArea > 0.0;
+    }
     static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "glm::vec3 must be three packed floats");
     for (size_t i = 0; i < fragments.size(); ++i) {
         if (!isSelected(i)) continue;
@@ -211,7 +230,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         fs::remove(strokePath, ec); // an earlier run's built-in stroke: not this cut's
     }
     timings.write = since(t0);
-    const std::string json = summaryJson(request, mask.cutCellCount(), records, check, timings);
+    const std::string json = summaryJson(request, mask.cutCellCount(), records, notWritten, check, timings);
     writeFileAtomically(jsonPath, [&](const std::string& tmp) {
         std::ofstream out(tmp, std::ios::binary);
         out << json;

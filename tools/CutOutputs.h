@@ -52,6 +52,9 @@ struct CutOutputRequest
     /// and level sets; empty = all. Files keep their index in the full list
     /// (fragment_003.stl stays fragment 3), so a partial save is unambiguous.
     std::vector<bool> selected;
+    /// summary's "min_volume_mm3" (mtcut cut --min-volume: the fragments
+    /// below it are the ones not selected); 0 when every one is asked for.
+    double minVolumeMm3 = 0.0;
     /// Strokes cut only in part (summary's "refused"; empty: every stroke whole).
     std::vector<RefusedStroke> refused;
     /// The poses cut when no path file holds them (mtcut cut's built-in

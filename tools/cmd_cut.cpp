@@ -91,6 +91,9 @@ int runCut(const Args& args)
             throw InputError(outDir + ": exists and is not a folder");
         }
     }
+    const double minVolume = args.getDouble("min-volume", 0.0);
+    if (!(std::isfinite(minVolume) && minVolume >= 0.0))
+        throw InputError("--min-volume " + args.get("min-volume") + ": expected a volume in mm^3, 0 or more");
     const std::string pathFile = args.get("path");
     std::vector<std::vector<cutter::Pose>> strokes;
     if (!pathFile.empty()) strokes = readStrokes(pathFile);
@@ -163,6 +166,28 @@ int runCut(const Args& args)
     const cutter::MeshCheck check = cutter::checkMesh(fused);
     t.check = secondsSince(t0);
     if (fragments.empty()) throw InputError("the cut left no surface");
+    // --min-volume: the fragments below it get no file and no level set
+    // (a scan's loose specks: the 1 mm head at 400 HU has hundreds under
+    // 1 mm^3); summary.json counts them. They are the last ones (largest first).
+    std::vector<bool> selected;
+    size_t leftOut = 0, leftOutCut = 0;
+    double leftOutVolume = 0.0;
+    if (minVolume > 0.0) {
+        selected.resize(fragments.size());
+        for (size_t i = 0; i < fragments.size(); ++i) {
+            selected[i] = fragments[i].volume >= minVolume;
+            if (selected[i]) continue;
+            ++leftOut;
+            leftOutCut += fragments[i].cutArea > 0.0;
+            leftOutVolume += fragments[i].volume;
+        }
+        if (leftOut == fragments.size()) {
+            char largest[32];
+            std::snprintf(largest, sizeof largest, "%.3g", fragments.front().volume);
+            throw InputError("--min-volume " + args.get("min-volume") + ": every fragment is smaller (the largest is " +
+                             largest + " mm^3): nothing to write");
+        }
+    }
 
     // -- outputs (each file atomic; summary.json last) ------------------------
     CutOutputRequest request;
@@ -173,6 +198,8 @@ int runCut(const Args& args)
     request.isovalue = iso;
     request.kerfMm = kerf;
     request.refused = refused;
+    request.selected = selected;
+    request.minVolumeMm3 = minVolume;
     if (pathFile.empty()) request.strokesWithoutFile = strokes;
     std::vector<FragmentRecord> records;
     {
@@ -193,6 +220,10 @@ int runCut(const Args& args)
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),
                 fragments.size());
+    if (leftOut > 0)
+        std::printf("left out:   %zu fragment(s) under %g mm^3 (--min-volume), %s mm^3 in all, %zu with cut faces: no "
+                    "file, no level set\n",
+                    leftOut, minVolume, amountText(leftOutVolume).c_str(), leftOutCut);
     // Which fragments the blade touched: a cut that separates a piece leaves
     // cut faces on both sides; the other fragments were apart before (a
     // noisy scan has hundreds of loose specks).
@@ -202,8 +233,8 @@ int runCut(const Args& args)
         touched += r.cutArea > 0.0;
         cutArea += r.cutArea;
     }
-    std::printf("cut faces:  %s mm^2 on %zu fragment(s)%s\n", amountText(cutArea).c_str(), touched,
-                touched == 1 ? " (all on one: the cut separates no piece)" : "");
+    std::printf("cut faces:  %s mm^2 on %zu fragment(s)%s%s\n", amountText(cutArea).c_str(), touched,
+                leftOut > 0 ? " written" : "", touched == 1 && leftOutCut == 0 ? " (all on one: the cut separates no piece)" : "");
     // The largest fragments, then any other the blade touched; summary.json lists them all.
     constexpr size_t kListed = 12;
     size_t listed = 0;
@@ -222,7 +253,7 @@ int runCut(const Args& args)
                 "            (write: fragment files %.2f s, cut.vdb with the level sets %.2f s, slices.exr %.2f s)\n",
                 t.read, t.extract, t.mask, t.remesh, t.check, t.write, t.writeMeshes, t.writeVdb, t.writeSlices);
     std::printf("wrote:      %s/{fragment_000..%03zu.%s, cut.vdb, slices.exr, %ssummary.json}\n", outDir.c_str(),
-                fragments.size() - 1, ext.c_str(), pathFile.empty() ? "stroke.csv, " : "");
+                records.size() - 1, ext.c_str(), pathFile.empty() ? "stroke.csv, " : "");
 
     std::fflush(stdout); // warnings after the report, also when both go to one pipe
     if (!refused.empty())
@@ -256,16 +287,18 @@ int runCut(const Args& args)
 std::vector<std::string> cutOptions()
 {
     std::vector<std::string> o = kInputOptions;
-    for (const char* name : {"iso", "path", "kerf", "output", "format"}) o.push_back(name);
+    for (const char* name : {"iso", "path", "kerf", "output", "format", "min-volume"}) o.push_back(name);
     return o;
 }
 
-const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--check] [--keep-going]",
+const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--check] [--keep-going]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
                             "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
                             "going back into the cut adds nothing there. --kerf: saw width in mm, 0 to 20 (0: a zero-width blade, the "
-                            "carved volume equals the input); --check: exit 1 on any mesh defect; --keep-going: when the re-mesher refuses a "
+                            "carved volume equals the input); --min-volume: write no file or level set for a fragment "
+                            "smaller than MM3 (loose specks; summary.json counts them; default 0: every fragment); --check: "
+                            "exit 1 on any mesh defect; --keep-going: when the re-mesher refuses a "
                             "stroke, cut it up to where it is refused, drop the rest, say so and go on (default: exit 1, "
                             "nothing written)",
                             cutOptions(), {"check", "keep-going"}, 1, 1, runCut});
