@@ -71,6 +71,17 @@ std::string writeStraightPath(const TempDir& dir)
     return path;
 }
 
+/// A level stroke along x at z = 14.97 mm, its 45 mm blade along +y from
+/// y = -22: it slices the ball's cap above that height off, a crumb of
+/// about 0.019 mm^3.
+std::string writeCapPath(const TempDir& dir)
+{
+    const std::string path = dir.file("cap.csv");
+    std::ofstream f(path);
+    for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",-22,14.97,0,1,0,45\n";
+    return path;
+}
+
 std::string readText(const std::string& path)
 {
     std::ifstream in(path, std::ios::binary);
@@ -405,11 +416,7 @@ TEST(CutCli, CrumbIsListedWithTwoSignificantDigits)
     openvdb::initialize();
     TempDir dir;
     const std::string ball = writeBall(dir);
-    const std::string path = dir.file("cap.csv");
-    {
-        std::ofstream f(path);
-        for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",-22,14.97,0,1,0,45\n";
-    }
+    const std::string path = writeCapPath(dir);
     const std::string out = dir.file("out");
     const auto r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check");
     ASSERT_EQ(r.exitCode, 0) << r.output;
@@ -437,11 +444,7 @@ TEST(CutCli, MinVolumeLeavesOutTheCrumbAndCountsIt)
     openvdb::initialize();
     TempDir dir;
     const std::string ball = writeBall(dir);
-    const std::string path = dir.file("cap.csv");
-    {
-        std::ofstream f(path);
-        for (int i = 0; i <= 200; ++i) f << 0.001 * i << "," << -25.0 + 50.0 * i / 200 << ",-22,14.97,0,1,0,45\n";
-    }
+    const std::string path = writeCapPath(dir);
     const std::string out = dir.file("out");
     const auto r = runMtcut("cut " + ball + " --iso 0 --path " + path + " -o " + out + " --check --min-volume 0.1");
     ASSERT_EQ(r.exitCode, 0) << r.output;

@@ -1471,6 +1471,24 @@ struct HeadStrokeCut
             result = tryUpdate(remesher, mask);
         }
     }
+    /// The strokes before upTo.stroke whole and its quads up to upTo.quad,
+    /// cut from scratch (a state a live stroke updated after every quad is in).
+    struct UpToQuad
+    {
+        size_t stroke, quad;
+    };
+    HeadStrokeCut(const std::string& path, uint32_t seed, double kerf, UpToQuad upTo)
+        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false})),
+          mask(frameOf(vol), kerf), remesher(vol, 400.0f, uncut)
+    {
+        const auto all = randomStrokes(mask.frame(), seed, int(upTo.stroke) + 1);
+        for (size_t s = 0; s <= upTo.stroke; ++s) {
+            const std::vector<Quad> quads = filterStroke(all[s], mask.frame());
+            mask.beginStroke();
+            for (size_t q = 0; q < quads.size() && (s < upTo.stroke || q <= upTo.quad); ++q) mask.addQuad(quads[q]);
+        }
+        result = tryUpdate(remesher, mask);
+    }
     vdb::Volume vol;
     Mesh uncut;
     CutMask mask;
@@ -1766,29 +1784,6 @@ TEST(CutPropsDefects, ACapTriangleWithACornerOfItsOwnSideGetsNoCentre)
     expectCleanRandomCut(path4, "4 mm head", 8014, 4, 0.0);
 }
 
-/// The random strokes of `seed` on `path` at 400 with kerf w: the strokes
-/// before `stroke` whole and its quads up to `lastQuad`, cut from scratch.
-struct PartStrokeCut
-{
-    PartStrokeCut(const std::string& path, double kerf, uint32_t seed, size_t stroke, size_t lastQuad)
-        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false})),
-          mask(frameOf(vol), kerf), remesher(vol, 400.0f, uncut)
-    {
-        const auto strokes = randomStrokes(mask.frame(), seed, int(stroke) + 1);
-        for (size_t s = 0; s <= stroke; ++s) {
-            const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
-            mask.beginStroke();
-            for (size_t q = 0; q < quads.size() && (s < stroke || q <= lastQuad); ++q) mask.addQuad(quads[q]);
-        }
-        result = tryUpdate(remesher, mask);
-    }
-    vdb::Volume vol;
-    Mesh uncut;
-    CutMask mask;
-    CutRemesher remesher;
-    UpdateResult result;
-};
-
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between
@@ -1806,7 +1801,7 @@ struct PartStrokeCut
 TEST(CutPropsDefects, ASliverFlattenedIntoACellFaceFromBothSidesGoes)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
-    PartStrokeCut cut(path, 0.0, 8023, 3, 41);
+    HeadStrokeCut cut(path, 8023, 0.0, HeadStrokeCut::UpToQuad{3, 41});
     ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
     const CutRemesher& remesher = cut.remesher;
     // The two cells each have a triangle the face rule put into face y = 37,
@@ -1841,7 +1836,7 @@ TEST(CutPropsDefects, ASliverFlattenedIntoACellFaceFromBothSidesGoes)
     EXPECT_EQ(written + 2, inCells);
 
     MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
-    PartStrokeCut toothCut(tooth, 0.5, 8035, 1, 41);
+    HeadStrokeCut toothCut(tooth, 8035, 0.5, HeadStrokeCut::UpToQuad{1, 41});
     ASSERT_EQ(toothCut.result.outcome, Outcome::Ok) << "tooth: " << toothCut.result.message;
     size_t intoFace = 0;
     for (const auto& [c, g] : toothCut.remesher.cells()) intoFace += g.intoFace.size();
