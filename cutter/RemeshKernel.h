@@ -201,6 +201,12 @@ public:
     /// inside a tet on four or more planes, whose position is its first
     /// maker's.
     void skipOutsideCapsForTesting(bool skip);
+    /// For tests: whether the kernel leaves out a tet's mitres (kerf > 0)
+    /// that the partner prism holds whole (capOutside; on by default). The
+    /// output is then as with skipOutsideCapsForTesting. The GPU cut pass's
+    /// port (shaders/cut_arrange.glsl) does not yet: its arrangement tests
+    /// compare it with this off.
+    void skipHeldMitresForTesting(bool skip);
     /// For tests: whether the kernel answers a repeated naming (the same
     /// simplex and planes again in one tet) from its memo (on by default).
     /// The output is the same either way.

@@ -1218,8 +1218,9 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
 
 // A tet's caps that can keep no piece (the section of the tet by the cap's
 // plane holds no point, by 1e-9 (1 + |x|) voxel, both inside the cap's own
-// quad, at kerf > 0 its closed prism, and inside the solid) are left out of
-// the arrangement (RemeshKernel::capSurfaces). That changes no vertex name
+// quad, at kerf > 0 its closed prism, and inside the solid), and at kerf > 0
+// the mitres that the partner prism holds whole, are left out of the
+// arrangement (RemeshKernel::capSurfaces, capOutside). That changes no vertex name
 // and no triangle of any cell: only a vertex inside a tet on four or more
 // planes can take its position from another of the surfaces that make it
 // (at most 2e-13 voxel apart, measured on the phantom, the tooth and the heads). Every
@@ -1227,12 +1228,14 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
 // and without the rule; and the rule must leave caps out, or this tests
 // nothing. Dropping a cap that has a kept piece opens the surface (an
 // unordered section clipped as a polygon did: 13 of 40 strokes on the 4 mm
-// head refused), and this test then sees other triangles.
+// head refused), and this test then sees other triangles (so it does when
+// every mitre is left out: some wedges of them are kept).
 TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
 {
     struct Tally
     {
-        size_t cells = 0, triangles = 0, refused = 0, capsLeft = 0, capsAll = 0, moved = 0;
+        size_t cells = 0, triangles = 0, refused = 0, capsLeft = 0, capsAll = 0, moved = 0, mitresLeft = 0,
+               mitresAll = 0;
         double worst = 0.0;
     };
     auto compare = [](const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes, Tally& t) {
@@ -1260,14 +1263,18 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
             }
             for (remesh_detail::CellKernel* k : {&skipping, &arranging})
                 for (const auto& tet : k->arrangementForTesting(c, quads, kerf > 0))
-                    for (const auto& surface : tet.surfaces)
+                    for (const auto& surface : tet.surfaces) {
                         (k == &skipping ? t.capsLeft : t.capsAll) += surface.plane > 3; // iso polygons: 2, 3
+                        (k == &skipping ? t.mitresLeft : t.mitresAll) +=
+                            surface.plane > 3 && (surface.plane & 15) == uint64_t(remesh_detail::kJunctionKind);
+                    }
         });
     };
     auto report = [](const char* what, double kerf, const Tally& t) {
         std::printf("%s, kerf %.1f: %zu cut cells (%zu refused both ways), %zu triangles, caps arranged %zu of %zu, "
-                    "%zu vertex positions differ, by at most %.3g voxel\n",
-                    what, kerf, t.cells, t.refused, t.triangles, t.capsLeft, t.capsAll, t.moved, t.worst);
+                    "mitres %zu of %zu, %zu vertex positions differ, by at most %.3g voxel\n",
+                    what, kerf, t.cells, t.refused, t.triangles, t.capsLeft, t.capsAll, t.mitresLeft, t.mitresAll,
+                    t.moved, t.worst);
     };
     vdb::PhantomOptions options;
     options.dims = Coord(160, 160, 128);
@@ -1281,6 +1288,8 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
         report("phantom", kerf, t);
         EXPECT_GT(t.triangles, 50000u);
         EXPECT_LT(t.capsLeft, t.capsAll);
+        // Kerf > 0: the mitres a partner prism holds (capOutside) are most.
+        if (kerf > 0) EXPECT_LT(4 * t.mitresLeft, t.mitresAll);
         EXPECT_LE(t.worst, 1e-12);
         if (head.empty()) continue;
         // Seeds whose cuts have vertices on four planes inside a tet at kerf 0.5.
@@ -1293,6 +1302,7 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
         report("4 mm head", kerf, h);
         EXPECT_GT(h.triangles, 3000u);
         EXPECT_LT(h.capsLeft, h.capsAll);
+        if (kerf > 0) EXPECT_LT(4 * h.mitresLeft, h.mitresAll);
         EXPECT_LE(h.worst, 1e-12);
     }
 }

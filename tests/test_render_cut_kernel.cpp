@@ -234,6 +234,7 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
 {
     ArrangeTally t;
     CellKernel cpu(vol, iso);
+    cpu.skipHeldMitresForTesting(false); // as the GPU port arranges them (RemeshKernel.h)
     for (uint32_t seed = first; seed < first + count; ++seed) {
         const std::unique_ptr<RandomCut> cutPtr = makeCut(seed);
         const RandomCut& cut = *cutPtr;
