@@ -1289,7 +1289,9 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
         EXPECT_GT(t.triangles, 50000u);
         EXPECT_LT(t.capsLeft, t.capsAll);
         // Kerf > 0: the mitres a partner prism holds (capOutside) are most.
-        if (kerf > 0) EXPECT_LT(4 * t.mitresLeft, t.mitresAll);
+        if (kerf > 0) {
+            EXPECT_LT(4 * t.mitresLeft, t.mitresAll);
+        }
         EXPECT_LE(t.worst, 1e-12);
         if (head.empty()) continue;
         // Seeds whose cuts have vertices on four planes inside a tet at kerf 0.5.
@@ -1302,7 +1304,9 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
         report("4 mm head", kerf, h);
         EXPECT_GT(h.triangles, 3000u);
         EXPECT_LT(h.capsLeft, h.capsAll);
-        if (kerf > 0) EXPECT_LT(4 * h.mitresLeft, h.mitresAll);
+        if (kerf > 0) {
+            EXPECT_LT(4 * h.mitresLeft, h.mitresAll);
+        }
         EXPECT_LE(h.worst, 1e-12);
     }
 }
