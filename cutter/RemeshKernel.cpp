@@ -1726,6 +1726,7 @@ void RemeshKernel::capSurfaces()
     // coincident faces of later prisms joined to them (Surface::also).
     const size_t first = surfaces.size();
     SmallVector<const FacePlane*, 8> faceOf; // per new surface
+    SmallVector<Corners, 8> sectionOf;       // per new surface: its section's corners
     Corners at;
     double h[4];
     for (const FacePlane& fp : facePlanes) {
@@ -1755,6 +1756,7 @@ void RemeshKernel::capSurfaces()
         if (mPrism) s.sides = 1;
         surfaces.push_back(std::move(s));
         faceOf.push_back(&fp);
+        sectionOf.push_back(at);
     }
     // Then each one's polygon, or, when no piece of it can be kept, none:
     // a cap's pieces are kept only inside its own quad (kerf > 0: its own
@@ -1766,12 +1768,12 @@ void RemeshKernel::capSurfaces()
     for (size_t k = first; k < surfaces.size(); ++k) {
         Surface& s = surfaces[k];
         const FacePlane& fp = *faceOf[k - first];
-        section(fp.plane, at, h);
-        bool outside = mSkipOutsideCaps && capOutside(*s.quad, fp.id, at);
-        for (const QuadGeom* o : s.also) outside = outside && capOutside(*o, fp.id, at);
+        const Corners& corners = sectionOf[k - first];
+        bool outside = mSkipOutsideCaps && capOutside(*s.quad, fp.id, corners);
+        for (const QuadGeom* o : s.also) outside = outside && capOutside(*o, fp.id, corners);
         if (outside) continue;
         SmallVector<std::pair<int, dvec3>, 8> pts; // vertex, position
-        for (const auto& [support, x] : at) pts.push_back({makeVertex(support, {fp.id}, x), x});
+        for (const auto& [support, x] : corners) pts.push_back({makeVertex(support, {fp.id}, x), x});
         dvec3 c(0.0);
         for (const auto& p : pts) c += p.second;
         c /= double(pts.size());
