@@ -1814,9 +1814,19 @@ bool RemeshKernel::capOutside(const QuadGeom& q, uint64_t face, const SmallVecto
     auto clip = [&](const Clip& in, const Plane& plane, double orient, Clip& out) {
         out.clear();
         const size_t n = in.size();
+        SmallVector<double, 16> hv(n); // each corner's grown value once
+        bool allIn = true;
+        for (size_t i = 0; i < n; ++i) {
+            hv[i] = orient * plane.h(in[i]) + grow(in[i]);
+            allIn = allIn && hv[i] >= 0;
+        }
+        if (allIn) { // every corner kept, no crossing
+            out = in;
+            return n > 0;
+        }
         for (size_t i = 0; i < n; ++i) {
             const dvec3 &a = in[i], &b = in[(i + 1) % n];
-            const double ha = orient * plane.h(a) + grow(a), hb = orient * plane.h(b) + grow(b);
+            const double ha = hv[i], hb = hv[(i + 1) % n];
             if (ha >= 0) out.push_back(a);
             if ((ha >= 0) != (hb >= 0)) out.push_back(a + (ha / (ha - hb)) * (b - a));
         }
