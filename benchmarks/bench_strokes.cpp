@@ -1,0 +1,190 @@
+// bench_strokes: seeded random strokes cut on a CT volume the way a live
+// stroke cuts them, to count what the re-mesher refuses. Not a test (it
+// asserts nothing and takes minutes); the sweeps in benchmarks/RESULTS.md
+// ("Updates after every quad", "Where a step's instructions go") were made
+// with it or its scratch forerunners.
+//
+// Each seed: `--strokes` strokes of cutter::makeRandomStrokes with the
+// parameters tests/test_cut_props.cpp varies by seed (150 + 50 (seed % 5)
+// poses, 0.4 + 0.2 (seed % 4) mm a pose, blade 20 + 10 (seed % 4) mm), one
+// after another on one mask, then checkMesh of the fused mesh. How a stroke
+// is updated (--mode):
+//   live    a cutter::LiveStroke updated after every quad (the viewer's and
+//           `mtcut cut --keep-going`'s policy: a refused update is waited out,
+//           8 in a row or a refused last one stop the stroke); the default;
+//   quad    update() after every quad, every refused update counted; the
+//           quads stay in the mask, so a refusal that stays repeats;
+//   stroke  one update() per stroke; a refused stroke is undone
+//           (CutMask::undoStroke), as a user would.
+// Prints a line per seed (`seed=...`: strokes stopped, updates deferred or
+// refused, checkMesh defects of the fused mesh, and each stroke's first
+// refusal), then a summary line (`summary ...`). Exit status 1 when a fused
+// mesh has a defect (a refusal is not one: the re-mesher refuses rather
+// than write a broken surface).
+//
+// Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
+//                      [--mode live|quad|stroke] [--threads N]
+// VOLUME is anything `mtcut` reads (a DICOM folder, .nhdr, .nii.gz, ...).
+// Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, live, one thread.
+#include "benchmarks/BenchUtil.h"
+#include "cutter/BladePath.h"
+#include "cutter/CutMask.h"
+#include "cutter/Isosurface.h"
+#include "cutter/LiveStroke.h"
+#include "cutter/MeshCheck.h"
+#include "cutter/Remesh.h"
+#include "vdb/VolumeIO.h"
+
+#include <tbb/global_control.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <string>
+#include <vector>
+
+using namespace mtcut;
+using namespace mtcut::cutter;
+
+namespace {
+
+enum class Mode { Live, Quad, Stroke };
+
+struct Totals
+{
+    size_t seeds = 0, strokes = 0, stopped = 0, deferred = 0, refused = 0, defects = 0, dirtySeeds = 0;
+};
+
+[[noreturn]] void usage(const char* why)
+{
+    std::fprintf(stderr,
+                 "bench_strokes: %s\nusage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N] "
+                 "[--mode live|quad|stroke] [--threads N]\n",
+                 why);
+    std::exit(2);
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    if (argc < 2 || argv[1][0] == '-') usage("no volume given");
+    const std::string path = argv[1];
+    float iso = 400.0f;
+    double kerf = 0.5;
+    long seedLo = 8000, seedHi = 8009;
+    int strokes = 4, threads = 1;
+    Mode mode = Mode::Live;
+    for (int i = 2; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (i + 1 >= argc) usage(("missing value after " + a).c_str());
+        const char* v = argv[++i];
+        char* end = nullptr;
+        if (a == "--iso") {
+            iso = std::strtof(v, &end);
+        } else if (a == "--kerf") {
+            kerf = std::strtod(v, &end);
+            if (!(kerf >= 0.0)) usage("--kerf wants a width >= 0 mm");
+        } else if (a == "--seeds") {
+            seedLo = std::strtol(v, &end, 10);
+            seedHi = seedLo;
+            if (*end == '-') seedHi = std::strtol(end + 1, &end, 10);
+            if (seedLo < 0 || seedHi < seedLo) usage("--seeds wants A or A-B with 0 <= A <= B");
+        } else if (a == "--strokes") {
+            strokes = int(std::strtol(v, &end, 10));
+            if (strokes < 1) usage("--strokes wants a positive count");
+        } else if (a == "--threads") {
+            threads = int(std::strtol(v, &end, 10));
+            if (threads < 1) usage("--threads wants a positive count");
+        } else if (a == "--mode") {
+            const std::string m = v;
+            mode = m == "live" ? Mode::Live : m == "quad" ? Mode::Quad : m == "stroke" ? Mode::Stroke : (usage("--mode wants live, quad or stroke"), Mode::Live);
+            end = const_cast<char*>(v) + m.size();
+        } else {
+            usage(("unknown option " + a).c_str());
+        }
+        if (!end || *end != '\0') usage(("not a number: " + a + " " + v).c_str());
+    }
+    openvdb::initialize();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    vdb::Volume vol;
+    try {
+        vol = vdb::readVolume(path);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_strokes: %s\n", e.what());
+        return 1;
+    }
+    const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
+    const IndexFrame frame = frameOf(vol);
+    const char* modeName = mode == Mode::Live ? "live" : mode == Mode::Quad ? "quad" : "stroke";
+    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d mode=%s threads=%d uncut_tris=%zu\n", path.c_str(),
+                double(iso), kerf, seedLo, seedHi, strokes, modeName, threads, uncut.triangleCount());
+    std::fflush(stdout);
+    Totals total;
+    const auto t0 = bench::Clock::now();
+    for (long seed = seedLo; seed <= seedHi; ++seed) {
+        const auto ts = bench::Clock::now();
+        const uint32_t s32 = uint32_t(seed);
+        CutMask mask(frame, kerf);
+        CutRemesher remesher(vol, iso, uncut);
+        const auto all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
+                                           20.0 + 10.0 * (s32 % 4));
+        size_t stopped = 0, deferred = 0, refused = 0;
+        std::string notes;
+        for (size_t s = 0; s < all.size(); ++s) {
+            const std::vector<Quad> quads = filterStroke(all[s], frame);
+            if (quads.empty()) continue;
+            if (mode == Mode::Live) {
+                LiveStroke live(mask, remesher);
+                LiveStroke::Result r;
+                for (size_t q = 0; q < quads.size() && live.add(quads[q]); ++q) {
+                    r = q + 1 < quads.size() ? live.update() : live.finish();
+                    deferred += r.outcome == LiveStroke::Outcome::Deferred;
+                    if (r.outcome == LiveStroke::Outcome::Stopped) break;
+                }
+                if (live.stopped()) {
+                    ++stopped;
+                    notes += " | stroke " + std::to_string(s) + " stopped, " + std::to_string(live.acceptedQuads()) + " of " +
+                             std::to_string(quads.size()) + " quads kept: " + r.refusal;
+                }
+            } else {
+                mask.beginStroke();
+                size_t strokeRefused = 0;
+                for (size_t q = 0; q < quads.size(); ++q) {
+                    mask.addQuad(quads[q]);
+                    if (mode == Mode::Stroke && q + 1 < quads.size()) continue;
+                    try {
+                        remesher.update(mask);
+                    } catch (const std::exception& e) {
+                        if (strokeRefused++ == 0) // the first refusal of the stroke, with its reason
+                            notes += " | stroke " + std::to_string(s) + " quad " + std::to_string(q) + " of " +
+                                     std::to_string(quads.size()) + ": " + e.what();
+                        if (mode == Mode::Stroke) {
+                            mask.undoStroke(); // the refused stroke goes, as a user would undo it
+                            remesher.update(mask);
+                        }
+                    }
+                }
+                if (strokeRefused > 1) notes += " (" + std::to_string(strokeRefused) + " updates refused)";
+                refused += strokeRefused;
+            }
+        }
+        const MeshCheck check = checkMesh(remesher.fusedMesh());
+        total.seeds += 1;
+        total.strokes += all.size();
+        total.stopped += stopped;
+        total.deferred += deferred;
+        total.refused += refused;
+        total.defects += check.defects();
+        total.dirtySeeds += check.defects() != 0;
+        std::printf("seed=%ld stopped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f%s\n", seed, stopped, deferred, refused,
+                    check.defects(), bench::msSince(ts), notes.c_str());
+        std::fflush(stdout);
+    }
+    std::printf("summary seeds=%zu strokes=%zu stopped=%zu deferred=%zu refused=%zu defects=%zu seeds_with_defects=%zu "
+                "s=%.1f\n",
+                total.seeds, total.strokes, total.stopped, total.deferred, total.refused, total.defects, total.dirtySeeds,
+                bench::msSince(t0) / 1e3);
+    return total.defects != 0 ? 1 : 0;
+}
