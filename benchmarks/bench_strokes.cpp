@@ -99,8 +99,11 @@ int main(int argc, char** argv)
             if (threads < 1) usage("--threads wants a positive count");
         } else if (a == "--mode") {
             const std::string m = v;
-            mode = m == "live" ? Mode::Live : m == "quad" ? Mode::Quad : m == "stroke" ? Mode::Stroke : (usage("--mode wants live, quad or stroke"), Mode::Live);
-            end = const_cast<char*>(v) + m.size();
+            if (m == "live") mode = Mode::Live;
+            else if (m == "quad") mode = Mode::Quad;
+            else if (m == "stroke") mode = Mode::Stroke;
+            else usage("--mode wants live, quad or stroke");
+            continue;
         } else {
             usage(("unknown option " + a).c_str());
         }
