@@ -37,6 +37,8 @@
 
 #include <tbb/global_control.h>
 
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -83,6 +85,7 @@ int main(int argc, char** argv)
         char* end = nullptr;
         if (a == "--iso") {
             iso = std::strtof(v, &end);
+            if (!std::isfinite(iso)) usage("--iso wants a finite value");
         } else if (a == "--kerf") {
             kerf = std::strtod(v, &end);
             if (!(kerf >= 0.0)) usage("--kerf wants a width >= 0 mm");
@@ -90,7 +93,8 @@ int main(int argc, char** argv)
             seedLo = std::strtol(v, &end, 10);
             seedHi = seedLo;
             if (*end == '-') seedHi = std::strtol(end + 1, &end, 10);
-            if (seedLo < 0 || seedHi < seedLo) usage("--seeds wants A or A-B with 0 <= A <= B");
+            if (seedLo < 0 || seedHi < seedLo || seedHi > long(UINT32_MAX))
+                usage("--seeds wants A or A-B with 0 <= A <= B < 2^32");
         } else if (a == "--strokes") {
             strokes = int(std::strtol(v, &end, 10));
             if (strokes < 1) usage("--strokes wants a positive count");
