@@ -46,7 +46,7 @@ Build buildOf(const std::string& name)
 {
     if (name == "surface") return {{"surface.vert", "surface.frag"}, {}};
     if (name.rfind("cut_", 0) == 0) return {{name}, render::cutPassLibrary(name)};
-    if (name == "poly2_test.comp") return {{name}, render::shaderSource("poly2.glsl")};
+    if (name == "poly2_test.comp") return {{name}, render::poly2Library()};
     if (name == "mask_query.comp") return {{name}, render::shaderSource("mask.glsl")};
     throw std::runtime_error("unknown program " + name);
 }

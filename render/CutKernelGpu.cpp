@@ -279,11 +279,13 @@ std::string cutPassLibrary(const std::string& name)
     const bool big = name == "cut_arrange.vert" || name == "cut_regions.vert";
     const char* vendor = reinterpret_cast<const char*>(glGetString(GL_VENDOR));
     std::string library = big && vendor && std::strstr(vendor, "NVIDIA") ? "#pragma optionNV(unroll none)\n" : "";
-    library += shaderSource("cut_kernel.glsl");
+    library += shaderSource("doubles.glsl") + shaderSource("cut_kernel.glsl");
     if (big) library += arrangeDefines() + shaderSource("cut_arrange.glsl");
     if (name == "cut_regions.vert") library += shaderSource("poly2.glsl") + shaderSource("cut_regions.glsl");
     return library;
 }
+
+std::string poly2Library() { return shaderSource("doubles.glsl") + shaderSource("poly2.glsl"); }
 
 GpuCutKernel::GpuCutKernel()
     : mPhaseOne(buildProgram({"cut_phase_one.comp"}, cutPassLibrary("cut_phase_one.comp"))),

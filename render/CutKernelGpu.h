@@ -121,6 +121,10 @@ struct GpuArrangedTet
 /// in 270 s without). Reads the current context's GL_VENDOR.
 std::string cutPassLibrary(const std::string& name);
 
+/// poly2.glsl with doubles.glsl in front, for a program of poly2's own
+/// (poly2_test.comp).
+std::string poly2Library();
+
 /// One cut cell's geometry as the GPU cut pass makes it (the triangles of
 /// its five tets, before the CPU's float repairs: CellKernel::finish).
 struct GpuCutCell

@@ -387,10 +387,10 @@ bool inSlitOpen(int v, int q)
 /// plane of quad r, which crosses o's?
 bool rimLineIn(int o, uint s, int r)
 {
-    if (!(length(cross(kQuads[o].plane.xyz, kQuads[r].plane.xyz)) > 1e-9lf)) return false;
-    const dvec3 d = cross(kQuads[o].plane.xyz, kSides[s].plane.xyz);
-    const double len = length(d);
-    return len > 1e-12lf && abs(dot(d, kQuads[r].plane.xyz)) <= 1e-9lf * len;
+    if (!(length3(cross3(kQuads[o].plane.xyz, kQuads[r].plane.xyz)) > 1e-9lf)) return false;
+    const dvec3 d = cross3(kQuads[o].plane.xyz, kSides[s].plane.xyz);
+    const double len = length3(d);
+    return len > 1e-12lf && abs(dot3(d, kQuads[r].plane.xyz)) <= 1e-9lf * len;
 }
 
 /// RemeshKernel::onStripRim.
@@ -741,7 +741,7 @@ bool capPolygon(int s)
     for (int i = 0; i < n; ++i) c = c + D3GET(ppBits, i);
     c = c / double(n);
     const dvec3 d0 = D3GET(ppBits, 0) - c;
-    const double inv = 1.0lf / sqrt(dot3(d0, d0));
+    const double inv = 1.0lf / dSqrt(dot3(d0, d0));
     const dvec3 e1 = d0 * inv; // glm::normalize
     const dvec3 e2 = cross3(normal, e1);
     dvec2 a0 = dvec2(dot3(D3GET(ppBits, 0) - c, e1), dot3(D3GET(ppBits, 0) - c, e2));
@@ -1000,7 +1000,7 @@ void conformPieces()
                     const double t = dot3(gVPos(x) - a, d) / dd;
                     if (!(t > 1e-12lf && t < 1.0lf - 1e-12lf)) continue;
                     precise dvec3 foot = a + t * d;
-                    if (length3(gVPos(x) - foot) > 1e-9lf * (1.0lf + sqrt(dd))) continue;
+                    if (length3(gVPos(x) - foot) > 1e-9lf * (1.0lf + dSqrt(dd))) continue;
                     const bool above = lastX < 0 || t > lastT || (t == lastT && x > lastX);
                     if (!above) continue;
                     if (!found || t < bestT || (t == bestT && x < bestX)) {

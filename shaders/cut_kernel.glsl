@@ -16,8 +16,9 @@
 // planes gathered once (tetBegin, which callers of the functions after it
 // run first); a point's name (the planes makeVertex names it by) and a
 // vertex's position from its name (canonicalPosition). Checked bit for bit against the CPU by
-// tests/test_render_cut_kernel.cpp. The 2-D polygon helpers are poly2.glsl.
-#extension GL_ARB_gpu_shader_int64 : require
+// tests/test_render_cut_kernel.cpp. The 2-D polygon helpers are poly2.glsl;
+// doubles.glsl (in front of this file) enables 64-bit integers and rounds
+// square roots as the C++.
 
 // Doubles in private arrays are kept as their bits (unpackDouble2x32):
 // NVIDIA's driver (580.159.04, H100) kept only a float's precision of a
@@ -97,7 +98,7 @@ dvec3 cross3(dvec3 x, dvec3 y)
     precise dvec3 r = dvec3(x.y * y.z - y.y * x.z, x.z * y.x - y.z * x.x, x.x * y.y - y.x * x.y);
     return r;
 }
-double length3(dvec3 v) { return sqrt(dot3(v, v)); }
+double length3(dvec3 v) { return dSqrt(dot3(v, v)); }
 double planeH(dvec4 p, dvec3 x)
 {
     precise double r = dot3(p.xyz, x) - p.w;

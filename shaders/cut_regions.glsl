@@ -260,7 +260,7 @@ void planeAxes(dvec3 n, out dvec3 e1, out dvec3 e2)
     const dvec3 a = abs(n.x) < 0.9lf ? dvec3(1.0lf, 0.0lf, 0.0lf) : dvec3(0.0lf, 1.0lf, 0.0lf);
     const double d = dot3(n, a);
     precise dvec3 u = dvec3(a.x - n.x * d, a.y - n.y * d, a.z - n.z * d);
-    const double inv = 1.0lf / sqrt(dot3(u, u)); // glm::normalize
+    const double inv = 1.0lf / dSqrt(dot3(u, u)); // glm::normalize
     e1 = u * inv;
     e2 = cross3(n, e1);
 }

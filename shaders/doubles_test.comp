@@ -1,5 +1,4 @@
 #version 450 core
-#extension GL_ARB_gpu_shader_int64 : require
 // Doubles along each path and in each kind of storage a shader can keep them
 // in, written back bit for bit (tests/test_render_poly2.cpp,
 // RenderPoly2.DoublesReachTheShaderUnrounded). On NVIDIA 580.159.04 (H100) a
@@ -9,8 +8,9 @@
 // There, writing a dvec3's component at a run-time index (v[k] = x) does not
 // link ("fatal error C9999: can't find __setVectorIndex function in
 // stdlib"), so it is not among the paths. Division and square root: GLSL
-// asks no correct rounding of them; ddiv and dsqrt are candidates that
-// correct the driver's quotient and root to the nearest double.
+// asks no correct rounding of them; the driver's are recorded, and
+// doubles.glsl's corrections (dDivFrom, dSqrtFrom, put in front of this file)
+// from a quotient and a root an ulp off.
 // Record i: PATHS doubles as unpackDouble2x32 pairs.
 layout(local_size_x = 16) in;
 
@@ -20,7 +20,7 @@ layout(std430, binding = 2) writeonly buffer Out { uvec2 uOut[]; };
 layout(std430, binding = 3) readonly buffer Index { int uIndex[]; }; // a permutation of the inputs
 uniform uint uCount;
 
-#define PATHS 28
+#define PATHS 29
 
 dvec2 gArray[16]; // a per-invocation global array
 int gCount;
@@ -63,66 +63,6 @@ void fillOut(dvec3 v, int k, out dvec3 pp[4]) // an out array parameter (as cut_
 {
     for (int j = 0; j < 4; ++j) pp[j] = dvec3(0.0lf);
     pp[k] = v;
-}
-
-// The exact a - c b as a double (one rounding at the end): Dekker's product
-// (Veltkamp's split; precise: no fma), for c near a / b.
-void splitDouble(double x, out double hi, out double lo)
-{
-    precise double t = 134217729.0lf * x;
-    precise double h = t - (t - x);
-    hi = h;
-    precise double l = x - h;
-    lo = l;
-}
-double residual(double a, double c, double b)
-{
-    double ch, cl, bh, bl;
-    splitDouble(c, ch, cl);
-    splitDouble(b, bh, bl);
-    precise double p = c * b;
-    precise double e = ((ch * bh - p) + ch * bl + cl * bh) + cl * bl; // c b = p + e exactly
-    precise double r = (a - p) - e;
-    return r;
-}
-double nextToward(double x, bool up) // the neighbouring double of a finite x != 0
-{
-    const uint64_t u = doubleBitsToUint64(x);
-    return uint64BitsToDouble((x > 0.0lf) == up ? u + 1ul : u - 1ul);
-}
-// a / b rounded to nearest from q, within an ulp of it: of q and its two neighbours,
-// the one with the least |a - c b| (a quotient of doubles is never half way).
-double ddivFrom(double a, double b, double q)
-{
-    if (q == 0.0lf || isinf(q) || isnan(q)) return q;
-    double best = q, bestR = abs(residual(a, q, b));
-    for (int s = 0; s < 2; ++s) {
-        const double c = nextToward(q, s == 1);
-        const double r = abs(residual(a, c, b));
-        if (r < bestR) {
-            best = c;
-            bestR = r;
-        }
-    }
-    return best;
-}
-// sqrt(a) rounded to nearest from s, within an ulp of it: of s and its neighbours, the
-// one with the least |a - c c| (a root is never half way either; the
-// factor sqrt(a) + c between the two criteria differs by an ulp or two
-// between neighbours, which could decide only a root within that of half way).
-double dsqrtFrom(double a, double s)
-{
-    if (s == 0.0lf || isinf(s) || isnan(s)) return s;
-    double best = s, bestR = abs(residual(a, s, s));
-    for (int k = 0; k < 2; ++k) {
-        const double c = nextToward(s, k == 1);
-        const double r = abs(residual(a, c, c));
-        if (r < bestR) {
-            best = c;
-            bestR = r;
-        }
-    }
-    return best;
 }
 
 void put(uint i, int path, double v)
@@ -191,7 +131,8 @@ void main()
     const bool off = (i & 1u) == 1u, up = (i & 2u) != 0u;
     const bool qOff = off && quotient != 0.0lf && !isinf(quotient) && !isnan(quotient);
     const bool rOff = off && root != 0.0lf && !isinf(root) && !isnan(root);
-    put(i, 25, ddivFrom(p.x, p.y, qOff ? nextToward(quotient, up) : quotient));
-    put(i, 26, dsqrtFrom(abs(p.x), rOff ? nextToward(root, up) : root));
+    put(i, 25, dDivFrom(p.x, p.y, qOff ? dNext(quotient, up) : quotient));
+    put(i, 26, dSqrtFrom(abs(p.x), rOff ? dNext(root, up) : root));
     put(i, 27, crossPrecise(p, dvec2(-1.0lf, 2.0lf), p)); // (a - p) x (p - p): zero, its sign as the C++'s
+    put(i, 28, dSqrt(abs(p.x)));          // the root the shaders take
 }

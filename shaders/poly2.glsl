@@ -1,6 +1,6 @@
 // 2-D polygon helpers of the re-meshing kernel (cutter/Polygon2.{h,cpp}) for
 // the GPU cut pass: put in front of a shader body by buildProgram's defines,
-// as mask.glsl. The GPU must choose the same triangles as the CPU, so every
+// as mask.glsl, after doubles.glsl (dSqrt; render::poly2Library). The GPU must choose the same triangles as the CPU, so every
 // function repeats the C++ on doubles operation for operation: the same
 // expressions in the same order, min(a, b) as std::min (b < a ? b : a, which
 // decides which of -0 and +0 survives), double literals (lf: a float literal
@@ -152,7 +152,7 @@ bool poly2Same(dvec2 a, dvec2 b)
 
 double poly2Length(double dx, double dy)
 {
-    precise double r = sqrt(dx * dx + dy * dy);
+    precise double r = dSqrt(dx * dx + dy * dy);
     return r;
 }
 

@@ -46,6 +46,14 @@ using cutter::remesh_detail::CellKernel;
 using cutter::remesh_detail::TetPhaseOne;
 using render::GpuTetPhaseOne;
 
+/// The five programs of the cut pass, built once for the whole run (the
+/// test's GL context lives as long): on NVIDIA their build takes minutes.
+const render::GpuCutKernel& cutKernel()
+{
+    static const render::GpuCutKernel kernel;
+    return kernel;
+}
+
 bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 /// Where GPU tet `g` differs from CPU tet `c`: empty when equal.
@@ -323,7 +331,7 @@ void report(const char* what, const ArrangeTally& t)
 TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         const ArrangeTally t = compareArrangements(gpu, vol, 400.0f, kerf, 1, 6, [&](uint32_t seed) {
@@ -375,7 +383,7 @@ TEST(CutKernelGpu, ASlitEndingInsideAnotherSlitIsArrangedAsTheCpu)
 {
     MTCUT_REQUIRE_GL();
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume head = vdb::readVolume(dir);
     const openvdb::Coord at(240, 213, 243);
     const ArrangeTally t = compareArrangements(gpu, head, 400.0f, 0.0, 2013, 1, [&](uint32_t seed) {
@@ -411,7 +419,7 @@ TEST(CutKernelGpu, ASlitEndingInsideAnotherSlitIsArrangedAsTheCpu)
 TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         size_t strokes = 0, cells = 0, triangles = 0, differ = 0, bitEqual = 0, vertices = 0, byGpu = 0, byCpu = 0;
@@ -476,7 +484,7 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
 TEST(CutKernelGpu, DiscardPlusGpuCutPassMatchesTheCpuFrames)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume vol = test::sphereVolume();
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
     for (double kerf : {0.0, 0.5}) {
@@ -559,7 +567,7 @@ TEST(CutKernelGpu, DiscardPlusGpuCutPassMatchesTheCpuFrames)
 TEST(CutKernelGpu, PhaseOneEqualsTheCpuKernelBitForBit)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume& phantom = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         const Tally t = compare(gpu, phantom, 400.0f, kerf, 1, 30);
@@ -593,7 +601,7 @@ TEST(CutKernelGpu, PhaseOneEqualsTheCpuKernelBitForBit)
 TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         size_t vertices = 0, fromName = 0, differ = 0, refused = 0, byDim[4] = {0, 0, 0, 0};
@@ -664,7 +672,7 @@ TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
 TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume& vol = smallPhantom();
     for (double kerf : {0.0, 0.5}) {
         size_t calls = 0, differ = 0, overflow = 0, skipped = 0, refusedCpu = 0, onBlade = 0;
@@ -736,7 +744,7 @@ TEST(CutKernelGpu, LoopLimitProbeSeesEveryLoopCutShort)
 {
     MTCUT_REQUIRE_GL();
     const render::Program program = render::buildProgram({"cut_loop_probe_test.vert"},
-                                                         render::shaderSource("cut_kernel.glsl"));
+                                                         render::cutPassLibrary("cut_loop_probe_test.vert"));
     const render::Buffer out(2 * sizeof(int32_t), nullptr);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, out.id());
     program.use();
@@ -774,7 +782,7 @@ TEST(CutKernelGpu, LoopLimitProbeSeesEveryLoopCutShort)
 TEST(CutKernelGpu, AnInputOneFloatStepOffIsSeen)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     vdb::PhantomOptions options;
     options.dims = openvdb::Coord(96, 96, 64);
     const vdb::Volume phantom = vdb::makePhantom(options);
@@ -788,7 +796,7 @@ TEST(CutKernelGpu, AnInputOneFloatStepOffIsSeen)
 TEST(CutKernelGpu, BadDrawInputIsRefusedAndLeavesTheDrawAsItWas)
 {
     MTCUT_REQUIRE_GL();
-    const render::GpuCutKernel gpu;
+    const render::GpuCutKernel& gpu = cutKernel();
     const vdb::Volume vol = test::sphereVolume();
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 0.0f);
     cutter::CutMask mask(cutter::frameOf(vol), 0.0);

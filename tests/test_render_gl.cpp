@@ -37,12 +37,11 @@ TEST(RenderGl, EveryEmbeddedShaderCompiles)
         const std::string source = shaderSource(name);
         ASSERT_EQ(source.compare(0, 8, "#version"), 0) << name;
         // Every stage compiles with its libraries in front: the GPU cut
-        // pass's (cut_*: cutPassLibrary), poly2_*'s (poly2.glsl), none for
-        // doubles_test.comp (its #extension must come first), else the mask
-        // lookup.
+        // pass's (cut_*: cutPassLibrary), poly2_*'s (poly2Library),
+        // doubles.glsl for doubles_test.comp, else the mask lookup.
         const std::string library = name.compare(0, 4, "cut_") == 0     ? cutPassLibrary(name)
-                                    : name.compare(0, 6, "poly2_") == 0 ? shaderSource("poly2.glsl")
-                                    : name == "doubles_test.comp"       ? std::string()
+                                    : name.compare(0, 6, "poly2_") == 0 ? poly2Library()
+                                    : name == "doubles_test.comp"       ? shaderSource("doubles.glsl")
                                                                         : shaderSource("mask.glsl");
         EXPECT_NO_THROW(Shader(shaderStageOf(name), withDefines(source, library), name)) << name;
     }
