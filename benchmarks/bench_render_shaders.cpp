@@ -4,13 +4,18 @@
 // programs are large (the exact arrangement kernel on doubles); a driver may
 // take far longer on them than on the drawing shaders, and this says which.
 //
-// Usage: bench_render_shaders [--egl-device] [PROGRAM ...]
+// Usage: bench_render_shaders [--egl-device] [--fill-cache] [PROGRAM ...]
 //   PROGRAM: cut_phase_one.comp, cut_vertex_positions.comp, cut_names.comp,
 //            cut_arrange.vert, cut_regions.vert, poly2_test.comp,
 //            mask_query.comp, surface (surface.vert + surface.frag);
 //            default: all, the small ones first.
 //   MTCUT_SHADER_PREAMBLE in the environment goes in front of every shader
 //   (render/Shaders.h), to try a driver's pragmas.
+//   --fill-cache: use buildProgram's program cache (render/Shaders.h,
+//   ProgramCache) as the renderer does: a program found there is loaded
+//   (the line says cached=1), one built slowly is stored (stored=1). Without
+//   it every program is built, the cache neither read nor written. Several
+//   processes side by side fill the cache for a later run in parallel.
 // Mesa (llvmpipe) defers most of its compiling to the first draw or
 // dispatch, so its build_ms are small and say little; on NVIDIA the build is
 // done at link. One line per program: "case=shader program=NAME source_kb=N
@@ -56,11 +61,14 @@ Build buildOf(const std::string& name)
 int main(int argc, char** argv)
 {
     std::vector<std::string> names;
+    bool fillCache = false;
     for (int i = 1; i < argc; ++i) {
         if (!std::strcmp(argv[i], "--egl-device")) {
             setenv("EGL_PLATFORM", "device", 1);
+        } else if (!std::strcmp(argv[i], "--fill-cache")) {
+            fillCache = true;
         } else if (argv[i][0] == '-') {
-            std::fprintf(stderr, "usage: bench_render_shaders [--egl-device] [PROGRAM ...]\n");
+            std::fprintf(stderr, "usage: bench_render_shaders [--egl-device] [--fill-cache] [PROGRAM ...]\n");
             return 2;
         } else {
             names.push_back(argv[i]);
@@ -69,6 +77,7 @@ int main(int argc, char** argv)
     if (names.empty())
         names = {"surface", "mask_query.comp", "poly2_test.comp", "cut_phase_one.comp", "cut_vertex_positions.comp",
                  "cut_names.comp", "cut_arrange.vert", "cut_regions.vert"};
+    if (!fillCache) render::setProgramCache({});
     try {
         auto ctx = render::createHeadlessContext();
         const char* preamble = std::getenv("MTCUT_SHADER_PREAMBLE");
@@ -82,9 +91,14 @@ int main(int argc, char** argv)
                 b = buildOf(name);
                 for (const std::string& f : b.files) bytes += render::shaderSource(f).size();
                 bytes += b.defines.size();
+                const render::ProgramCacheCounts before = render::programCacheCounts();
                 const render::Program program = render::buildProgram(b.files, b.defines);
-                std::printf("case=shader program=%s source_kb=%.0f build_ms=%.0f\n", name.c_str(), bytes / 1024.0,
-                            msSince(t0));
+                const double ms = msSince(t0);
+                const render::ProgramCacheCounts after = render::programCacheCounts();
+                std::printf("case=shader program=%s source_kb=%.0f build_ms=%.0f", name.c_str(), bytes / 1024.0, ms);
+                if (fillCache)
+                    std::printf(" cached=%d stored=%d", int(after.loaded > before.loaded), int(after.stored > before.stored));
+                std::printf("\n");
             } catch (const std::exception& e) {
                 // The whole log but its warnings (NVIDIA's runs to hundreds of
                 // "might be used before being initialized" lines before the error).

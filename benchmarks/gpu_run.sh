@@ -1,15 +1,17 @@
 #!/bin/bash
-# Runs a bundle from benchmarks/gpu_bundle.sh on a GPU machine: the render
-# benchmark (bench_render --egl-device --frames 15, with the head when the
-# bundle holds data/head.vdb), each GPU-pass program's build time, and the GL
-# tests, each under a time limit, writing RESULTS_DIR/{gpu_run.txt,
-# bench_render.txt}. The GL tests that read ../shared/data find the bundle's
-# data/ when MTCUT_DATA is not set.
+# Runs a bundle from benchmarks/gpu_bundle.sh on a GPU machine: each GPU cut
+# pass program's build time (filling the program cache), the GL tests, and
+# the render benchmark (bench_render --egl-device --frames 15, with the head
+# when the bundle holds data/head.vdb), each under a time limit, writing
+# RESULTS_DIR/{gpu_run.txt, bench_render.txt}. About 6 minutes on an H100
+# (the builds 3.3 of them), plus the benchmark. The GL tests that read
+# ../shared/data find the bundle's data/ when MTCUT_DATA is not set.
 #
 # Usage: benchmarks/gpu_run.sh BUNDLE.tar.xz RESULTS_DIR
 # Environment: BENCH_S (bench_render's limit, default 240), SHADER_S (each
-# program's build, default 240), TEST_S (each test program, default 120),
-# BENCH_ARGS (extra bench_render arguments, e.g. --gpu-cut).
+# program's build, default 300), TEST_S (each test program, default 120),
+# BENCH_ARGS (extra bench_render arguments, e.g. --gpu-cut), MTCUT_SHADER_CACHE
+# (the program cache's folder, default the bundle's programs/).
 set -uo pipefail
 if [ $# -ne 2 ]; then
     echo "usage: $0 BUNDLE.tar.xz RESULTS_DIR" >&2
@@ -27,11 +29,45 @@ if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nvidia_json" ]; then
     export __EGL_VENDOR_LIBRARY_FILENAMES=$nvidia_json
 fi
 export MTCUT_DATA=${MTCUT_DATA:-$dir/data}
-cd "$dir"
+cd "$dir" || exit 3
 date
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv,noheader 2>&1
 missing=$(ldd ./bench_render | grep "not found")
 [ -n "$missing" ] && { echo "missing libraries:"; echo "$missing"; exit 4; }
+
+export MTCUT_SHADER_CACHE=${MTCUT_SHADER_CACHE:-$dir/programs}
+
+# The GPU cut pass's five programs first, side by side, each in a process of
+# its own under SHADER_S ('-k': an NVIDIA 580 driver's compile did not end on
+# TERM), into the program cache (render/Shaders.h, ProgramCache), from which
+# the tests and the benchmark after take them in a fraction of a second (on
+# the H100, 580.159.04: cut_arrange.vert built in 143 s, cut_regions.vert in
+# 194 s; from the cache 133 and 89 ms). The error lines carry the driver's
+# whole log less its warnings. The drawing passes' tests run meanwhile.
+cut=(cut_phase_one.comp cut_vertex_positions.comp cut_names.comp cut_arrange.vert cut_regions.vert)
+tmp=$(mktemp -d) pids=()
+for p in "${cut[@]}"; do
+    (timeout -k 5 "${SHADER_S:-300}" ./bench_render_shaders --egl-device --fill-cache "$p" > "$tmp/$p.txt" 2>&1
+     echo "rc=$?" >> "$tmp/$p.txt") &
+    pids+=($!)
+done
+tests() { # NAME...
+    for t in "$@"; do
+        echo "== $t"
+        timeout -k 5 "${TEST_S:-120}" "./$t" --gtest_brief=1 2>&1 | tail -40
+        echo "$t rc=${PIPESTATUS[0]} at ${SECONDS}s"
+    done
+}
+tests test_render_gl test_render_mask test_render_frame test_render_kerf test_render_overlay test_render_timer test_render_poly2
+wait "${pids[@]}" # these only: a bare wait would wait for the tee above
+echo "== program build times"
+for p in "${cut[@]}"; do
+    rc=$(sed -n 's/^rc=//p' "$tmp/$p.txt")
+    grep '^case=' "$tmp/$p.txt"
+    [ "$rc" != 0 ] && echo "case=shader program=$p rc=$rc (124/137: not built within ${SHADER_S:-300} s)"
+done
+rm -rf "$tmp"
+tests test_render_cut_kernel
 
 head=()
 [ -f data/head.vdb ] && head=(--head data/head.vdb)
@@ -41,41 +77,3 @@ timeout -k 5 "${BENCH_S:-240}" ./bench_render --egl-device --frames 15 "${head[@
     > "$results/bench_render.txt" 2>&1
 echo "bench_render rc=$? at ${SECONDS}s"
 grep -v '^|' "$results/bench_render.txt" | cut -c1-300
-
-# Each program in a process of its own, killed after SHADER_S seconds ('-k':
-# an NVIDIA 580 driver's compile did not end on TERM). The GPU cut pass's
-# five programs build side by side, as the renderer builds them (on NVIDIA
-# cut_arrange.vert and cut_regions.vert with `unroll none`: cutPassLibrary;
-# on the H100, 580.159.04, cut_arrange.vert did not build in 270 s without
-# it, and in 114 s with it; with `inline none` the driver crashed), which
-# also fills the driver's shader cache for the tests after. The error lines
-# carry the driver's whole log less its warnings.
-builds() { # LABEL PREAMBLE PROGRAM...
-    local label=$1 preamble=$2 tmp pids=()
-    shift 2
-    tmp=$(mktemp -d)
-    for p in "$@"; do
-        (MTCUT_SHADER_PREAMBLE=$preamble timeout -k 5 "${SHADER_S:-240}" ./bench_render_shaders --egl-device "$p" \
-            > "$tmp/$p.txt" 2>&1
-         echo "rc=$?" >> "$tmp/$p.txt") &
-        pids+=($!)
-    done
-    wait "${pids[@]}" # these only: a bare wait would wait for the tee above
-    for p in "$@"; do
-        rc=$(sed -n 's/^rc=//p' "$tmp/$p.txt")
-        grep '^case=' "$tmp/$p.txt" | sed "s/\$/ variant=$label/"
-        [ "$rc" != 0 ] && echo "case=shader program=$p variant=$label rc=$rc (124/137: not built within ${SHADER_S:-240} s)"
-    done
-    rm -rf "$tmp"
-}
-echo "== program build times"
-for p in surface mask_query.comp poly2_test.comp; do builds default "" "$p"; done
-cut=(cut_phase_one.comp cut_vertex_positions.comp cut_names.comp cut_arrange.vert cut_regions.vert)
-builds default "" "${cut[@]}"
-
-for t in test_render_gl test_render_mask test_render_frame test_render_kerf test_render_overlay test_render_timer \
-         test_render_poly2 test_render_cut_kernel; do
-    echo "== $t"
-    timeout -k 5 "${TEST_S:-120}" "./$t" --gtest_brief=1 2>&1 | tail -40
-    echo "$t rc=${PIPESTATUS[0]} at ${SECONDS}s"
-done

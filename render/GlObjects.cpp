@@ -118,9 +118,10 @@ Shader::Shader(GLenum stage, const std::string& source, const std::string& name)
     }
 }
 
-Program Program::linkIds(const std::string& name, const GLuint* shaders, size_t count)
+Program Program::linkIds(const std::string& name, const GLuint* shaders, size_t count, bool retrievable)
 {
     Program p(glCreateProgram());
+    if (retrievable) glProgramParameteri(p.mId, GL_PROGRAM_BINARY_RETRIEVABLE_HINT, GL_TRUE);
     for (size_t i = 0; i < count; ++i) glAttachShader(p.mId, shaders[i]);
     glLinkProgram(p.mId);
     for (size_t i = 0; i < count; ++i) glDetachShader(p.mId, shaders[i]);
@@ -135,6 +136,29 @@ Program Program::linkIds(const std::string& name, const GLuint* shaders, size_t 
         throw std::runtime_error(name + ": link error:\n" + log);
     }
     return p;
+}
+
+Program Program::fromBinary(GLenum format, const void* data, size_t size)
+{
+    Program p(glCreateProgram());
+    glProgramBinary(p.mId, format, data, GLsizei(size));
+    GLint ok = GL_FALSE;
+    glGetProgramiv(p.mId, GL_LINK_STATUS, &ok);
+    if (ok) return p;
+    glGetError(); // GL_INVALID_ENUM for a format this driver does not know: refused, not an error
+    return Program();
+}
+
+std::vector<unsigned char> Program::binary(GLenum& format) const
+{
+    GLint size = 0;
+    glGetProgramiv(mId, GL_PROGRAM_BINARY_LENGTH, &size);
+    std::vector<unsigned char> out(size_t(std::max(size, 0)));
+    GLsizei written = 0;
+    format = 0;
+    if (size > 0) glGetProgramBinary(mId, size, &written, &format, out.data());
+    out.resize(size_t(std::max(written, 0)));
+    return out;
 }
 
 Query::Query(GLenum target) : mTarget(target)

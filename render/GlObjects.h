@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace mtcut::render {
 
@@ -130,7 +131,15 @@ public:
         const GLuint ids[] = {shaders.id()...};
         return linkIds(name, ids, sizeof...(shaders));
     }
-    static Program linkIds(const std::string& name, const GLuint* shaders, size_t count);
+    /// As link; `retrievable`: ask the driver to keep the linked binary for
+    /// binary() (GL_PROGRAM_BINARY_RETRIEVABLE_HINT).
+    static Program linkIds(const std::string& name, const GLuint* shaders, size_t count, bool retrievable = false);
+    /// A program from bytes binary() gave with `format`; empty (id() 0) when
+    /// the driver refuses them (another driver or GPU, or damaged bytes).
+    static Program fromBinary(GLenum format, const void* data, size_t size);
+    /// The linked program's binary (glGetProgramBinary) and its format;
+    /// empty when the driver gives none.
+    std::vector<unsigned char> binary(GLenum& format) const;
 
     /// Uniform location; -1 when the uniform is absent or optimised away.
     GLint uniform(const char* name) const { return glGetUniformLocation(mId, name); }

@@ -47,8 +47,37 @@ struct ShaderText
 
 /// Compiles and links the given stages (stage from each name's extension).
 /// Throws std::runtime_error("NAME: compile error:\n<log>") or
-/// ("PROGRAM: link error:\n<log>"). Needs a current context.
+/// ("PROGRAM: link error:\n<log>"). Needs a current context. A program
+/// whose build took at least the cache's minBuildMs is kept on disk as the
+/// driver's binary and taken from there the next time (see ProgramCache).
 Program buildProgram(const std::vector<ShaderText>& stages);
+
+/// Where buildProgram keeps the binaries of slow programs (the GPU cut
+/// pass's on NVIDIA take over a minute each to build; Mesa's a few ms).
+/// One file per program, named by a 64-bit hash of the driver (GL_VENDOR,
+/// GL_RENDERER, GL_VERSION) and every stage's name and source, holding a
+/// second, independent hash of the same that must match; written to a
+/// temporary name and renamed, so processes building side by side are safe.
+/// A file the driver refuses (a new driver, another GPU, damaged bytes) is
+/// built again and replaced; the newest 32 files are kept. Default, from the environment: MTCUT_SHADER_CACHE
+/// = a folder, or "off"; unset: $XDG_CACHE_HOME/mtcut/programs, else
+/// $HOME/.cache/mtcut/programs, else none.
+struct ProgramCache
+{
+    std::string dir;          ///< empty: no cache
+    double minBuildMs = 1000; ///< programs that built faster are not kept
+};
+ProgramCache programCache();
+void setProgramCache(const ProgramCache& cache);
+
+/// What buildProgram did with the cache since the process started.
+struct ProgramCacheCounts
+{
+    size_t loaded = 0;  ///< programs taken from a file
+    size_t stored = 0;  ///< files written
+    size_t refused = 0; ///< files there that did not match or that the driver refused
+};
+ProgramCacheCounts programCacheCounts();
 
 /// buildProgram over embedded files, each with `defines` inserted. The
 /// environment variable MTCUT_SHADER_PREAMBLE, when set, goes in first (for

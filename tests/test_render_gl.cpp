@@ -4,11 +4,14 @@
 #include "render/CutKernelGpu.h"
 #include "render/GlObjects.h"
 #include "render/Shaders.h"
+#include "tests/TestUtil.h"
 #include "tests/test_render_util.h"
 
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <type_traits>
 
 using namespace mtcut::render;
@@ -37,8 +40,9 @@ TEST(RenderGl, EveryEmbeddedShaderCompiles)
         const std::string source = shaderSource(name);
         ASSERT_EQ(source.compare(0, 8, "#version"), 0) << name;
         // Every stage compiles with its libraries in front: the GPU cut
-        // pass's (cut_*: cutPassLibrary), poly2_*'s (poly2Library),
-        // doubles.glsl for doubles_test.comp, else the mask lookup.
+        // pass's (cut_*: cutPassLibrary), poly2_*'s (poly2.glsl), none for
+        // doubles_test.comp (its #extension must come first), else the mask
+        // lookup.
         const std::string library = name.compare(0, 4, "cut_") == 0     ? cutPassLibrary(name)
                                     : name.compare(0, 6, "poly2_") == 0 ? poly2Library()
                                     : name == "doubles_test.comp"       ? shaderSource("doubles.glsl")
@@ -194,6 +198,122 @@ TEST(RenderGl, ShaderPreambleFromTheEnvironmentGoesInFrontOfEveryEmbeddedShader)
         ScopedEnv env("MTCUT_SHADER_PREAMBLE", ""); // empty: nothing inserted
         EXPECT_NO_THROW(buildProgram(files));
     }
+}
+
+namespace {
+
+/// A compute program writing `value` to binding 0, built with buildProgram.
+Program valueProgram(unsigned value)
+{
+    const std::string source = "#version 450 core\nlayout(local_size_x = 1) in;\n"
+                               "layout(std430, binding = 0) writeonly buffer Out { uint uOut; };\n"
+                               "void main() { uOut = " + std::to_string(value) + "u; }\n";
+    return buildProgram({ShaderText{"value.comp", source}});
+}
+
+/// What `p` writes.
+unsigned run(const Program& p)
+{
+    const unsigned zero = 0;
+    Buffer out(sizeof zero, &zero, GL_MAP_READ_BIT);
+    p.use();
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, out.id());
+    glDispatchCompute(1, 1, 1);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    unsigned v = 0;
+    glGetNamedBufferSubData(out.id(), 0, sizeof v, &v);
+    glUseProgram(0);
+    return v;
+}
+
+} // namespace
+
+// buildProgram's binary cache: a slow program is kept (here every program:
+// minBuildMs 0) and taken from its file the next time, and it runs as built;
+// another source is another file; a damaged file or one of another driver is
+// refused, built again and replaced; with no folder nothing is written.
+TEST(RenderGl, SlowProgramsAreKeptOnDiskAndTakenFromThereNextTime)
+{
+    MTCUT_REQUIRE_GL();
+    GLint formats = 0;
+    glGetIntegerv(GL_NUM_PROGRAM_BINARY_FORMATS, &formats);
+    if (formats == 0) GTEST_SKIP() << "this driver gives no program binaries (GL_NUM_PROGRAM_BINARY_FORMATS 0)";
+    const mtcut::test::TempDir dir;
+    const ProgramCache before = programCache();
+    struct Restore
+    {
+        ProgramCache c;
+        ~Restore() { setProgramCache(c); }
+    } restore{before};
+    setProgramCache({dir.path() + "/programs", 0.0});
+    const auto files = [&] {
+        std::vector<std::filesystem::path> out;
+        for (const auto& e : std::filesystem::directory_iterator(dir.path() + "/programs")) out.push_back(e.path());
+        return out;
+    };
+    const ProgramCacheCounts c0 = programCacheCounts();
+    EXPECT_EQ(run(valueProgram(17)), 17u);
+    ProgramCacheCounts c = programCacheCounts();
+    EXPECT_EQ(c.stored - c0.stored, 1u);
+    EXPECT_EQ(c.loaded - c0.loaded, 0u);
+    ASSERT_EQ(files().size(), 1u);
+    const std::filesystem::path file = files()[0];
+    EXPECT_EQ(file.extension(), ".bin");
+
+    EXPECT_EQ(run(valueProgram(17)), 17u); // from the file
+    c = programCacheCounts();
+    EXPECT_EQ(c.loaded - c0.loaded, 1u);
+    EXPECT_EQ(c.stored - c0.stored, 1u);
+
+    EXPECT_EQ(run(valueProgram(18)), 18u); // another source: another file
+    c = programCacheCounts();
+    EXPECT_EQ(c.stored - c0.stored, 2u);
+    EXPECT_EQ(files().size(), 2u);
+
+    { // the check hash damaged (as a file of another source with the same name would be)
+        std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(8);
+        f.put('\x55');
+    }
+    EXPECT_EQ(run(valueProgram(17)), 17u);
+    c = programCacheCounts();
+    EXPECT_EQ(c.refused - c0.refused, 1u);
+    EXPECT_EQ(c.stored - c0.stored, 3u); // replaced
+    EXPECT_EQ(run(valueProgram(17)), 17u);
+    EXPECT_EQ(programCacheCounts().loaded - c0.loaded, 2u);
+
+    { // the driver's bytes damaged: the driver must refuse them, or they must still run as built
+        std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(28);
+        for (int i = 0; i < 64; ++i) f.put('\xff');
+    }
+    EXPECT_EQ(run(valueProgram(17)), 17u);
+    { // cut short: refused without asking the driver
+        std::filesystem::resize_file(file, 30);
+    }
+    const size_t refusedBefore = programCacheCounts().refused;
+    EXPECT_EQ(run(valueProgram(17)), 17u);
+    EXPECT_EQ(programCacheCounts().refused, refusedBefore + 1);
+    EXPECT_GT(std::filesystem::file_size(file), 30u); // replaced
+    EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+
+    setProgramCache({"", 0.0}); // no folder: nothing read or written
+    const ProgramCacheCounts c1 = programCacheCounts();
+    EXPECT_EQ(run(valueProgram(17)), 17u);
+    EXPECT_EQ(programCacheCounts().loaded, c1.loaded);
+    EXPECT_EQ(programCacheCounts().stored, c1.stored);
+    setProgramCache({dir.path() + "/slow", 60000.0}); // faster than minBuildMs: not kept
+    EXPECT_EQ(run(valueProgram(19)), 19u);
+    EXPECT_FALSE(std::filesystem::exists(dir.path() + "/slow"));
+
+    setProgramCache({dir.path() + "/many", 0.0}); // the newest 32 files are kept
+    for (unsigned v = 100; v < 136; ++v) EXPECT_EQ(run(valueProgram(v)), v);
+    size_t kept = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path() + "/many")) kept += e.path().extension() == ".bin";
+    EXPECT_EQ(kept, 32u);
+    const size_t loaded = programCacheCounts().loaded;
+    EXPECT_EQ(run(valueProgram(135)), 135u); // the newest is there
+    EXPECT_EQ(programCacheCounts().loaded, loaded + 1);
 }
 
 TEST(RenderGl, EglPlatformIsHonoured)
