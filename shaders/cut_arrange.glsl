@@ -165,22 +165,22 @@ uint64_t vHash(int v)
 }
 
 /// featureKey: the simplex's sorted grid vertex ids (dim < 3), or the cell and tet.
-void featureOf(uint support, out uint64_t feature[3])
+void featureOf(uint support, out uvec2 feature[3])
 {
-    feature[0] = 0ul;
-    feature[1] = 0ul;
-    feature[2] = 0ul;
+    feature[0] = uvec2(0u);
+    feature[1] = uvec2(0u);
+    feature[2] = uvec2(0u);
     if (support == 15u) {
         const KernelCell c = kCells[gCell];
-        feature[0] = gridVertexId(ivec3(c.x, c.y, c.z));
-        feature[1] = uint64_t(gTetIndex);
+        feature[0] = b64(gridVertexId(ivec3(c.x, c.y, c.z)));
+        feature[1] = b64(uint64_t(gTetIndex));
         return;
     }
     int n = 0;
     for (int i = 0; i < 4; ++i)
         if (((support >> i) & 1u) != 0u) feature[n++] = gT.id[i];
     // Sort the n (<= 3) ids ascending without writing an element a loop reads.
-    uint64_t a = feature[0], b = feature[1], c = feature[2];
+    uint64_t a = u64(feature[0]), b = u64(feature[1]), c = u64(feature[2]);
     if (n >= 2 && b < a) {
         const uint64_t s = a;
         a = b;
@@ -198,19 +198,19 @@ void featureOf(uint support, out uint64_t feature[3])
             b = s;
         }
     }
-    feature[0] = a;
-    feature[1] = b;
-    feature[2] = c;
+    feature[0] = b64(a);
+    feature[1] = b64(b);
+    feature[2] = b64(c);
 }
 
 /// findVertex: the lowest vertex with this name, or -1.
-int findVertex(uint dim, uint64_t feature[3], int planeCount, uint64_t planes[8])
+int findVertex(uint dim, uvec2 feature[3], int planeCount, uvec2 planes[8])
 {
     for (int v = 0; v < gVertCount; ++v) {
         if (vDim(v) != dim || vPlaneCount(v) != planeCount) continue;
-        bool same = gVFeature(3 * v) == feature[0] && gVFeature(3 * v + 1) == feature[1] &&
-                    gVFeature(3 * v + 2) == feature[2];
-        for (int i = 0; i < planeCount && same; ++i) same = gVPlanes(8 * v + i) == planes[i];
+        bool same = gVFeature(3 * v) == u64(feature[0]) && gVFeature(3 * v + 1) == u64(feature[1]) &&
+                    gVFeature(3 * v + 2) == u64(feature[2]);
+        for (int i = 0; i < planeCount && same; ++i) same = gVPlanes(8 * v + i) == u64(planes[i]);
         if (same) return v;
     }
     return -1;
@@ -220,18 +220,19 @@ double mergeTolerance(dvec3 p) { return 1e-11lf * (1.0lf + max(max(abs(p.x), abs
 
 /// mergeCandidate: the lowest tet-inside, non-Steiner vertex with this
 /// feature within mergeTolerance of p, or -1.
-int mergeCandidate(uint64_t feature[3], dvec3 p)
+int mergeCandidate(uvec2 feature[3], dvec3 p)
 {
     for (int v = 0; v < gVertCount; ++v) {
         if (vDim(v) != 3u || vSteiner(v)) continue;
-        if (gVFeature(3 * v) != feature[0] || gVFeature(3 * v + 1) != feature[1] || gVFeature(3 * v + 2) != feature[2])
+        if (gVFeature(3 * v) != u64(feature[0]) || gVFeature(3 * v + 1) != u64(feature[1]) ||
+            gVFeature(3 * v + 2) != u64(feature[2]))
             continue;
         if (length3(gVPos(v) - p) <= mergeTolerance(p)) return v;
     }
     return -1;
 }
 
-int pushVertex(uint dim, uint support, bool steiner, uint64_t feature[3], int planeCount, uint64_t planes[8], dvec3 pos)
+int pushVertex(uint dim, uint support, bool steiner, uvec2 feature[3], int planeCount, uvec2 planes[8], dvec3 pos)
 {
     if (gVertCount == ARR_MAX_VERTS) {
         gFail |= kFailVerts;
@@ -239,18 +240,18 @@ int pushVertex(uint dim, uint support, bool steiner, uint64_t feature[3], int pl
     }
     const int v = gVertCount++;
     gVMetaRef(v) = int(dim | uint(planeCount) << 4 | support << 8 | (steiner ? 1u : 0u) << 12);
-    for (int i = 0; i < 3; ++i) gVFeature(3 * v + i) = feature[i];
-    for (int i = 0; i < 8; ++i) gVPlanes(8 * v + i) = i < planeCount ? planes[i] : 0ul;
+    for (int i = 0; i < 3; ++i) gVFeature(3 * v + i) = u64(feature[i]);
+    for (int i = 0; i < 8; ++i) gVPlanes(8 * v + i) = i < planeCount ? u64(planes[i]) : 0ul;
     setVPos(v, pos);
     return v;
 }
 
 /// RemeshKernel::makeVertex: the vertex of the point pos0 of simplex
 /// `support` made by `defining` (-1 with gFail set when the tet stops).
-int makeVertex(uint support, uint64_t defining[8], int definingCount, dvec3 pos0)
+int makeVertex(uint support, uvec2 defining[8], int definingCount, dvec3 pos0)
 {
     if (gFail != 0u) return -1;
-    uint64_t name[8];
+    uvec2 name[8];
     int count;
     bool overflow;
     const bool named = nameOf(gT, gIso, gOwn, gCell, support, defining, definingCount, pos0, name, count, overflow);
@@ -263,29 +264,29 @@ int makeVertex(uint support, uint64_t defining[8], int definingCount, dvec3 pos0
         return -1;
     }
     const uint dim = uint(bitCount4(support) - 1);
-    uint64_t feature[3];
+    uvec2 feature[3];
     featureOf(support, feature);
     const int found = findVertex(dim, feature, count, name);
     if (found >= 0) return found;
     const int m = dim == 3u ? mergeCandidate(feature, pos0) : -1;
     if (m >= 0) {
         // The union of the two names, ascending, when it fits.
-        uint64_t all[16];
+        uvec2 all[16];
         int n = 0;
         const int pc = vPlaneCount(m);
         int i = 0, j = 0;
         while (i < pc || j < count) {
             uint64_t next;
-            if (j == count || (i < pc && gVPlanes(8 * m + i) < name[j])) next = gVPlanes(8 * m + i++);
-            else if (i == pc || name[j] < gVPlanes(8 * m + i)) next = name[j++];
+            if (j == count || (i < pc && gVPlanes(8 * m + i) < u64(name[j]))) next = gVPlanes(8 * m + i++);
+            else if (i == pc || u64(name[j]) < gVPlanes(8 * m + i)) next = u64(name[j++]);
             else {
-                next = name[j++];
+                next = u64(name[j++]);
                 ++i;
             }
-            all[n++] = next;
+            all[n++] = b64(next);
         }
         if (n <= 8) {
-            for (int k = 0; k < 8; ++k) gVPlanes(8 * m + k) = k < n ? all[k] : 0ul;
+            for (int k = 0; k < 8; ++k) gVPlanes(8 * m + k) = k < n ? u64(all[k]) : 0ul;
             gVMetaRef(m) = int((gVMeta(m) & ~(15u << 4)) | uint(n) << 4);
             return m;
         }
@@ -295,19 +296,20 @@ int makeVertex(uint support, uint64_t defining[8], int definingCount, dvec3 pos0
 }
 
 /// RemeshKernel::makeSteiner: planes (count <= 8) are sorted here.
-int makeSteiner(uint support, uint64_t planes[8], int count, dvec3 pos)
+int makeSteiner(uint support, uvec2 planes[8], int count, dvec3 pos)
 {
     if (gFail != 0u) return -1;
     // std::sort as ranks (duplicates keep their order), written once each.
-    uint64_t sorted[8];
+    uvec2 sorted[8];
     for (int i = 0; i < count; ++i) {
         int rank = 0;
-        for (int j = 0; j < count; ++j) rank += planes[j] < planes[i] || (planes[j] == planes[i] && j < i) ? 1 : 0;
+        const uint64_t pi = u64(planes[i]);
+        for (int j = 0; j < count; ++j) rank += u64(planes[j]) < pi || (u64(planes[j]) == pi && j < i) ? 1 : 0;
         sorted[rank] = planes[i];
     }
-    for (int k = count; k < 8; ++k) sorted[k] = 0ul;
+    for (int k = count; k < 8; ++k) sorted[k] = uvec2(0u);
     const uint dim = uint(bitCount4(support) - 1);
-    uint64_t feature[3];
+    uvec2 feature[3];
     featureOf(support, feature);
     const int found = findVertex(dim, feature, count, sorted);
     if (found >= 0) return found;
@@ -498,14 +500,14 @@ int pieceSign(int r, int i, uint64_t id)
 }
 
 // ---- surfaces (mSurfaces)
-uint64_t gSPlane[ARR_MAX_SURFACES];
+uvec2 gSPlane[ARR_MAX_SURFACES];
 int gSQuad[ARR_MAX_SURFACES]; // cap: its quad (kQuads index); -1: an iso polygon
 int gSSides[ARR_MAX_SURFACES];
 uvec2 gSNormalBits[3 * ARR_MAX_SURFACES]; // dvec3 normals as bits: D3GET(gSNormalBits, s)
 int gSAlso[4 * ARR_MAX_SURFACES]; // kerf > 0: further prisms with this face plane
 int gSAlsoCount[ARR_MAX_SURFACES];
 int gSPolyV[4 * ARR_MAX_SURFACES];
-uint64_t gSPolyLab[4 * ARR_MAX_SURFACES];
+uvec2 gSPolyLab[4 * ARR_MAX_SURFACES];
 int gSPolyLen[ARR_MAX_SURFACES];
 int gSurfaceCount;
 
@@ -528,7 +530,7 @@ bool openSurface(uint64_t plane, int quad, int sides, dvec3 normal)
         return false;
     }
     const int s = gSurfaceCount++;
-    gSPlane[s] = plane;
+    gSPlane[s] = b64(plane);
     gSQuad[s] = quad;
     gSSides[s] = sides;
     D3SET(gSNormalBits, s, normal);
@@ -546,8 +548,8 @@ void isoSurfaces()
         const int n = gIso.corners[k];
         for (int c = 0; c < n; ++c) {
             const int e = gIso.edges[k][c];
-            uint64_t def[8];
-            def[0] = kIsoA + uint64_t(k);
+            uvec2 def[8];
+            def[0] = b64(kIsoA + uint64_t(k));
             const int v = makeVertex((1u << (e & 3)) | (1u << (e >> 2)), def, 1, D3GET(gIso.ptsBits, 4 * k + c));
             if (v < 0) return;
             gSPolyV[4 * s + c] = v;
@@ -555,7 +557,7 @@ void isoSurfaces()
         }
         for (int c = 0; c < n; ++c) {
             const uint m = gOwn.edgeMask[k][c] | gOwn.edgeMask[k][(c + 1) % n];
-            gSPolyLab[4 * s + c] = m == 15u ? kIsoA + uint64_t(1 - k) : kBoundaryLabel | uint64_t(m);
+            gSPolyLab[4 * s + c] = b64(m == 15u ? kIsoA + uint64_t(1 - k) : kBoundaryLabel | uint64_t(m));
         }
         gSPolyLen[s] = n;
     }
@@ -612,7 +614,7 @@ int capSection(dvec4 plane, out uvec2 hBits[4], out uint ps[4], out uvec2 ppBits
             precise double hh = D1GET(hBits, i) * D1GET(hBits, j);
             if (!(hh < 0.0lf) || n == 4) continue;
             int a = i, b = j;
-            if (gT.id[b] < gT.id[a]) {
+            if (u64(gT.id[b]) < u64(gT.id[a])) {
                 a = j;
                 b = i;
             }
@@ -681,7 +683,7 @@ void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal, int first)
 {
     if (uPrism) {
         for (int o = first; o < gSurfaceCount; ++o)
-            if (gSPlane[o] == id && dot3(D3GET(gSNormalBits, o), normal) > 0.0lf) {
+            if (u64(gSPlane[o]) == id && dot3(D3GET(gSNormalBits, o), normal) > 0.0lf) {
                 if (gSAlsoCount[o] == 4) {
                     gFail |= kFailSurfaces;
                     return;
@@ -714,7 +716,7 @@ dvec4 capPlane(int s)
     const int q = gSQuad[s];
     if (!uPrism) return kQuads[q].plane;
     for (uint x = kQuads[q].firstSide; x < kQuads[q].firstSide + kQuads[q].sideCount; ++x)
-        if (kSides[x].id == gSPlane[s]) return kSides[x].plane;
+        if (kSides[x].id == u64(gSPlane[s])) return kSides[x].plane;
     return kQuads[q].plane; // not reached: the face is one of the quad's sides
 }
 
@@ -728,10 +730,11 @@ bool capPolygon(int s)
     uvec2 ppBits[12];
     int n;
     capSection(plane, hBits, ps, ppBits, n);
-    bool outside = capOutside(gSQuad[s], gSPlane[s], ps, ppBits, n);
-    for (int k = 0; k < gSAlsoCount[s]; ++k) outside = outside && capOutside(gSAlso[4 * s + k], gSPlane[s], ps, ppBits, n);
+    bool outside = capOutside(gSQuad[s], u64(gSPlane[s]), ps, ppBits, n);
+    for (int k = 0; k < gSAlsoCount[s]; ++k)
+        outside = outside && capOutside(gSAlso[4 * s + k], u64(gSPlane[s]), ps, ppBits, n);
     if (outside) return false;
-    uint64_t def[8];
+    uvec2 def[8];
     def[0] = gSPlane[s];
     int pv[4];
     for (int k = 0; k < n; ++k) pv[k] = makeVertex(ps[k], def, 1, D3GET(ppBits, k));
@@ -757,7 +760,7 @@ bool capPolygon(int s)
     const int order[4] = int[4](v0, v1, v2, v3);
     for (int i = 0; i < n; ++i) gSPolyV[4 * s + i] = order[i];
     for (int i = 0; i < n; ++i)
-        gSPolyLab[4 * s + i] = kBoundaryLabel | uint64_t(vSupport(order[i]) | vSupport(order[(i + 1) % n]));
+        gSPolyLab[4 * s + i] = b64(kBoundaryLabel | uint64_t(vSupport(order[i]) | vSupport(order[(i + 1) % n])));
     gSPolyLen[s] = n;
     return true;
 }
@@ -910,12 +913,12 @@ void splitPoly(int i, uint64_t polyPlane, uint64_t p)
         double t = (ha - hb) != 0.0lf ? ha / (ha - hb) : 0.5lf;
         if (!(t > 0.0lf && t < 1.0lf)) t = 0.5lf;
         precise dvec3 x = gVPos(a) + t * (gVPos(b) - gVPos(a));
-        uint64_t def[8];
+        uvec2 def[8];
         int dc = 0;
-        def[dc++] = p;
-        if (polyPlane != 0ul) def[dc++] = polyPlane;
+        def[dc++] = b64(p);
+        if (polyPlane != 0ul) def[dc++] = b64(polyPlane);
         const uint64_t lab = pieceL(0, i, k);
-        if ((lab & kBoundaryLabel) == 0ul) def[dc++] = lab;
+        if ((lab & kBoundaryLabel) == 0ul) def[dc++] = b64(lab);
         cut[k] = makeVertex(vSupport(a) | vSupport(b), def, dc, x);
         if (cut[k] < 0) return;
     }
@@ -940,11 +943,11 @@ void splitSurface(int s)
     poolClear(0);
     poolClear(1);
     if (!poolOpen(0)) return;
-    for (int c = 0; c < gSPolyLen[s]; ++c) poolAdd(0, gSPolyV[4 * s + c], gSPolyLab[4 * s + c]);
+    for (int c = 0; c < gSPolyLen[s]; ++c) poolAdd(0, gSPolyV[4 * s + c], u64(gSPolyLab[4 * s + c]));
     const bool iso = gSQuad[s] < 0;
     for (int k = 0; k < gSplitCount && gFail == 0u; ++k) {
         const uint64_t id = gSplitId(k);
-        if (id == gSPlane[s]) continue;
+        if (id == u64(gSPlane[s])) continue;
         if (iso && (id == kIsoA || id == kIsoB)) continue;
         const int owner = gSplitOwner(k);
         for (int i = 0; i < gPieceCount[0] && gFail == 0u; ++i) {
@@ -955,7 +958,7 @@ void splitSurface(int s)
                     if (kSides[sd].partner >= 0 && kSides[sd].orient * double(pieceSign(0, i, kSides[sd].id)) < 0.0lf)
                         outside = true;
             if (outside) poolCopyPiece(0, i, 1);
-            else splitPoly(i, gSPlane[s], id);
+            else splitPoly(i, u64(gSPlane[s]), id);
         }
         poolTakeNext();
     }
@@ -1132,17 +1135,17 @@ void insertSlitMidpoints()
                 const int r = gReachQuad[j];
                 if (!needsMidpoint(u, w, r)) continue;
                 const uint64_t hu = (vHash(u) >> 2) | (1ul << 62), hw = (vHash(w) >> 2) | (1ul << 62);
-                uint64_t planes[8];
+                uvec2 planes[8];
                 int count = 0;
-                planes[count++] = kMid;
-                planes[count++] = kQuads[r].id;
-                planes[count++] = min(hu, hw);
-                planes[count++] = max(hu, hw);
+                planes[count++] = b64(kMid);
+                planes[count++] = b64(kQuads[r].id);
+                planes[count++] = b64(min(hu, hw));
+                planes[count++] = b64(max(hu, hw));
                 const uint sup = vSupport(u) | vSupport(w);
                 if (bitCount4(sup) < 4) {
                     const bool isoU = vPlaneCount(u) > 0 && gVPlanes(8 * u) == kIso;
                     const bool isoW = vPlaneCount(w) > 0 && gVPlanes(8 * w) == kIso;
-                    if (isoU && isoW) planes[count++] = kIso;
+                    if (isoU && isoW) planes[count++] = b64(kIso);
                 }
                 precise dvec3 mid = 0.5lf * (gVPos(u) + gVPos(w));
                 const int m = makeSteiner(sup, planes, count, mid);
@@ -1210,9 +1213,9 @@ void saveTetState(uint at, bool solid)
         for (int i = 0; i < 4; ++i) {
             gStateI(b + 4 + i) = gSAlso[4 * s + i];
             gStateI(b + 8 + i) = gSPolyV[4 * s + i];
-            gStateL(5 * s + 1 + i) = gSPolyLab[4 * s + i];
+            gStateL(5 * s + 1 + i) = u64(gSPolyLab[4 * s + i]);
         }
-        gStateL(5 * s) = gSPlane[s];
+        gStateL(5 * s) = u64(gSPlane[s]);
         gStateD(3 * s) = D3GET(gSNormalBits, s).x;
         gStateD(3 * s + 1) = D3GET(gSNormalBits, s).y;
         gStateD(3 * s + 2) = D3GET(gSNormalBits, s).z;
@@ -1246,9 +1249,9 @@ bool restoreTetState(uint slot, uint cell, int t, out uint at)
         for (int i = 0; i < 4; ++i) {
             gSAlso[4 * s + i] = gStateI(b + 4 + i);
             gSPolyV[4 * s + i] = gStateI(b + 8 + i);
-            gSPolyLab[4 * s + i] = gStateL(5 * s + 1 + i);
+            gSPolyLab[4 * s + i] = b64(gStateL(5 * s + 1 + i));
         }
-        gSPlane[s] = gStateL(5 * s);
+        gSPlane[s] = b64(gStateL(5 * s));
         D3SET(gSNormalBits, s, dvec3(gStateD(3 * s), gStateD(3 * s + 1), gStateD(3 * s + 2)));
     }
     gT = loadTet(cell, t);

@@ -64,7 +64,7 @@ void stageFinish(uint slot, uint tet, int s)
     poolClear(1);
     finishSurface(s);
     if (gFail == 0u) {
-        put(gSPlane[s]);
+        put(u64(gSPlane[s]));
         put(uint64_t(gPieceCount[0]));
         for (int i = 0; i < gPieceCount[0]; ++i) {
             const int n = pieceLen(0, i);

@@ -51,6 +51,16 @@
         a[at_ + 1] = uvec4(unpackDouble2x32(v_.z), unpackDouble2x32(v_.w));                                            \
     }
 
+// 64-bit integers in private arrays (plane ids, names, features) are kept as
+// their bits too: the same driver changed every uint64_t kept in a private
+// array (the probe's "double as uint64_t bits": 4,096 of 4,096, so not a
+// float's rounding; more like a lost high word), and the GPU's vertex names
+// differed from the CPU's. u64(b) reads one, b64(x) makes one. Buffers and
+// single variables keep uint64_t. tests/test_render_gl.cpp checks the
+// shaders' text for private arrays of 64-bit types.
+uint64_t u64(uvec2 b) { return packUint2x32(b); }
+uvec2 b64(uint64_t x) { return unpackUint2x32(x); }
+
 struct KernelCell
 {
     int x, y, z;
@@ -130,7 +140,7 @@ uint64_t gridVertexId(ivec3 g)
 struct Tet
 {
     uvec2 pBits[12]; // dvec3 p[4] as bits: D3GET(T.pBits, i)
-    uint64_t id[4];
+    uvec2 id[4];     // grid vertex ids as bits: u64(T.id[i])
     float value[4];
     bool inside[4];
 };
@@ -144,7 +154,7 @@ Tet loadTet(uint cell, int t)
         const uint k = kTets[20 * parity + 4 * t + i];
         const ivec3 g = ivec3(c.x, c.y, c.z) + ivec3(int(k & 1u), int((k >> 1) & 1u), int((k >> 2) & 1u));
         D3SET(T.pBits, i, dvec3(g));
-        T.id[i] = gridVertexId(g);
+        T.id[i] = b64(gridVertexId(g));
         T.value[i] = c.values[k];
         T.inside[i] = ((c.insideMask >> k) & 1u) != 0u;
     }
@@ -155,7 +165,7 @@ Tet loadTet(uint cell, int t)
 dvec3 mtPoint(Tet T, int a, int b)
 {
     int lo = a, hi = b;
-    if (T.id[hi] < T.id[lo]) {
+    if (u64(T.id[hi]) < u64(T.id[lo])) {
         lo = b;
         hi = a;
     }
@@ -380,17 +390,17 @@ void faceCorners(Tet T, uint mask, out int v[3])
     for (int i = 0; i < 4; ++i)
         if (((mask >> i) & 1u) != 0u) c[n++] = i;
     int a = c[0], b = c[1], d = c[2];
-    if (T.id[b] < T.id[a]) {
+    if (u64(T.id[b]) < u64(T.id[a])) {
         const int s = a;
         a = b;
         b = s;
     }
-    if (T.id[d] < T.id[b]) {
+    if (u64(T.id[d]) < u64(T.id[b])) {
         const int s = b;
         b = d;
         d = s;
     }
-    if (T.id[b] < T.id[a]) {
+    if (u64(T.id[b]) < u64(T.id[a])) {
         const int s = a;
         a = b;
         b = s;
@@ -408,7 +418,7 @@ void edgeEnds(Tet T, uint mask, out int a, out int b)
             if (a < 0) a = i;
             else b = i;
         }
-    if (T.id[b] < T.id[a]) {
+    if (u64(T.id[b]) < u64(T.id[a])) {
         const int s = a;
         a = b;
         b = s;
@@ -438,7 +448,7 @@ bool faceIsoLine(Tet T, uint mask, out dvec3 p1, out dvec3 p2)
 
 /// RemeshKernel::canonicalPosition: the position of the vertex named by
 /// (dim, planes) on the tet's simplex `support`, made at pos0.
-dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeCount, uint64_t planes[8], uint support,
+dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeCount, uvec2 planes[8], uint support,
                         dvec3 pos0)
 {
     if (dim == 0u) {
@@ -447,14 +457,14 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
     }
     if (dim == 3u) return pos0;
     for (uint i = 0u; i < planeCount; ++i)
-        if (planes[i] == kMid || planes[i] == kCentroid) return pos0;
+        if (u64(planes[i]) == kMid || u64(planes[i]) == kCentroid) return pos0;
     dvec4 p, q;
     if (dim == 1u) {
         int a, b;
         edgeEnds(T, support, a, b);
-        if (planes[0] == kIso) return mtPoint(T, a, b);
+        if (u64(planes[0]) == kIso) return mtPoint(T, a, b);
         for (uint i = 0u; i < planeCount; ++i) {
-            if (!planeById(planes[i], p)) continue;
+            if (!planeById(u64(planes[i]), p)) continue;
             const double ha = planeH(p, D3GET(T.pBits, a)), hb = planeH(p, D3GET(T.pBits, b));
             if (!(abs(ha - hb) > 1e-12lf)) continue;
             double t = ha / (ha - hb);
@@ -465,12 +475,12 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
         return pos0;
     }
     // dim 2: a face.
-    if (planes[0] == kIso) {
+    if (u64(planes[0]) == kIso) {
         dvec3 p1, p2;
         if (faceIsoLine(T, support, p1, p2)) {
             const double len = length3(p2 - p1);
             for (uint i = 1u; i < planeCount; ++i) {
-                if (!planeById(planes[i], p)) continue;
+                if (!planeById(u64(planes[i]), p)) continue;
                 const double h1 = planeH(p, p1), h2 = planeH(p, p2);
                 if (!(abs(h1 - h2) > 1e-9lf * len)) continue;
                 const double u = h1 / (h1 - h2);
@@ -485,7 +495,7 @@ dvec3 canonicalPosition(Tet T, IsoPolygons iso, uint cell, uint dim, uint planeC
     const dvec3 A = D3GET(T.pBits, v[0]), e1 = D3GET(T.pBits, v[1]) - A, e2 = D3GET(T.pBits, v[2]) - A;
     for (uint i = 0u; i < planeCount; ++i)
         for (uint j = i + 1u; j < planeCount; ++j) {
-            if (!planeById(planes[i], p) || !planeById(planes[j], q)) continue;
+            if (!planeById(u64(planes[i]), p) || !planeById(u64(planes[j]), q)) continue;
             const double a11 = dot3(p.xyz, e1), a12 = dot3(p.xyz, e2), b1 = -planeH(p, A);
             const double a21 = dot3(q.xyz, e1), a22 = dot3(q.xyz, e2), b2 = -planeH(q, A);
             precise double det = a11 * a22 - a12 * a21;
@@ -649,7 +659,7 @@ double edgeIsoDistance(Tet T, uint mask, dvec3 x)
 
 /// RemeshKernel::independentPlanes: the first of `l` (with a plane in the
 /// tet) whose normals are independent, at most three.
-int independentPlanes(Tet T, IsoPolygons iso, uint cell, int l, out uint64_t chosen[3])
+int independentPlanes(Tet T, IsoPolygons iso, uint cell, int l, out uvec2 chosen[3])
 {
     int n = 0;
     dvec3 n0 = dvec3(0.0lf), n1 = dvec3(0.0lf);
@@ -663,7 +673,7 @@ int independentPlanes(Tet T, IsoPolygons iso, uint cell, int l, out uint64_t cho
         if (!independent) continue;
         if (n == 0) n0 = nn;
         else n1 = nn;
-        chosen[n++] = idAt(l, i);
+        chosen[n++] = b64(idAt(l, i));
         if (n == 3) break;
     }
     return n;
@@ -688,8 +698,8 @@ bool inClosedPrism(int q, dvec3 x, double eps)
 /// The planes of the name makeVertex gives the point pos0 of simplex
 /// `support` made by `defining`: false (refused) when more than eight
 /// remain, or when a list overflows (then `overflow`).
-bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, uint64_t defining[8], int definingCount,
-            dvec3 pos0, out uint64_t name[8], out int nameCount, out bool overflow)
+bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, uvec2 defining[8], int definingCount,
+            dvec3 pos0, out uvec2 name[8], out int nameCount, out bool overflow)
 {
     nameCount = 0;
     gIdOverflow = false;
@@ -698,7 +708,7 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
     idClear(kPlanesList);
     idClear(kDefiningList);
     for (int i = 0; i < definingCount; ++i) {
-        uint64_t p = defining[i];
+        uint64_t p = u64(defining[i]);
         if (dim < 3 && (p == kIsoA || p == kIsoB) && triOwns(iso, own, int(p - kIsoA), support)) p = kIso;
         idPush(kDefiningList, p);
         if (p <= kIsoB) idPush(kPlanesList, p);
@@ -791,7 +801,7 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
         idSortUnique(kPlanesList);
         if (gIdCount[kOnList] == before) break;
     }
-    uint64_t chosen3[3];
+    uvec2 chosen3[3];
     if (gIdCount[kPlanesList] < dim || (dim == 3 && independentPlanes(T, iso, cell, kPlanesList, chosen3) < 3)) {
         for (int i = 0; i < gIdCount[kDefiningList]; ++i) idPush(kPlanesList, idAt(kDefiningList, i));
         idSortUnique(kPlanesList);
@@ -801,7 +811,7 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
         // independent ones, then the lowest others.
         if (independentPlanes(T, iso, cell, kPlanesList, chosen3) == 3) {
             idClear(kChosenList);
-            for (int i = 0; i < 3; ++i) idPush(kChosenList, chosen3[i]);
+            for (int i = 0; i < 3; ++i) idPush(kChosenList, u64(chosen3[i]));
             for (int i = 0; i < gIdCount[kPlanesList]; ++i)
                 if (gIdCount[kChosenList] < 8 && !idHas(kChosenList, idAt(kPlanesList, i)))
                     idPush(kChosenList, idAt(kPlanesList, i));
@@ -810,7 +820,7 @@ bool nameOf(Tet T, IsoPolygons iso, IsoOwnership own, uint cell, uint support, u
         }
     }
     overflow = gIdOverflow || gTetOverflow;
-    for (int i = 0; i < 8; ++i) name[i] = i < gIdCount[kPlanesList] ? idAt(kPlanesList, i) : 0ul;
+    for (int i = 0; i < 8; ++i) name[i] = b64(i < gIdCount[kPlanesList] ? idAt(kPlanesList, i) : 0ul);
     if (gIdCount[kPlanesList] > 8) return false;
     nameCount = gIdCount[kPlanesList];
     return true;

@@ -7,7 +7,7 @@ layout(local_size_x = 64) in;
 struct NameQuery
 {
     uint cell, tet, support, definingCount, pad0, pad1, pad2, pad3;
-    uint64_t defining[8];
+    uvec2 defining[8]; // uint64_t as bits (cut_kernel.glsl, u64): the layout of uint64_t[8]
     dvec4 pos0;
 };
 layout(std430, binding = 4) readonly buffer Queries { NameQuery uQueries[]; };
@@ -23,12 +23,12 @@ void main()
     const IsoPolygons iso = isoTriangles(T);
     tetBegin(T, iso, q.cell);
     const IsoOwnership own = isoOwnership(iso);
-    uint64_t name[8];
+    uvec2 name[8];
     int count;
     bool overflow;
     const bool named = nameOf(T, iso, own, q.cell, q.support, q.defining, int(q.definingCount), q.pos0.xyz, name, count,
                               overflow);
     outNames[10u * i] = uint64_t((named ? 1u : 0u) | (overflow ? 2u : 0u));
     outNames[10u * i + 1u] = uint64_t(count);
-    for (int k = 0; k < 8; ++k) outNames[10u * i + 2u + uint(k)] = name[k];
+    for (int k = 0; k < 8; ++k) outNames[10u * i + 2u + uint(k)] = u64(name[k]);
 }

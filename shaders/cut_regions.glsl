@@ -211,7 +211,7 @@ int tJunctionSide(int v, int r, out int o)
 int pieceCornerNode(int i, int k, int s, int side)
 {
     const int v = pieceV(0, i, k);
-    uint64_t t[4] = uint64_t[4](0ul, 0ul, 0ul, 0ul);
+    uvec2 t[4] = uvec2[4](uvec2(0u), uvec2(0u), uvec2(0u), uvec2(0u));
     int n = 0;
     for (int j = 0; j < gReachCount && !uPrism; ++j) {
         const int r = gReachQuad[j];
@@ -229,9 +229,9 @@ int pieceCornerNode(int i, int k, int s, int side)
             gFail |= kFailRegions;
             return -1;
         }
-        t[n++] = sideTag(r, sg);
+        t[n++] = b64(sideTag(r, sg));
     }
-    return nodeOf(v, t[0], t[1], t[2], t[3], n);
+    return nodeOf(v, u64(t[0]), u64(t[1]), u64(t[2]), u64(t[3]), n);
 }
 
 /// Union-find's root of piece x (path compression, as the CPU).
@@ -634,7 +634,8 @@ void triangulateRegion(int r)
             // A cap region: a fan from a tagged centre.
             precise dvec3 centre = dvec3(0.0lf);
             for (int i = 0; i < n; ++i) centre += gVPos(gNodeVert(gPtNode[poly2Poly[i]])) / double(n);
-            uint64_t planes[8] = uint64_t[8](kCentroid, kQuads[q].id, uint64_t(r) + 8ul, 0ul, 0ul, 0ul, 0ul, 0ul);
+            const uvec2 o = uvec2(0u);
+            uvec2 planes[8] = uvec2[8](b64(kCentroid), b64(kQuads[q].id), b64(uint64_t(r) + 8ul), o, o, o, o, o);
             const int cv = makeSteiner(15u, planes, 3, centre);
             if (cv < 0) return;
             const int cn = nodeOf(cv, sideTag(q, gRegionSide(r)), 0ul, 0ul, 0ul, 1);

@@ -7,7 +7,7 @@ layout(local_size_x = 64) in;
 struct VertexQuery
 {
     uint cell, tet, dim, planeCount, support, pad0, pad1, pad2;
-    uint64_t planes[8];
+    uvec2 planes[8]; // uint64_t as bits (cut_kernel.glsl, u64): the layout of uint64_t[8]
     dvec4 pos0;
 };
 layout(std430, binding = 4) readonly buffer Queries { VertexQuery uQueries[]; };

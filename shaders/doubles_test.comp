@@ -5,6 +5,8 @@
 // dvec2 kept in a private array indexed at run time came back rounded to
 // float (paths 3 and 5), while buffers, functions and arithmetic kept every
 // bit: this says which storage the cut pass's shaders may use for doubles.
+// A uint64_t kept in a private array came back changed too (4,096 of 4,096,
+// third H100 lease), so the shaders keep 64-bit integers there as uvec2.
 // There, writing a dvec3's component at a run-time index (v[k] = x) does not
 // link ("fatal error C9999: can't find __setVectorIndex function in
 // stdlib"), so it is not among the paths. Division and square root: GLSL

@@ -12,6 +12,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
 #include <type_traits>
 
 using namespace mtcut::render;
@@ -49,6 +52,39 @@ TEST(RenderGl, EveryEmbeddedShaderCompiles)
                                                                         : shaderSource("mask.glsl");
         EXPECT_NO_THROW(Shader(shaderStageOf(name), withDefines(source, library), name)) << name;
     }
+}
+
+// NVIDIA's driver (580.159.04, H100) keeps a 64-bit value in a private array
+// (a function's or a global's, a parameter, a member of a private struct) with
+// 32 bits: doubles come back rounded to float, uint64_t changed
+// (RenderPoly2.DoublesReachTheShaderUnrounded), and the cut pass's names
+// differed from the CPU's there. The GPU pass's shaders keep such arrays as
+// uvec2 bits (cut_kernel.glsl's D*GET and u64); this holds them to it on
+// every driver, llvmpipe included, where the rounding never shows. Buffers
+// are exempt, and so is a struct only buffers hold (no private copy of it).
+TEST(RenderGl, CutPassKeepsNo64BitValueInAPrivateArray)
+{
+    const std::regex array64(R"(\b(double|dvec[234]|dmat[234](x[234])?|u?int64_t|[iu]64vec[234])\s+\w+\s*\[)");
+    const std::set<std::string> bufferOnly{"KernelSide"}; // has uint64_t cornerSides[4]; never copied
+    size_t files = 0;
+    for (const std::string& name : shaderNames()) {
+        if (name.compare(0, 4, "cut_") != 0 && name != "poly2.glsl" && name != "doubles.glsl") continue;
+        ++files;
+        std::istringstream text(shaderSource(name));
+        std::string line, inStruct;
+        for (int n = 1; std::getline(text, line); ++n) {
+            std::smatch m;
+            if (std::regex_search(line, m, std::regex(R"(^struct (\w+))"))) inStruct = m[1];
+            if (line.compare(0, 2, "};") == 0) inStruct.clear();
+            for (const std::string& s : bufferOnly) // a private copy of one would be a private array
+                EXPECT_FALSE(std::regex_search(line, std::regex("\\b" + s + R"(\s+\w+\s*[=;])")))
+                    << name << ":" << n << ": a private " << s << ": " << line;
+            if (line.find("buffer ") != std::string::npos || bufferOnly.count(inStruct)) continue;
+            const std::string code = line.substr(0, line.find("//"));
+            EXPECT_FALSE(std::regex_search(code, array64)) << name << ":" << n << ": " << line;
+        }
+    }
+    EXPECT_GE(files, 10u); // the libraries and programs of the cut pass were read
 }
 
 TEST(RenderGl, BrokenShaderReportsItsInfoLog)
