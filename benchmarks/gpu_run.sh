@@ -21,6 +21,7 @@ bundle=$(realpath "$1") results=$2
 mkdir -p "$results" && results=$(realpath "$results")
 exec > >(tee -a "$results/gpu_run.txt") 2>&1
 dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
 tar xJf "$bundle" -C "$dir" || exit 3
 export LD_LIBRARY_PATH=$dir/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 ldconfig -p | grep -q 'libstdc++.so.6 ' || export LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$dir/libfb
