@@ -219,7 +219,8 @@ TEST_F(RenderCli, BadArgumentsFailWithOneLineAndNoFile)
 // --gpu-cut: the cut geometry made by the GPU cut pass and drawn from its
 // own output gives the same EXR as the CPU re-mesher's (colour, depth,
 // normals, fragment ids, bit for bit: the same triangles and normals), and
-// the command says the recovered geometry is the CPU's in every cell.
+// the command says the recovered geometry is the CPU's in every cell, and how
+// many of the pass's programs came from the program cache.
 TEST_F(RenderCli, GpuCutPassDrawsTheSameFrame)
 {
     for (const char* kerf : {"", " --kerf 0.5"}) {
@@ -231,6 +232,7 @@ TEST_F(RenderCli, GpuCutPassDrawsTheSameFrame)
         ASSERT_EQ(b.exitCode, 0) << b.output;
         EXPECT_NE(b.output.find("recovered geometry equal to the CPU's in every cell"), std::string::npos) << b.output;
         EXPECT_NE(b.output.find("the CPU's mesh;"), std::string::npos) << b.output; // the recovered cells fused
+        EXPECT_NE(b.output.find(" of 5 from the program cache)"), std::string::npos) << b.output; // where they came from
         std::ifstream fa(cpu, std::ios::binary), fb(gpu, std::ios::binary);
         const std::string da((std::istreambuf_iterator<char>(fa)), {}), db((std::istreambuf_iterator<char>(fb)), {});
         EXPECT_FALSE(da.empty());

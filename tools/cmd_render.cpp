@@ -13,6 +13,7 @@
 #include "render/CutGeometry.h"
 #include "render/CutKernelGpu.h"
 #include "render/MaskTiling.h"
+#include "render/Shaders.h"
 #include "render/SurfaceRenderer.h"
 #include "tools/Cli.h"
 
@@ -134,12 +135,17 @@ int runRender(const Args& args)
                 for (const auto& entry : remesher.cells()) cells.push_back(entry.first);
                 const auto g0 = Clock::now();
                 // Its programs are large (the exact kernel on doubles): quick
-                // on Mesa, but an NVIDIA 580 driver had not built them
-                // after 4 minutes (benchmarks/RESULTS.md), so say what is going on.
+                // on Mesa, but an NVIDIA 580 driver took up to 3 minutes for
+                // one (benchmarks/RESULTS.md) the first time, then they come
+                // from the program cache; so say what is going on.
                 std::fprintf(stderr, "mtcut: --gpu-cut: building the GPU cut pass's shaders\n");
+                const size_t cachedBefore = render::programCacheCounts().loaded;
                 const render::GpuCutKernel gpu;
-                std::fprintf(stderr, "mtcut: --gpu-cut: shaders built in %.1f s; making the cut geometry of %zu cells\n",
-                             secondsSince(g0), cells.size());
+                const size_t cached = render::programCacheCounts().loaded - cachedBefore;
+                std::fprintf(stderr,
+                             "mtcut: --gpu-cut: shaders built in %.1f s (%zu of 5 from the program cache); "
+                             "making the cut geometry of %zu cells\n",
+                             secondsSince(g0), cached, cells.size());
                 auto draw = std::make_shared<render::GpuCutDraw>(2 * cutTriangles + 4096);
                 const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, iso, mask, cells, 1, draw.get());
                 size_t differ = 0;
