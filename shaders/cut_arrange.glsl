@@ -563,10 +563,11 @@ void isoSurfaces()
     }
 }
 
-/// poly2::angleLess (atan2's order of directions, without atan2).
+/// poly2::angleLess (atan2's order of directions, without atan2, the sign
+/// of a zero y not read: this driver need not keep it).
 int angleHalf(dvec2 d)
 {
-    if (d.y == 0.0lf && d.x < 0.0lf) return (doubleBitsToUint64(d.y) >> 63) != 0ul ? -1 : 3; // signbit
+    if (d.y == 0.0lf && d.x < 0.0lf) return 3;
     return d.y < 0.0lf ? 0 : d.y == 0.0lf ? 1 : 2;
 }
 bool angleLess(dvec2 u, dvec2 v)

@@ -196,9 +196,10 @@ TEST(Polygon2, BestTriangulationIsNoWorseThanEarClipping)
 // angleLess and clockwiseLess replace std::atan2 in the kernel (a cap's
 // corners ordered about its centre, a region's loop turning most clockwise)
 // because the GPU port has no double atan2. They must order as atan2 does
-// wherever atan2 tells two directions apart, signed zeros included (a
-// corner opposite the first one of a parallelogram cap sits on the -x axis
-// with y = -0 or +0: atan2 says -pi or pi, first or last).
+// wherever atan2 tells two directions apart, except that the sign of a zero
+// y is not read (a corner opposite the first one of a parallelogram cap sits
+// on the -x axis with y = -0 or +0, where atan2 says -pi or pi; a GPU driver
+// need not keep the sign of a zero, so both are pi, last).
 TEST(Polygon2, AngleOrdersAsAtan2WithoutIt)
 {
     std::vector<Vec2> dirs;
@@ -220,7 +221,7 @@ TEST(Polygon2, AngleOrdersAsAtan2WithoutIt)
             const Vec2& v = dirs[(&u - dirs.data() + 7919 * k) % dirs.size()];
             if (u.x == 0 && u.y == 0) continue; // atan2(0, -0) is pi: a zero vector has no angle
             if (v.x == 0 && v.y == 0) continue;
-            const double au = std::atan2(u.y, u.x), av = std::atan2(v.y, v.x);
+            const double au = std::atan2(u.y + 0.0, u.x), av = std::atan2(v.y + 0.0, v.x);
             if (au != av) {
                 EXPECT_EQ(angleLess(u, v), au < av) << u.x << "," << u.y << " vs " << v.x << "," << v.y;
                 ++pairs;
@@ -240,8 +241,10 @@ TEST(Polygon2, AngleOrdersAsAtan2WithoutIt)
             }
         }
     EXPECT_GT(pairs, 50000u);
-    EXPECT_TRUE(angleLess({-1.0, -0.0}, {1.0, -1e-9})); // -pi first
-    EXPECT_FALSE(angleLess({-1.0, 0.0}, {-1.0, 1e9}));   // pi last
+    EXPECT_FALSE(angleLess({-1.0, -0.0}, {1.0, -1e-9})); // pi (not atan2's -pi), last
+    EXPECT_FALSE(angleLess({-1.0, 0.0}, {-1.0, 1e9}));    // pi last
+    EXPECT_FALSE(angleLess({-1.0, -0.0}, {-2.0, 0.0}));   // the same angle either way
+    EXPECT_FALSE(angleLess({-2.0, 0.0}, {-1.0, -0.0}));
     // Where atan2 rounds two directions to one angle, the cross product
     // still tells them apart: (0, 1) is a turn of 1e-20 rad clockwise from
     // (-1e-20, 1), which atan2 makes a full turn (back where it came from).
