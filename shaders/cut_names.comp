@@ -18,15 +18,21 @@ void main()
 {
     const uint i = gl_GlobalInvocationID.x;
     if (i >= uQueryCount) return;
-    const NameQuery q = uQueries[i];
-    const Tet T = loadTet(q.cell, int(q.tet));
+    // Each field read from the buffer, not the struct copied: this driver
+    // (NVIDIA 580) changed the double of a private copy of the struct, as it
+    // changes doubles kept in private arrays (test_render_poly2's probe).
+    const uint cell = uQueries[i].cell, tet = uQueries[i].tet;
+    const dvec3 pos0 = uQueries[i].pos0.xyz;
+    uvec2 defining[8];
+    for (int k = 0; k < 8; ++k) defining[k] = uQueries[i].defining[k];
+    const Tet T = loadTet(cell, int(tet));
     const IsoPolygons iso = isoTriangles(T);
-    tetBegin(T, iso, q.cell);
+    tetBegin(T, iso, cell);
     const IsoOwnership own = isoOwnership(iso);
     uvec2 name[8];
     int count;
     bool overflow;
-    const bool named = nameOf(T, iso, own, q.cell, q.support, q.defining, int(q.definingCount), q.pos0.xyz, name, count,
+    const bool named = nameOf(T, iso, own, cell, uQueries[i].support, defining, int(uQueries[i].definingCount), pos0, name, count,
                               overflow);
     outNames[10u * i] = uint64_t((named ? 1u : 0u) | (overflow ? 2u : 0u));
     outNames[10u * i + 1u] = uint64_t(count);

@@ -18,11 +18,17 @@ void main()
 {
     const uint i = gl_GlobalInvocationID.x;
     if (i >= uQueryCount) return;
-    const VertexQuery q = uQueries[i];
-    const Tet T = loadTet(q.cell, int(q.tet));
+    // Each field read from the buffer, not the struct copied: this driver
+    // (NVIDIA 580) changed the double of a private copy of the struct, as it
+    // changes doubles kept in private arrays (test_render_poly2's probe).
+    const uint cell = uQueries[i].cell, tet = uQueries[i].tet;
+    const dvec3 pos0 = uQueries[i].pos0.xyz;
+    uvec2 planes[8];
+    for (int k = 0; k < 8; ++k) planes[k] = uQueries[i].planes[k];
+    const Tet T = loadTet(cell, int(tet));
     const IsoPolygons iso = isoTriangles(T);
-    tetBegin(T, iso, q.cell);
-    const dvec3 p = canonicalPosition(T, iso, q.cell, q.dim, q.planeCount, q.planes, q.support, q.pos0.xyz);
+    tetBegin(T, iso, cell);
+    const dvec3 p = canonicalPosition(T, iso, cell, uQueries[i].dim, uQueries[i].planeCount, planes, uQueries[i].support, pos0);
     outPos[3u * i] = p.x;
     outPos[3u * i + 1u] = p.y;
     outPos[3u * i + 2u] = p.z;
