@@ -6,6 +6,9 @@
 #include "render/Shaders.h"
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -156,6 +159,44 @@ GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
     }
     return t;
 }
+
+/// MTCUT_GPU_CUT_TIMES=1: each stage's draws timed (glFinish after each,
+/// so slower) and, per arrangement() call, the stages that took 100 ms or
+/// more printed to stderr with their first draw's time, to find where a
+/// driver's first-use work goes (NVIDIA 580: the first cut of a process
+/// took 28-58 s more than the next with the programs from the cache).
+class StageTimes
+{
+public:
+    StageTimes() : mOn(std::getenv("MTCUT_GPU_CUT_TIMES") && *std::getenv("MTCUT_GPU_CUT_TIMES") == '1') {}
+    bool on() const { return mOn; }
+    void add(const char* program, int stage, double ms)
+    {
+        Stage& s = mStages[{program, stage}];
+        if (s.draws++ == 0) s.firstMs = ms;
+        s.ms += ms;
+    }
+    void print(size_t tets) const
+    {
+        if (!mOn) return;
+        double all = 0.0;
+        for (const auto& [key, s] : mStages) all += s.ms;
+        std::fprintf(stderr, "gpu cut stages: %zu tets, %.1f ms in draws\n", tets, all);
+        for (const auto& [key, s] : mStages)
+            if (s.ms >= 100.0)
+                std::fprintf(stderr, "  %s stage %d: %zu draws, %.1f ms, the first %.1f ms\n", key.first.c_str(), key.second,
+                             s.draws, s.ms, s.firstMs);
+    }
+
+private:
+    struct Stage
+    {
+        size_t draws = 0;
+        double ms = 0.0, firstMs = 0.0;
+    };
+    bool mOn;
+    std::map<std::pair<std::string, int>, Stage> mStages;
+};
 
 } // namespace
 
@@ -436,6 +477,7 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
         glProgramUniform1ui(id, mRegions.uniform("uDrawCapacity"), GLuint(target->capacity()));
     }
     const PointPass pass;
+    StageTimes times;
     std::vector<uint64_t> slots(batch * kSlot);
     for (size_t from = 0; from < tetCount; from += batch) {
         const size_t count = std::min(batch, tetCount - from);
@@ -452,8 +494,14 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
             glNamedBufferSubData(tetList.id(), 0, GLsizeiptr(list.size() * sizeof(GLuint)), list.data());
             glProgramUniform1ui(program.id(), program.uniform("uListCount"), GLuint(list.size()));
             glProgramUniform1i(program.id(), program.uniform("uStage"), stage);
+            if (times.on()) glFinish();
+            const auto start = std::chrono::steady_clock::now();
             pass.draw(list.size() * lanesPerTet);
             glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+            if (!times.on()) return;
+            glFinish();
+            times.add(&program == &mArrange ? "cut_arrange.vert" : "cut_regions.vert", stage,
+                      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
         };
         auto listSlots = [&](int minStatus) {
             list.clear();
@@ -487,6 +535,7 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     }
     glUseProgram(0);
     checkGlError("GpuCutKernel::arrangement");
+    times.print(tetCount);
     return out;
 }
 
