@@ -176,12 +176,18 @@ public:
         if (s.draws++ == 0) s.firstMs = ms;
         s.ms += ms;
     }
+    void read(size_t words, size_t slotWords)
+    {
+        mReadWords += words;
+        mSlotWords += slotWords;
+    }
     void print(size_t tets) const
     {
         if (!mOn) return;
         double all = 0.0;
         for (const auto& [key, s] : mStages) all += s.ms;
-        std::fprintf(stderr, "gpu cut stages: %zu tets, %.1f ms in draws\n", tets, all);
+        std::fprintf(stderr, "gpu cut stages: %zu tets, %.1f ms in draws; records: %.1f MB read back of %.1f MB of slots\n",
+                     tets, all, double(mReadWords) * 8e-6, double(mSlotWords) * 8e-6);
         for (const auto& [key, s] : mStages)
             if (s.ms >= 100.0)
                 std::fprintf(stderr, "  %s stage %d: %zu draws, %.1f ms, the first %.1f ms\n", key.first.c_str(), key.second,
@@ -196,6 +202,7 @@ private:
     };
     bool mOn;
     std::map<std::pair<std::string, int>, Stage> mStages;
+    size_t mReadWords = 0, mSlotWords = 0;
 };
 
 } // namespace
@@ -447,12 +454,17 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, scratchD.id());
     constexpr size_t kSlot = 8192; // words per tet's record
     const Buffer records(batch * kSlot * sizeof(uint64_t), nullptr, GL_MAP_READ_BIT);
+    // The records' used words, packed on the GPU (glCopyNamedBufferSubData)
+    // and read back in one call: a tet's record is a few thousand words of
+    // its 8,192 and most tets hold no solid, so this reads back about a
+    // twentieth of the whole slots (67 MB a batch of 1,020).
+    const Buffer packed(batch * kSlot * sizeof(uint64_t), nullptr, GL_MAP_READ_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, records.id());
     const Buffer tetList(batch * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
     const Buffer tetStatus(batch * sizeof(GLint), nullptr, GL_MAP_READ_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, tetList.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, tetStatus.id());
-    std::vector<GLint> status(batch);
+    std::vector<GLint> status(batch), words(batch);
     for (const Program* p : {&mArrange, &mRegions}) {
         glProgramUniform1ui(p->id(), p->uniform("uSlotWords"), GLuint(kSlot));
         glProgramUniform1ui(p->id(), p->uniform("uLaneStride"), GLuint(lanesPerTet));
@@ -526,12 +538,25 @@ std::vector<GpuArrangedTet> GpuCutKernel::arrangement(const cutter::PackedKernel
         if (listSlots(-1)) draw(mArrange, kStageEnd);
         if (target && listSlots(1)) draw(mRegions, kStageEmit);
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT);
-        glGetNamedBufferSubData(records.id(), 0, GLsizeiptr(count * kSlot * sizeof(uint64_t)), slots.data());
-        // The records, slot by slot (ascending tets).
+        // Each record's length (tetStatus after the end; a tet without
+        // solid, status -2, has none), then the records packed, in slot
+        // order (ascending tets).
+        glGetNamedBufferSubData(tetStatus.id(), 0, GLsizeiptr(count * sizeof(GLint)), words.data());
+        std::vector<std::pair<size_t, size_t>> at; // slot, words
+        size_t total = 0;
         for (size_t i = 0; i < count; ++i) {
-            const uint64_t* w = &slots[i * kSlot];
-            if (w[0] != ~uint64_t(0)) out.push_back(parseArrangedTet(w, kSlot)); // ~0: no solid
+            if (status[i] == -2) continue;
+            if (words[i] < 3 || size_t(words[i]) > kSlot)
+                throw std::runtime_error("GpuCutKernel::arrangement: a record of " + std::to_string(words[i]) +
+                                         " words for tet " + std::to_string(firstTet + from + i));
+            glCopyNamedBufferSubData(records.id(), packed.id(), GLintptr(i * kSlot * sizeof(uint64_t)),
+                                     GLintptr(total * sizeof(uint64_t)), GLsizeiptr(size_t(words[i]) * sizeof(uint64_t)));
+            at.emplace_back(total, size_t(words[i]));
+            total += size_t(words[i]);
         }
+        if (total > 0) glGetNamedBufferSubData(packed.id(), 0, GLsizeiptr(total * sizeof(uint64_t)), slots.data());
+        times.read(total, count * kSlot);
+        for (const auto& [first, n] : at) out.push_back(parseArrangedTet(&slots[first], n));
     }
     glUseProgram(0);
     checkGlError("GpuCutKernel::arrangement");

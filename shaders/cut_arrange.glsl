@@ -64,7 +64,7 @@ void putDouble(double d) { put(doubleBitsToUint64(d)); }
 // ---- the staged draws (cut_arrange.vert, cut_regions.vert): one vertex
 // per tet, uLaneStride vertices apart, over the slots in tetList
 layout(std430, binding = 4) readonly buffer TetList { uint tetList[]; };   // the slots this draw arranges
-layout(std430, binding = 9) writeonly buffer TetStatus { int tetStatus[]; }; // per slot, after stage 0
+layout(std430, binding = 9) writeonly buffer TetStatus { int tetStatus[]; }; // per slot: after stage 0, after the end
 uniform uint uFirstTet;   // the tet of slot 0
 uniform uint uListCount;  // entries of tetList
 uniform uint uSlotWords;  // words of each invocation's slot of Records

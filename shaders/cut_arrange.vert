@@ -81,7 +81,8 @@ void stageFinish(uint slot, uint tet, int s)
 }
 
 /// The last stage: the vertex table, then the header (a failed tet: the
-/// header alone, its fail bits in it).
+/// header alone, its fail bits in it); tetStatus then holds the record's
+/// length in words.
 void stageEnd(uint slot, uint tet, uint headerAt)
 {
     uint at;
@@ -104,9 +105,11 @@ void stageEnd(uint slot, uint tet, uint headerAt)
         outRecord[headerAt] = uint64_t(tet) | uint64_t(gFail) << 32;
         outRecord[headerAt + 1u] = 0ul;
         outRecord[headerAt + 2u] = 0ul;
+        tetStatus[slot] = 3;
         return;
     }
     outRecord[headerAt + 1u] = uint64_t(gVertCount) | uint64_t(gSurfaceCount) << 32;
+    tetStatus[slot] = int(gAt - headerAt); // the record's words, for the host to read only those
 }
 
 void main()
