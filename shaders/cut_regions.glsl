@@ -195,8 +195,8 @@ int tJunctionSide(int v, int r, out int o)
             if (q == r || signOf(v, kQuads[q].id) != 0 || !inSlitOpen(v, q) || onStripRim(v, q)) continue;
             if (!rimLineIn(r, sd, q)) continue;
             const dvec3 n = kQuads[r].plane.xyz, sn = kSides[sd].plane.xyz;
-            const dvec3 inward = kSides[sd].orient * (sn - n * dot(sn, n));
-            const double h = dot(kQuads[q].plane.xyz, inward);
+            precise dvec3 inward = kSides[sd].orient * (sn - n * dot3(sn, n)); // precise: no fused multiply-add
+            const double h = dot3(kQuads[q].plane.xyz, inward);
             if (h == 0.0lf) continue;
             o = q;
             return h > 0.0lf ? 1 : -1;

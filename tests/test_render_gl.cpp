@@ -109,6 +109,34 @@ TEST(RenderGl, CutPassKeepsNo64BitValueInAPrivateArray)
     EXPECT_GE(files.size(), 10u); // the libraries and programs of the cut pass were read
 }
 
+// The cut pass decides as the CPU does on the same doubles, so every sum of
+// products is written out under `precise` (dot3, cross3, planeH in
+// cut_kernel.glsl): a driver may evaluate the builtins dot, cross, length,
+// distance, normalize with fused multiply-adds, which round differently
+// (NVIDIA's sqrt already did: dSqrt). Builtins are left to float shading
+// only: a line of the cut shaders that calls one must declare a float.
+TEST(RenderGl, CutPassCallsNoGeometricBuiltinOnDoubles)
+{
+    const std::regex builtin(R"((^|[^\w.])(dot|cross|length|distance|normalize|fma|faceforward|reflect)\s*\()");
+    const std::regex floatDecl(R"(^\s*(const\s+)?(float|vec[234])\s+\w+\s*=)");
+    size_t files = 0, floatCalls = 0;
+    for (const std::string& name : shaderNames()) {
+        if (name.compare(0, 4, "cut_") != 0 && name != "poly2.glsl" && name != "doubles.glsl") continue;
+        ++files;
+        std::istringstream text(shaderSource(name));
+        std::string line;
+        for (int n = 1; std::getline(text, line); ++n) {
+            const std::string code = line.substr(0, line.find("//"));
+            if (!std::regex_search(code, builtin)) continue;
+            const bool isFloat = std::regex_search(code, floatDecl);
+            floatCalls += isFloat;
+            EXPECT_TRUE(isFloat) << name << ":" << n << ": " << line;
+        }
+    }
+    EXPECT_GE(files, 10u);
+    EXPECT_GE(floatCalls, 2u); // the shading normal's cross and length (cut_regions.glsl): the rule reads calls
+}
+
 TEST(RenderGl, BrokenShaderReportsItsInfoLog)
 {
     MTCUT_REQUIRE_GL();
