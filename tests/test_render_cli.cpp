@@ -223,6 +223,12 @@ TEST_F(RenderCli, BadArgumentsFailWithOneLineAndNoFile)
 // many of the pass's programs came from the program cache.
 TEST_F(RenderCli, GpuCutPassDrawsTheSameFrame)
 {
+    { // without a cut there is nothing for the pass to make, and it says so
+        const test::RunResult r = test::runMtcut("render " + sPhantom + " --iso 400 --width 64 --height 64 -o " +
+                                                 sDir->file("uncut.exr") + " --gpu-cut");
+        ASSERT_EQ(r.exitCode, 0) << r.output;
+        EXPECT_NE(r.output.find("--gpu-cut: no cut (no --path given)"), std::string::npos) << r.output;
+    }
     for (const char* kerf : {"", " --kerf 0.5"}) {
         const std::string cpu = sDir->file("cpu.exr"), gpu = sDir->file("gpu.exr");
         const std::string args = " --iso 400 --path " + lefortPath() + kerf + " --width 128 --height 128 --view iso --highlight";

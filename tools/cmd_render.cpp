@@ -101,6 +101,8 @@ int runRender(const Args& args)
     std::vector<RefusedStroke> refused; // --keep-going
     std::string gpuCutLine;             // --gpu-cut
     if (strokes.empty()) {
+        if (args.has("gpu-cut"))
+            std::fprintf(stderr, "mtcut: --gpu-cut: no cut (no --path given), nothing for the GPU cut pass to make\n");
         const std::vector<uint32_t> ids = render::fragmentIdsOf(uncut);
         fragments = ids.empty() ? 0 : *std::max_element(ids.begin(), ids.end());
         renderer.setSurface(uncut, ids);
@@ -142,9 +144,13 @@ int runRender(const Args& args)
                 const size_t cachedBefore = render::programCacheCounts().loaded;
                 const render::GpuCutKernel gpu;
                 const size_t cached = render::programCacheCounts().loaded - cachedBefore;
+                // The first draws of a process then take the driver's own
+                // compile (RESULTS: NVIDIA 28-58 s; llvmpipe minutes after a
+                // shader change, then kept in Mesa's disk cache).
                 std::fprintf(stderr,
                              "mtcut: --gpu-cut: shaders built in %.1f s (%zu of 5 from the program cache); "
-                             "making the cut geometry of %zu cells\n",
+                             "making the cut geometry of %zu cells (a driver compiles the programs' code at their "
+                             "first draw: up to a minute, or minutes on Mesa after a change)\n",
                              secondsSince(g0), cached, cells.size());
                 auto draw = std::make_shared<render::GpuCutDraw>(2 * cutTriangles + 4096);
                 const render::RecoveredCells rec = render::recoverCutCells(gpu, vol, iso, mask, cells, 1, draw.get());
