@@ -54,6 +54,20 @@ TEST(RenderGl, EveryEmbeddedShaderCompiles)
     }
 }
 
+namespace {
+/// The cut pass's shader files (programs and libraries), name and source,
+/// and their lines' code without the // comment.
+std::vector<std::pair<std::string, std::string>> cutPassSources()
+{
+    std::vector<std::pair<std::string, std::string>> files;
+    for (const std::string& name : shaderNames())
+        if (name.compare(0, 4, "cut_") == 0 || name == "poly2.glsl" || name == "doubles.glsl")
+            files.push_back({name, shaderSource(name)});
+    return files;
+}
+std::string codeOf(const std::string& line) { return line.substr(0, line.find("//")); }
+} // namespace
+
 // NVIDIA's driver (580.159.04, H100) keeps a 64-bit value in a private array
 // (a function's or a global's, a parameter, a member of a private struct) with
 // 32 bits: doubles come back rounded to float, uint64_t changed
@@ -69,11 +83,7 @@ TEST(RenderGl, CutPassKeepsNo64BitValueInAPrivateArray)
 {
     const std::regex array64(R"(\b(double|dvec[234]|dmat[234](x[234])?|u?int64_t|[iu]64vec[234])\s+\w+\s*\[)");
     const std::regex scalar64(R"(\b(double|dvec[234]|dmat[234](x[234])?|u?int64_t|[iu]64vec[234])\s+\w+)");
-    std::vector<std::pair<std::string, std::string>> files; // name, source
-    for (const std::string& name : shaderNames())
-        if (name.compare(0, 4, "cut_") == 0 || name == "poly2.glsl" || name == "doubles.glsl")
-            files.push_back({name, shaderSource(name)});
-    auto code = [](const std::string& line) { return line.substr(0, line.find("//")); };
+    const auto files = cutPassSources();
     // The structs that hold an array and a 64-bit value: buffers' only.
     std::set<std::string> bufferOnly;
     for (const auto& [name, source] : files) {
@@ -84,8 +94,8 @@ TEST(RenderGl, CutPassKeepsNo64BitValueInAPrivateArray)
             std::smatch m;
             if (std::regex_search(line, m, std::regex(R"(^struct (\w+))"))) inStruct = m[1], array = wide = false;
             if (inStruct.empty()) continue;
-            array = array || code(line).find('[') != std::string::npos;
-            wide = wide || std::regex_search(code(line), scalar64);
+            array = array || codeOf(line).find('[') != std::string::npos;
+            wide = wide || std::regex_search(codeOf(line), scalar64);
             if (line.compare(0, 2, "};") != 0) continue;
             if (array && wide) bufferOnly.insert(inStruct);
             inStruct.clear();
@@ -100,10 +110,10 @@ TEST(RenderGl, CutPassKeepsNo64BitValueInAPrivateArray)
             if (std::regex_search(line, m, std::regex(R"(^struct (\w+))"))) inStruct = m[1];
             if (line.compare(0, 2, "};") == 0) inStruct.clear();
             for (const std::string& s : bufferOnly) // a private copy of one would be a private array
-                EXPECT_FALSE(std::regex_search(code(line), std::regex("\\b" + s + R"(\s+\w+\s*[=;])")))
+                EXPECT_FALSE(std::regex_search(codeOf(line), std::regex("\\b" + s + R"(\s+\w+\s*[=;])")))
                     << name << ":" << n << ": a private " << s << ": " << line;
             if (line.find("buffer ") != std::string::npos || bufferOnly.count(inStruct)) continue;
-            EXPECT_FALSE(std::regex_search(code(line), array64)) << name << ":" << n << ": " << line;
+            EXPECT_FALSE(std::regex_search(codeOf(line), array64)) << name << ":" << n << ": " << line;
         }
     }
     EXPECT_GE(files.size(), 10u); // the libraries and programs of the cut pass were read
@@ -119,21 +129,20 @@ TEST(RenderGl, CutPassCallsNoGeometricBuiltinOnDoubles)
 {
     const std::regex builtin(R"((^|[^\w.])(dot|cross|length|distance|normalize|fma|faceforward|reflect)\s*\()");
     const std::regex floatDecl(R"(^\s*(const\s+)?(float|vec[234])\s+\w+\s*=)");
-    size_t files = 0, floatCalls = 0;
-    for (const std::string& name : shaderNames()) {
-        if (name.compare(0, 4, "cut_") != 0 && name != "poly2.glsl" && name != "doubles.glsl") continue;
-        ++files;
-        std::istringstream text(shaderSource(name));
+    const auto files = cutPassSources();
+    size_t floatCalls = 0;
+    for (const auto& [name, source] : files) {
+        std::istringstream text(source);
         std::string line;
         for (int n = 1; std::getline(text, line); ++n) {
-            const std::string code = line.substr(0, line.find("//"));
+            const std::string code = codeOf(line);
             if (!std::regex_search(code, builtin)) continue;
             const bool isFloat = std::regex_search(code, floatDecl);
             floatCalls += isFloat;
             EXPECT_TRUE(isFloat) << name << ":" << n << ": " << line;
         }
     }
-    EXPECT_GE(files, 10u);
+    EXPECT_GE(files.size(), 10u);
     EXPECT_GE(floatCalls, 2u); // the shading normal's cross and length (cut_regions.glsl): the rule reads calls
 }
 
