@@ -296,6 +296,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
         bool usable; ///< positions known
     };
     std::vector<Box> box(tris.size());
+    std::vector<TrianglePlane> plane(tris.size()); // of the usable triangles
     for (size_t t = 0; t < tris.size(); ++t) {
         const RegionTriangle& tr = tris[t];
         Box& b = box[t];
@@ -303,6 +304,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
         if (!b.usable) continue;
         b.lo = glm::min(world[tr.v[0]], glm::min(world[tr.v[1]], world[tr.v[2]]));
         b.hi = glm::max(world[tr.v[0]], glm::max(world[tr.v[1]], world[tr.v[2]]));
+        plane[t] = trianglePlane({world[tr.v[0]], world[tr.v[1]], world[tr.v[2]]});
     }
     // A triangle lies in its cell's closed box, rounded to float as the
     // vertices are (rounding is monotone), so a neighbour's triangles can
@@ -361,8 +363,8 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
                 for (int k = 0; k < 3 && needed; ++k)
                     needed = n.offset[k] == 0 || reach[k][n.offset[k] > 0 ? 1 : 0];
                 if (!needed) continue;
-                for (size_t u = start[n.region]; u < start[n.region + 1]; ++u) {
-                    if (n.changed && u <= t) continue; // a pair of changed cells' triangles once
+                // A pair of changed cells' triangles once, from its lower triangle.
+                for (size_t u = n.changed ? std::max(start[n.region], t + 1) : start[n.region]; u < start[n.region + 1]; ++u) {
                     const Box& bu = box[u];
                     if (!bu.usable || (!a.cut && !tris[u].cut)) continue;
                     if (bt.hi.x < bu.lo.x || bu.hi.x < bt.lo.x || bt.hi.y < bu.lo.y || bu.hi.y < bt.lo.y ||
@@ -371,7 +373,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
                     const RegionTriangle& b = tris[u];
                     const std::array<glm::vec3, 3> pb{world[b.v[0]], world[b.v[1]], world[b.v[2]]};
                     const std::array<uint32_t, 3> ib{vertex[b.v[0]], vertex[b.v[1]], vertex[b.v[2]]};
-                    const Contact contact = trianglesCross(pa, ia, pb, ib);
+                    const Contact contact = trianglesCross(pa, ia, plane[t], pb, ib, plane[u]);
                     if (contact == Contact::None) continue;
                     ta = t;
                     tb = u;

@@ -151,6 +151,40 @@ Sign orient3d(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const 
     return orient3dExact(a, b, c, d, ux, vx, wx, uy, vy, wy, uz, vz, wz);
 }
 
+TrianglePlane trianglePlane(const std::array<glm::vec3, 3>& t)
+{
+    const glm::vec3 &a = t[0], &b = t[1], &c = t[2];
+    const double ux = double(b.x) - a.x, uy = double(b.y) - a.y, uz = double(b.z) - a.z;
+    const double vx = double(c.x) - a.x, vy = double(c.y) - a.y, vz = double(c.z) - a.z;
+    const double uyvz = uy * vz, uzvy = uz * vy, uzvx = uz * vx, uxvz = ux * vz, uxvy = ux * vy, uyvx = uy * vx;
+    TrianglePlane p;
+    p.n[0] = uyvz - uzvy;
+    p.n[1] = uzvx - uxvz;
+    p.n[2] = uxvy - uyvx;
+    p.perm[0] = std::abs(uyvz) + std::abs(uzvy);
+    p.perm[1] = std::abs(uzvx) + std::abs(uxvz);
+    p.perm[2] = std::abs(uxvy) + std::abs(uyvx);
+    return p;
+}
+
+Sign orient3d(const std::array<glm::vec3, 3>& t, const TrianglePlane& plane, const glm::vec3& d)
+{
+    // det[u, v, w] expanded along w = d - a instead of along the z column:
+    // the same three products of a difference and a 2x2 minor of
+    // differences (transposed), so Shewchuk's bound holds as it stands.
+    const glm::vec3& a = t[0];
+    const double wx = double(d.x) - a.x, wy = double(d.y) - a.y, wz = double(d.z) - a.z;
+    const double det = wx * plane.n[0] + wy * plane.n[1] + wz * plane.n[2];
+    const double permanent = std::abs(wx) * plane.perm[0] + std::abs(wy) * plane.perm[1] + std::abs(wz) * plane.perm[2];
+    if (std::abs(det) > kO3dErrBound * permanent) return signOf(det);
+    // Every term exactly zero (a computed product of these differences is
+    // zero only when a factor is: they are far above double's underflow),
+    // so the determinant is: the four points in one axis plane, as the
+    // caps of a blade along a grid plane are.
+    if (permanent == 0) return Sign::Zero;
+    return orient3d(t[0], t[1], t[2], d);
+}
+
 Sign orient2d(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, int i, int j)
 {
     const double ui = double(b[i]) - a[i], uj = double(b[j]) - a[j];
@@ -179,6 +213,13 @@ namespace {
 struct Judge
 {
     bool unknown = false;
+
+    /// The side of point d to triangle t's plane, o3(t[0], t[1], t[2], d),
+    /// by its precomputed plane when the caller has it.
+    int side(const std::array<glm::vec3, 3>& t, const TrianglePlane* plane, const glm::vec3& d)
+    {
+        return plane ? take(orient3d(t, *plane, d)) : o3(t[0], t[1], t[2], d);
+    }
 
     int o3(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& d)
     {
@@ -274,10 +315,8 @@ struct Judge
     }
 };
 
-} // namespace
-
-Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
-                           const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib)
+Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane* planeA,
+                  const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane* planeB)
 {
     Judge judge;
     // Shared vertex ids: sa[k] is the position in b of a's vertex k (-1: none).
@@ -301,7 +340,8 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
         while (m < 3 && (ib[size_t(m)] == ia[size_t((other + 1) % 3)] || ib[size_t(m)] == ia[size_t((other + 2) % 3)])) ++m;
         const glm::vec3& pa = a[size_t(other)];
         const glm::vec3& pb = b[size_t(m)];
-        if (judge.o3(e0, e1, pa, pb) == 0 && !judge.unknown) {
+        // (e0, e1, pa) is a's corners rotated: the side of pb to a's plane.
+        if (judge.side(a, planeA, pb) == 0 && !judge.unknown) {
             int pi = 0, pj = 1, signP = 0;
             if (!judge.projection(a, pi, pj, signP)) return Contact::Undecided; // a has zero area
             const int sideA = judge.o2(e0, e1, pa, pi, pj), sideB = judge.o2(e0, e1, pb, pi, pj);
@@ -317,7 +357,7 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
         // other's plane, so it meets that plane only at v.
         const glm::vec3 &a1 = a[size_t((ka + 1) % 3)], &a2 = a[size_t((ka + 2) % 3)];
         const glm::vec3 &b1 = b[size_t((kb + 1) % 3)], &b2 = b[size_t((kb + 2) % 3)];
-        const int s1 = judge.o3(a[0], a[1], a[2], b1), s2 = judge.o3(a[0], a[1], a[2], b2);
+        const int s1 = judge.side(a, planeA, b1), s2 = judge.side(a, planeA, b2);
         if (s1 * s2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
         if (s1 == 0 && s2 == 0 && !judge.unknown) {
             // Coplanar: they meet beyond v exactly when their corners at v
@@ -344,17 +384,17 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
             auto bHolds = [&](int i) { return -turn(i, fb) >= 0 && -turn(i, 1 - fb) <= 0; };
             hit = aHolds(0) || aHolds(1) || bHolds(0) || bHolds(1);
         } else {
-            const int t1 = judge.o3(b[0], b[1], b[2], a1), t2 = judge.o3(b[0], b[1], b[2], a2);
+            const int t1 = judge.side(b, planeB, a1), t2 = judge.side(b, planeB, a2);
             if (t1 * t2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
             hit = judge.segmentMeetsTriangle(a1, a2, b, t1, t2) || judge.segmentMeetsTriangle(b1, b2, a, s1, s2);
         }
     } else {
         // Quick: one strictly on one side of the other's plane.
         int side[2][3];
-        for (int k = 0; k < 3; ++k) side[0][k] = judge.o3(a[0], a[1], a[2], b[size_t(k)]);
+        for (int k = 0; k < 3; ++k) side[0][k] = judge.side(a, planeA, b[size_t(k)]);
         if (side[0][0] * side[0][1] > 0 && side[0][1] * side[0][2] > 0)
             return judge.unknown ? Contact::Undecided : Contact::None;
-        for (int k = 0; k < 3; ++k) side[1][k] = judge.o3(b[0], b[1], b[2], a[size_t(k)]);
+        for (int k = 0; k < 3; ++k) side[1][k] = judge.side(b, planeB, a[size_t(k)]);
         if (side[1][0] * side[1][1] > 0 && side[1][1] * side[1][2] > 0)
             return judge.unknown ? Contact::Undecided : Contact::None;
         if (side[0][0] == 0 && side[0][1] == 0 && side[0][2] == 0 && !judge.unknown) {
@@ -389,10 +429,10 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
     return judge.unknown ? Contact::Undecided : Contact::None;
 }
 
-Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
-                       const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib)
+Contact cross(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane* planeA,
+              const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane* planeB)
 {
-    const Contact contact = trianglesIntersect(a, ia, b, ib);
+    const Contact contact = intersect(a, ia, planeA, b, ib, planeB);
     if (contact == Contact::None) return contact;
     int same = 0, ka = -1, kb = -1;
     for (int i = 0; i < 3; ++i)
@@ -407,7 +447,33 @@ Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint3
     if (same != 1) return contact;
     std::array<uint32_t, 3> joined = ib;
     joined[size_t(kb)] = ia[size_t(ka)]; // as if one vertex: do they meet anywhere else?
-    return trianglesIntersect(a, ia, b, joined) == Contact::None ? Contact::None : contact;
+    return intersect(a, ia, planeA, b, joined, planeB) == Contact::None ? Contact::None : contact;
+}
+
+} // namespace
+
+Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                           const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib)
+{
+    return intersect(a, ia, nullptr, b, ib, nullptr);
+}
+
+Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane& pa,
+                           const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane& pb)
+{
+    return intersect(a, ia, &pa, b, ib, &pb);
+}
+
+Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                       const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib)
+{
+    return cross(a, ia, nullptr, b, ib, nullptr);
+}
+
+Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane& pa,
+                       const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane& pb)
+{
+    return cross(a, ia, &pa, b, ib, &pb);
 }
 
 } // namespace mtcut::cutter

@@ -90,6 +90,10 @@ std::pair<int, int> compareWithCgal(int count, Make make)
         if (collinear(a) || collinear(b)) continue; // not judged (and CGAL's test requires area)
         const bool want = cgalIntersect(a, ia, b, ib);
         const Contact got = trianglesIntersect(a, ia, b, ib);
+        // The local check's form, with the planes computed once: the same answer.
+        EXPECT_EQ(int(trianglesIntersect(a, ia, trianglePlane(a), b, ib, trianglePlane(b))), int(got)) << "pair " << n;
+        EXPECT_EQ(int(trianglesCross(a, ia, trianglePlane(a), b, ib, trianglePlane(b))), int(trianglesCross(a, ia, b, ib)))
+            << "pair " << n;
         ++compared;
         hits += want;
         if (got != (want ? Contact::Intersect : Contact::None) && ++failures <= 5) {
@@ -118,6 +122,8 @@ TEST(TriangleIntersect, Orient3dAgreesWithCgalOnNearlyCoplanarFloats)
         const CGAL::Orientation want = CGAL::orientation(cg(p[0]), cg(p[1]), cg(p[2]), cg(p[3]));
         const Sign got = orient3d(p[0], p[1], p[2], p[3]);
         ASSERT_EQ(int(got), int(want)) << "case " << n;
+        const std::array<glm::vec3, 3> tri{p[0], p[1], p[2]};
+        ASSERT_EQ(int(orient3d(tri, trianglePlane(tri), p[3])), int(want)) << "case " << n;
         zero += want == CGAL::COPLANAR;
         for (auto [i, j] : {std::pair{0, 1}, std::pair{1, 2}, std::pair{2, 0}}) {
             const CGAL::Orientation w2 = CGAL::orientation(K::Point_2(double(p[0][i]), double(p[0][j])),
@@ -165,6 +171,8 @@ TEST(TriangleIntersect, Orient3dIsExactWhereDoubleGivesUp)
         const CGAL::Orientation want = CGAL::orientation(cg(a), cg(p[0]), cg(p[1]), cg(p[2]));
         ASSERT_NE(want, CGAL::COPLANAR);
         ASSERT_EQ(int(orient3d(a, p[0], p[1], p[2])), int(want)) << "case " << n;
+        const std::array<glm::vec3, 3> tri{a, p[0], p[1]};
+        ASSERT_EQ(int(orient3d(tri, trianglePlane(tri), p[2])), int(want)) << "case " << n;
         (want == CGAL::POSITIVE ? positive : negative)++;
     }
     EXPECT_GT(positive, 500);
@@ -263,6 +271,34 @@ TEST(TriangleIntersect, NamedCasesHoldExactly)
               Contact::None);
 }
 
+TEST(TriangleIntersect, Orient3dWithAPlaneInAnAxisPlane)
+{
+    // The caps of a blade along a grid plane: three points with one z, the
+    // fourth on it (coplanar: every term of the determinant is zero, which
+    // orient3d with a precomputed plane answers without the exact path) or a
+    // float step or more off it; and the same about x and y.
+    PairMaker m(31);
+    int zero = 0, nonzero = 0;
+    for (int n = 0; n < 6000; ++n) {
+        const int axis = n % 3;
+        const glm::vec3 origin(74.25f, 134.5f, 1078.25f);
+        glm::vec3 p[4];
+        for (glm::vec3& q : p) {
+            q = m.lattice(origin, n % 2 ? 0.5f : 1e-3f);
+            q[axis] = origin[axis];
+        }
+        if (n % 4 == 1) p[3][axis] = std::nextafter(p[3][axis], INFINITY);
+        if (n % 4 == 2) p[3] = m.nudge(p[3]);
+        const std::array<glm::vec3, 3> tri{p[0], p[1], p[2]};
+        const CGAL::Orientation want = CGAL::orientation(cg(p[0]), cg(p[1]), cg(p[2]), cg(p[3]));
+        ASSERT_EQ(int(orient3d(tri, trianglePlane(tri), p[3])), int(want)) << "case " << n;
+        ASSERT_EQ(int(orient3d(p[0], p[1], p[2], p[3])), int(want)) << "case " << n;
+        (want == CGAL::COPLANAR ? zero : nonzero)++;
+    }
+    EXPECT_GT(zero, 2000);
+    EXPECT_GT(nonzero, 1000);
+}
+
 TEST(TriangleIntersect, ExactAcrossAnyRangeOfExponents)
 {
     // Points within a few float steps of the coordinate planes through 0
@@ -282,6 +318,8 @@ TEST(TriangleIntersect, ExactAcrossAnyRangeOfExponents)
         }
         const CGAL::Orientation want = CGAL::orientation(cg(p[0]), cg(p[1]), cg(p[2]), cg(p[3]));
         ASSERT_EQ(int(orient3d(p[0], p[1], p[2], p[3])), int(want)) << "case " << n;
+        const std::array<glm::vec3, 3> tri{p[0], p[1], p[2]};
+        ASSERT_EQ(int(orient3d(tri, trianglePlane(tri), p[3])), int(want)) << "case " << n;
         (want == CGAL::COPLANAR ? zero : nonzero)++;
         const CGAL::Orientation w2 = CGAL::orientation(K::Point_2(double(p[0].x), double(p[0].y)),
                                                        K::Point_2(double(p[1].x), double(p[1].y)),
