@@ -939,6 +939,58 @@ TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
     for (int round = 0; round < 5; ++round) EXPECT_EQ(run(4), serial) << "round " << round;
 }
 
+// With a width and two threads or more, the self-contact test runs beside
+// the edge, fan and area tests (they read the same region); a step both
+// break is refused as the serial order refuses it: by the open edge, even
+// when the contact is in an earlier cell.
+TEST(Remesh, AnOpenEdgeIsReportedBeforeAContactOnAnyThreadCount)
+{
+    const BallAndTwoStrokes ball;
+    CutMask mask(frameOf(ball.vol), 0.5);
+    addStroke(mask, ball.first);
+    addStroke(mask, ball.second);
+    const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
+    ASSERT_GT(withGeometry.size(), 60u);
+    const Coord poked = withGeometry[withGeometry.size() / 4], opened = withGeometry[withGeometry.size() * 3 / 4];
+    auto run = [&](int threads) {
+        std::string message;
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+        tbb::task_arena arena(threads);
+        arena.execute([&] {
+            CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+            remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+                if (c == poked) addTetrahedronThroughFirstTriangle(g, 1);
+                if (c == opened) g.indices.resize(g.indices.size() - 3);
+            });
+            try {
+                remesher.update(mask);
+            } catch (const std::runtime_error& e) {
+                message = e.what();
+            }
+        });
+        return message;
+    };
+    const std::string serial = run(1);
+    EXPECT_NE(serial.find("remesh: open or inconsistent surface"), std::string::npos) << serial;
+    for (int round = 0; round < 5; ++round) EXPECT_EQ(run(4), serial) << "round " << round;
+    // Each break alone is refused (so both tests fail above).
+    for (const Coord& only : {poked, opened}) {
+        CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+        remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+            if (c == only && c == poked) addTetrahedronThroughFirstTriangle(g, 1);
+            if (c == only && c == opened) g.indices.resize(g.indices.size() - 3);
+        });
+        std::string message;
+        try {
+            remesher.update(mask);
+        } catch (const std::runtime_error& e) {
+            message = e.what();
+        }
+        EXPECT_NE(message.find(only == poked ? "crosses or touches itself" : "open or inconsistent"), std::string::npos)
+            << message;
+    }
+}
+
 // A whole cut of 2,048 cells or more on several threads is checked in
 // chunks in parallel (CutRemesher::checkLocally). The chunks must give the
 // serial check's verdict: no refusal of a clean cut (chunk boundaries cross
