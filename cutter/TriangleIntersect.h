@@ -52,7 +52,9 @@ struct TrianglePlane
 TrianglePlane trianglePlane(const std::array<glm::vec3, 3>& t);
 
 /// orient3d(t[0], t[1], t[2], d) with t's plane computed once: the same sign
-/// (the same filter, by the cofactors of d - t[0]; the same exact fallback).
+/// (the same filter, by the cofactors of d - t[0]; the same exact fallback),
+/// and Zero without the exact path when every term is zero (the four points
+/// in one axis plane, as a blade along a grid plane puts its kerf faces).
 Sign orient3d(const std::array<glm::vec3, 3>& t, const TrianglePlane& plane, const glm::vec3& d);
 
 /// Sign of det[b - a, c - a] of the points' coordinates (x, y) = (p[i], p[j]).
