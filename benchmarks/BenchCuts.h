@@ -240,12 +240,17 @@ struct CandidateStroke
 /// StrokeKind; an air variant is skipped when no blade length clears its tip
 /// line) and hands each to `tryStroke` until it returns true: it accepted the
 /// stroke (it may move what it keeps out of the candidate) or gives up.
-/// Returns false when no call returned true.
+/// Returns false when no call returned true. `firstVariant` > 0 starts
+/// there (the tip variants 1..3 are pitched and yawed: not along the grid).
 inline bool forEachCutStroke(const CutScene& sc, size_t target, double kerf,
-                             const std::function<bool(CandidateStroke&)>& tryStroke)
+                             const std::function<bool(CandidateStroke&)>& tryStroke, int firstVariant = 0)
 {
     double tipBlade = 0.0; // variant 0's blade length
-    for (int variant = 0; variant < kStrokeVariants; ++variant) {
+    if (firstVariant >= kStrokesPerKind) { // an air variant sizes itself from the tip's blade
+        size_t cells = 0;
+        tipBlade = strokeSize(sc, searchStrokeSize(sc, target, 0, kerf, &cells), 0).first;
+    }
+    for (int variant = firstVariant; variant < kStrokeVariants; ++variant) {
         size_t cells = 0;
         double B = 0.0, L = 0.0;
         if (strokeKindOf(variant) == StrokeKind::Air) {

@@ -50,6 +50,10 @@
 //
 // Usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only]
 //                  [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash] [--threads N]
+//                  [--first-variant N]
+//   --first-variant N: start at stroke variant N (BenchCuts.h, StrokeKind):
+//          1..3 are the tip strokes pitched 2N and yawed 1.5N degrees, so
+//          their kerf faces lie along no grid plane (variant 0's are level).
 //   --threads N: run ours (the remesher) on N threads instead of one core
 //          (CutRemesher::update re-meshes the cells in parallel; the goals
 //          and the tables are one core; results are identical: --hash).
@@ -105,6 +109,7 @@ bool gBaselines = true;         // --no-baselines: ours only (for profiling)
 std::string gDumpDir;           // --dump DIR: write refused strokes there as path files
 bool gHash = false;             // --hash: print hashes of the results
 int gOursThreads = 1;           // --threads N: ours on N threads (the goals are one core)
+int gFirstVariant = 0;          // --first-variant N: the first stroke variant tried
 
 /// FNV-1a over raw bytes, chained through `h`.
 uint64_t fnv(uint64_t h, const void* data, size_t bytes)
@@ -344,7 +349,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
                 std::fflush(stdout);
                 return false;
             }
-        });
+        }, gFirstVariant);
         if (!row.ok) {
             if (row.note.empty()) row.note = "every stroke refused";
             return row;
@@ -647,6 +652,12 @@ int main(int argc, char** argv)
                 std::fprintf(stderr, "bench_cut: --threads wants a positive number, got '%s'\n", argv[i]);
                 return 2;
             }
+        } else if (!std::strcmp(argv[i], "--first-variant") && i + 1 < argc) {
+            gFirstVariant = std::atoi(argv[++i]);
+            if (gFirstVariant < 0 || gFirstVariant >= bench::kStrokeVariants) {
+                std::fprintf(stderr, "bench_cut: --first-variant wants 0..%d, got '%s'\n", bench::kStrokeVariants - 1, argv[i]);
+                return 2;
+            }
         } else if (!std::strcmp(argv[i], "--no-baselines")) {
             gBaselines = false;
         } else if (!std::strcmp(argv[i], "--head-only")) {
@@ -657,7 +668,7 @@ int main(int argc, char** argv)
             while (std::getline(ss, item, ',')) targets.push_back(size_t(std::atol(item.c_str())));
         } else {
             std::fprintf(stderr,
-                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash] [--threads N]\n");
+                         "usage: bench_cut [--quick] [--runs N] [--phantom-only] [--head-only] [--targets N,N,...] [--no-baselines] [--dump DIR] [--hash] [--threads N] [--first-variant N]\n");
             return 2;
         }
     }
