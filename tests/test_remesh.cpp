@@ -22,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <random>
@@ -665,6 +666,26 @@ void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
         for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
 }
 
+/// The refusal message (empty: none) of a fresh remesher's update of `mask`
+/// over `ball`, with `hook` breaking cells, on `threads` threads.
+std::string refusalOf(const BallAndTwoStrokes& ball, const CutMask& mask, int threads,
+                      const std::function<void(const Coord&, CutCellGeometry&)>& hook)
+{
+    std::string message;
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+        CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+        remesher.setCellHookForTesting(hook);
+        try {
+            remesher.update(mask);
+        } catch (const std::runtime_error& e) {
+            message = e.what();
+        }
+    });
+    return message;
+}
+
 TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
 {
     const BallAndTwoStrokes ball;
@@ -912,22 +933,10 @@ TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
     std::vector<Coord> victims;
     for (size_t i = withGeometry.size() / 3; i < withGeometry.size(); i += 3) victims.push_back(withGeometry[i]);
     auto run = [&](int threads) {
-        std::string message;
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
-        tbb::task_arena arena(threads);
-        arena.execute([&] {
-            CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
-            remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
-                if (std::binary_search(victims.begin(), victims.end(), c))
-                    addTetrahedronThroughFirstTriangle(g, uint64_t(c.x() * 4096 + c.y() * 64 + c.z()));
-            });
-            try {
-                remesher.update(mask);
-            } catch (const std::runtime_error& e) {
-                message = e.what();
-            }
+        return refusalOf(ball, mask, threads, [&](const Coord& c, CutCellGeometry& g) {
+            if (std::binary_search(victims.begin(), victims.end(), c))
+                addTetrahedronThroughFirstTriangle(g, uint64_t(c.x() * 4096 + c.y() * 64 + c.z()));
         });
-        return message;
     };
     const std::string serial = run(1);
     EXPECT_NE(serial.find("remesh: the surface crosses or touches itself"), std::string::npos) << serial;
@@ -952,43 +961,21 @@ TEST(Remesh, AnOpenEdgeIsReportedBeforeAContactOnAnyThreadCount)
     const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
     ASSERT_GT(withGeometry.size(), 60u);
     const Coord poked = withGeometry[withGeometry.size() / 4], opened = withGeometry[withGeometry.size() * 3 / 4];
-    auto run = [&](int threads) {
-        std::string message;
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
-        tbb::task_arena arena(threads);
-        arena.execute([&] {
-            CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
-            remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
-                if (c == poked) addTetrahedronThroughFirstTriangle(g, 1);
-                if (c == opened) g.indices.resize(g.indices.size() - 3);
-            });
-            try {
-                remesher.update(mask);
-            } catch (const std::runtime_error& e) {
-                message = e.what();
-            }
-        });
-        return message;
+    // Breaks `poked` and `opened` when `which` holds them.
+    auto breaking = [&](std::vector<Coord> which) {
+        return [=](const Coord& c, CutCellGeometry& g) {
+            if (std::find(which.begin(), which.end(), c) == which.end()) return;
+            if (c == poked) addTetrahedronThroughFirstTriangle(g, 1);
+            if (c == opened) g.indices.resize(g.indices.size() - 3);
+        };
     };
-    const std::string serial = run(1);
+    const std::string serial = refusalOf(ball, mask, 1, breaking({poked, opened}));
     EXPECT_NE(serial.find("remesh: open or inconsistent surface"), std::string::npos) << serial;
-    for (int round = 0; round < 5; ++round) EXPECT_EQ(run(4), serial) << "round " << round;
+    for (int round = 0; round < 5; ++round)
+        EXPECT_EQ(refusalOf(ball, mask, 4, breaking({poked, opened})), serial) << "round " << round;
     // Each break alone is refused (so both tests fail above).
-    for (const Coord& only : {poked, opened}) {
-        CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
-        remesher.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
-            if (c == only && c == poked) addTetrahedronThroughFirstTriangle(g, 1);
-            if (c == only && c == opened) g.indices.resize(g.indices.size() - 3);
-        });
-        std::string message;
-        try {
-            remesher.update(mask);
-        } catch (const std::runtime_error& e) {
-            message = e.what();
-        }
-        EXPECT_NE(message.find(only == poked ? "crosses or touches itself" : "open or inconsistent"), std::string::npos)
-            << message;
-    }
+    EXPECT_NE(refusalOf(ball, mask, 1, breaking({poked})).find("crosses or touches itself"), std::string::npos);
+    EXPECT_NE(refusalOf(ball, mask, 1, breaking({opened})).find("open or inconsistent"), std::string::npos);
 }
 
 // A whole cut of 2,048 cells or more on several threads is checked in
