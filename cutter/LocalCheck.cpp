@@ -140,6 +140,73 @@ struct RegionTriangle
 };
 using Tri = RegionTriangle;
 
+/// Numbers of keys held elsewhere (the region's `ids`): open addressing
+/// over (hash, number + 1), linear probing, grown at half full. In place of
+/// the node-based unordered_maps the check used, which allocated and freed
+/// one node per name (a sixth of a haptic step's check went to malloc and
+/// free). `same(number)` answers whether the key of `number` is the one
+/// looked up.
+class NameIndex
+{
+public:
+    static constexpr uint32_t kNone = UINT32_MAX;
+
+    /// The number of the key with hash `h`, or kNone.
+    template <class Same> uint32_t find(uint64_t h, Same&& same) const
+    {
+        if (mSlots.empty()) return kNone;
+        const size_t mask = mSlots.size() - 1;
+        for (size_t i = home(h) & mask; mSlots[i].number; i = (i + 1) & mask)
+            if (mSlots[i].hash == h && same(mSlots[i].number - 1)) return mSlots[i].number - 1;
+        return kNone;
+    }
+    /// The number of the key with hash `h`; when it has none, it gets `next`
+    /// (and `added` is set).
+    template <class Same> uint32_t findOrAdd(uint64_t h, uint32_t next, bool& added, Same&& same)
+    {
+        if (2 * (mCount + 1) > mSlots.size()) grow();
+        const size_t mask = mSlots.size() - 1;
+        size_t i = home(h) & mask;
+        for (; mSlots[i].number; i = (i + 1) & mask)
+            if (mSlots[i].hash == h && same(mSlots[i].number - 1)) {
+                added = false;
+                return mSlots[i].number - 1;
+            }
+        mSlots[i] = {h, next + 1};
+        ++mCount;
+        added = true;
+        return next;
+    }
+
+private:
+    struct Slot
+    {
+        uint64_t hash = 0;
+        uint32_t number = 0; ///< + 1; 0: empty
+    };
+    static size_t home(uint64_t h)
+    {
+        h ^= h >> 31;
+        h *= 0xbf58476d1ce4e5b9ull;
+        return size_t(h ^ (h >> 29));
+    }
+    void grow()
+    {
+        std::vector<Slot> old;
+        old.swap(mSlots);
+        mSlots.assign(std::max<size_t>(256, 2 * old.size()), Slot{});
+        const size_t mask = mSlots.size() - 1;
+        for (const Slot& s : old) {
+            if (!s.number) continue;
+            size_t i = home(s.hash) & mask;
+            while (mSlots[i].number) i = (i + 1) & mask;
+            mSlots[i] = s;
+        }
+    }
+    std::vector<Slot> mSlots;
+    size_t mCount = 0;
+};
+
 /// The local check's region: the triangles of the changed cells and of
 /// their 26 neighbours, over vertex names (the fused mesh's identity: plain
 /// marching-tetrahedra vertices by their grid edge, the others by their whole
@@ -150,7 +217,12 @@ struct LocalRegion
     std::vector<Coord> cells;                    ///< the changed cells dilated by one, sorted
     std::vector<char> cellChanged;               ///< per cell of `cells`: a changed cell
     std::vector<CutVertexId> ids;                ///< per name
-    std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> names; ///< the names not by grid edge
+    NameIndex names;                             ///< the names not by grid edge, into `ids`
+    /// The number of name `id` (not a plain marching-tetrahedra vertex's), or NameIndex::kNone.
+    uint32_t numberOf(const CutVertexId& id) const
+    {
+        return names.find(CutVertexIdHash()(id), [&](uint32_t n) { return ids[n] == id; });
+    }
     std::vector<Tri> tris;                       ///< in cell order, then each cell's order
     std::vector<glm::vec3> world;                ///< per name, as fusedMesh() writes it
     std::vector<char> known;                     ///< world[name] is set
@@ -266,7 +338,6 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
     const std::vector<Coord>& region = reg.cells;
     const std::vector<Tri>& tris = reg.tris;
     const std::vector<CutVertexId>& ids = reg.ids;
-    const auto& names = reg.names;
     const std::vector<glm::vec3>& world = reg.world;
     const std::vector<char>& known = reg.known;
     // Pinch copies -> the plain vertex of their name (or the first copy).
@@ -282,8 +353,8 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
         plain.tags = {};
         for (int k = 0; k < id.tagCount; ++k)
             if (!pinch(id.tags[size_t(k)])) plain.tags[plain.tagCount++] = id.tags[size_t(k)];
-        auto it = names.find(plain);
-        vertex[v] = it != names.end() ? it->second : copies.emplace(plain, v).first->second;
+        const uint32_t named = reg.numberOf(plain);
+        vertex[v] = named != NameIndex::kNone ? named : copies.emplace(plain, v).first->second;
     }
     // Triangles per region cell (tris are in region order), and float boxes.
     std::vector<size_t> start(region.size() + 1, 0);
@@ -768,29 +839,28 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     reg.indexChanged();
     // Plain marching-tetrahedra vertices (most of them) by their grid edge,
     // the others by their whole name; one numbering, in order of first use.
-    struct EdgeHash
-    {
-        size_t operator()(const std::pair<uint64_t, uint64_t>& e) const
-        {
-            uint64_t x = e.first * 0x9e3779b97f4a7c15ull ^ (e.second + 0x632be59bd9b4e019ull);
-            x ^= x >> 31;
-            x *= 0xbf58476d1ce4e5b9ull;
-            return size_t(x ^ (x >> 29));
-        }
-    };
-    std::unordered_map<std::pair<uint64_t, uint64_t>, uint32_t, EdgeHash> edgeNames;
+    NameIndex edgeNames; // (lower, upper grid vertex) of a plain marching-tetrahedra vertex
     auto& names = reg.names;
     std::vector<CutVertexId>& ids = reg.ids;
+    auto edgeHash = [](const std::pair<uint64_t, uint64_t>& e) {
+        return e.first * 0x9e3779b97f4a7c15ull ^ (e.second + 0x632be59bd9b4e019ull);
+    };
+    auto sameEdge = [&](const std::pair<uint64_t, uint64_t>& e) {
+        return [&ids, &e](uint32_t n) { return ids[n].feature[0] == e.first && ids[n].feature[1] == e.second; };
+    };
     auto edgeNameOf = [&](const std::pair<uint64_t, uint64_t>& e) {
-        auto [it, added] = edgeNames.emplace(e, uint32_t(ids.size()));
+        bool added = false;
+        const uint32_t n = edgeNames.findOrAdd(edgeHash(e), uint32_t(ids.size()), added, sameEdge(e));
         if (added) ids.push_back(isoEdgeVertex(e));
-        return it->second;
+        return n;
     };
     auto nameOf = [&](const CutVertexId& id) {
         if (id.isIsoEdgeVertex()) return edgeNameOf({id.feature[0], id.feature[1]});
-        auto [it, added] = names.emplace(id, uint32_t(ids.size()));
+        bool added = false;
+        const uint32_t n = names.findOrAdd(CutVertexIdHash()(id), uint32_t(ids.size()), added,
+                                           [&](uint32_t k) { return ids[k] == id; });
         if (added) ids.push_back(id);
-        return it->second;
+        return n;
     };
     using Tri = RegionTriangle;
     std::vector<Tri>& tris = reg.tris;
@@ -800,13 +870,26 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     std::vector<std::pair<uint32_t, uint32_t>> runOf(region.size());
     std::vector<size_t> cornerStart(region.size() + 1, 0);
     std::vector<std::pair<uint64_t, uint64_t>> corners, cellCorners;
+    size_t cutVertices = 0, cutTriangles = 0, uncutTriangles = 0;
     {
         UncutAccessor uncutAcc(mUncutFirst);
         for (size_t i = 0; i < region.size(); ++i) {
+            auto cut = mCells.find(region[i]);
+            if (cut != mCells.end()) {
+                cutOf[i] = &cut->second;
+                cutVertices += cut->second.vertexIds.size();
+                cutTriangles += cut->second.indices.size() / 3;
+            }
+            runOf[i] = uncutRun(uncutAcc, region[i]);
+            uncutTriangles += runOf[i].second;
+        }
+        // The tables at about their full size at once (a name of the uncut
+        // mesh is shared by about six triangles).
+        corners.reserve(3 * uncutTriangles);
+        ids.reserve(cutVertices + uncutTriangles);
+        tris.reserve(cutTriangles + uncutTriangles);
+        for (size_t i = 0; i < region.size(); ++i) {
             const Coord& c = region[i];
-            auto cut = mCells.find(c);
-            if (cut != mCells.end()) cutOf[i] = &cut->second;
-            runOf[i] = uncutRun(uncutAcc, c);
             uncutCornerEdges(c, runOf[i], cellCorners);
             corners.insert(corners.end(), cellCorners.begin(), cellCorners.end());
             cornerStart[i + 1] = corners.size();
@@ -814,6 +897,7 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     }
     // The names of each cut cell's vertices: localNames[localStart[i] ..].
     std::vector<uint32_t> localNames;
+    localNames.reserve(cutVertices);
     std::vector<size_t> localStart(region.size() + 1, 0);
     for (size_t i = 0; i < region.size(); ++i) {
         const Coord& c = region[i];
@@ -856,10 +940,10 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
     for (size_t i = 0; i < region.size(); ++i) {
         for (size_t k = cornerStart[i]; k < cornerStart[i + 1]; ++k) {
             const uint32_t vertex = mUncut.indices[3 * size_t(runOf[i].first) + (k - cornerStart[i])];
-            auto it = edgeNames.find(corners[k]);
-            if (it != edgeNames.end() && !known[it->second]) {
-                world[it->second] = mUncut.positions[vertex];
-                known[it->second] = 1;
+            const uint32_t n = edgeNames.find(edgeHash(corners[k]), sameEdge(corners[k]));
+            if (n != NameIndex::kNone && !known[n]) {
+                world[n] = mUncut.positions[vertex];
+                known[n] = 1;
             }
         }
         if (!cutOf[i]) continue;
