@@ -622,9 +622,11 @@ private:
         return nullptr;
     }
 
-    /// Appends the pieces of `in` on either side of plane p to `out` (`in`
-    /// itself, moved, when p does not cross it).
-    void splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
+    /// Splits `in` (on plane polyPlane) by plane p into `out` (appended: the
+    /// + side's piece, then the - side's, each kept when it has a corner
+    /// strictly on its side); false, and nothing done, when p has no corner
+    /// of `in` strictly on each side.
+    bool splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out);
     /// Appends `o` to `out`, split into simple loops where it visits a vertex twice.
     void pushSimple(Poly o, std::vector<Poly>& out);
     void remeshTet(CutCellGeometry& out);
@@ -877,6 +879,7 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
             const double h = s.orient * s.plane.h(pos0);
             in = in && h >= -eps;
             onAny = onAny || std::abs(h) <= eps;
+            if (!in) break;
         }
         if (!in || !onAny) continue;
         for (const auto& s : q->sides)
@@ -886,7 +889,8 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
         if (mPrism) break;
         if (!(std::abs(q->pi.h(pos0)) <= eps)) continue;
         bool in = true;
-        for (const auto& s : q->sides) in = in && s.orient * s.plane.h(pos0) >= -eps;
+        for (const auto& s : q->sides)
+            if (!(in = s.orient * s.plane.h(pos0) >= -eps)) break;
         if (!in) continue;
         planes.push_back(q->id);
         for (const auto& s : q->sides)
@@ -1125,7 +1129,7 @@ int RemeshKernel::member(int vi)
     return r;
 }
 
-void RemeshKernel::splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
+bool RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std::vector<Poly>& out)
 {
     const size_t n = in.v.size();
     SmallVector<int, 8> sv(n);
@@ -1135,10 +1139,7 @@ void RemeshKernel::splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vec
         pos |= sv[i] > 0;
         neg |= sv[i] < 0;
     }
-    if (!(pos && neg)) {
-        out.push_back(std::move(in));
-        return;
-    }
+    if (!(pos && neg)) return false;
     const Plane* pl = planeById(p);
     // Cut points on crossing edges.
     SmallVector<int, 8> cut(n, -1);
@@ -1175,6 +1176,7 @@ void RemeshKernel::splitPoly(Poly&& in, uint64_t polyPlane, uint64_t p, std::vec
         for (size_t i = 0; i < n; ++i) strict |= keep * sv[i] > 0;
         if (strict && o.v.size() >= 3) out.push_back(std::move(o));
     }
+    return true;
 }
 
 void RemeshKernel::pushSimple(Poly o, std::vector<Poly>& out)
@@ -1958,21 +1960,29 @@ void RemeshKernel::splitSurface(const Surface& s)
     const auto& splitOrder = mSplitOrder;
     pieces.clear();
     pieces.push_back(s.poly);
+    // In place: a piece a plane splits is replaced by its pieces, in order
+    // (the others stay where they are).
     for (const SplitPlane& sp : splitOrder) {
         if (sp.id == s.plane) continue;
         if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
-        next.clear();
-        for (Poly& p : pieces) {
+        for (size_t i = 0; i < pieces.size(); ++i) {
+            const Poly& p = pieces[i];
             // A quad's plane and rim sides only split inside its junction zone,
             // so near-coincident planes of consecutive quads never meet there.
             bool outside = false;
             if (sp.owner)
                 for (const auto& sd : sp.owner->sides)
                     if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
-            if (outside) next.push_back(std::move(p));
-            else splitPoly(std::move(p), s.plane, sp.id, next);
+            if (outside) continue;
+            next.clear();
+            if (!splitPoly(p, s.plane, sp.id, next)) continue;
+            if (next.empty()) {
+                pieces.erase(pieces.begin() + std::ptrdiff_t(i--));
+                continue;
+            }
+            pieces[i] = std::move(next[0]);
+            for (size_t k = 1; k < next.size(); ++k) pieces.insert(pieces.begin() + std::ptrdiff_t(++i), std::move(next[k]));
         }
-        pieces.swap(next);
     }
 }
 
