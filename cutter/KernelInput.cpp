@@ -38,6 +38,7 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
         in.origin[size_t(a)] = volume.origin()[a];
         in.spacing[size_t(a)] = volume.spacing()[a];
     }
+    remesh_detail::KernelQuads kernelQuads(mask); // each quad's geometry once, for all the cells
     for (const openvdb::Coord& c : cells) {
         PackedKernelCell pc;
         pc.x = c.x();
@@ -51,7 +52,7 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
             if (inBox && pc.values[k] >= isovalue) pc.insideMask |= 1u << k;
         }
         pc.firstQuad = uint32_t(in.quads.size());
-        for (const remesh_detail::QuadGeom& q : remesh_detail::kernelQuadsOf(mask, c)) {
+        for (const remesh_detail::QuadGeom& q : kernelQuads.of(c)) {
             PackedKernelQuad pq;
             putPlane(pq.plane, q.pi);
             pq.id = q.id;

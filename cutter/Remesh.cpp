@@ -709,11 +709,22 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
 
 std::vector<QuadGeom> remesh_detail::kernelQuadsOf(const CutMask& mask, const Coord& cell)
 {
+    return KernelQuads(mask).of(cell);
+}
+
+remesh_detail::KernelQuads::KernelQuads(const CutMask& mask)
+    : mMask(mask), mPrisms(std::make_unique<PrismCache>()), mQuadGeoms(std::make_unique<QuadGeomCache>())
+{
+}
+
+remesh_detail::KernelQuads::~KernelQuads() = default;
+
+std::vector<QuadGeom> remesh_detail::KernelQuads::of(const Coord& cell)
+{
     std::vector<QuadGeom> quads;
-    const std::vector<QuadRef>* refs = mask.quadsAt(cell);
+    const std::vector<QuadRef>* refs = mMask.quadsAt(cell);
     if (!refs) return quads;
-    PrismCache cache;
-    cellQuads(mask, *refs, cache, nullptr, quads);
+    cellQuads(mMask, *refs, *mPrisms, mQuadGeoms.get(), quads);
     return quads;
 }
 

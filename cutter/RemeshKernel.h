@@ -225,6 +225,29 @@ private:
 /// cut pass's input (cutter/KernelInput.h) and tests.
 std::vector<QuadGeom> kernelQuadsOf(const CutMask& mask, const Coord& cell);
 
+/// kernelQuadsOf for many cells of one mask: each quad's geometry is built
+/// once and shared by the cells it cuts. kernelQuadsOf alone starts from
+/// nothing for every cell, and with kerf > 0 a prism is built from its
+/// stroke's rim planes, so it builds every prism of the stroke up to the
+/// cell's quads: packing the GPU cut pass's input for the 1 mm head's
+/// 11,748-cell cut at kerf 0.5 that way took 2.1 s, ten times the CPU's
+/// whole update(). The mask must not change while this is used.
+class KernelQuads
+{
+public:
+    explicit KernelQuads(const CutMask& mask);
+    ~KernelQuads();
+    KernelQuads(const KernelQuads&) = delete;
+    KernelQuads& operator=(const KernelQuads&) = delete;
+    /// kernelQuadsOf(mask, cell).
+    std::vector<QuadGeom> of(const Coord& cell);
+
+private:
+    const CutMask& mMask;
+    std::unique_ptr<PrismCache> mPrisms;
+    std::unique_ptr<QuadGeomCache> mQuadGeoms;
+};
+
 /// Sub-float clusters at a grid vertex: a new vertex of `out` (not a plain
 /// marching-tetrahedra vertex, which is the uncut mesh's) whose exact world
 /// position lies within kFloatStepsShort float steps (at the grid vertex's

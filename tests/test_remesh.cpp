@@ -1202,10 +1202,60 @@ void forEachKernelCell(const vdb::Volume& vol, double kerf, const std::vector<st
 {
     CutMask mask(frameOf(vol), kerf);
     for (const auto& poses : strokes) addStroke(mask, poses);
-    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { each(c, remesh_detail::kernelQuadsOf(mask, c)); });
+    remesh_detail::KernelQuads kernelQuads(mask);
+    mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { each(c, kernelQuads.of(c)); });
 }
 
 } // namespace
+
+// KernelQuads builds each quad's geometry once and shares it between the
+// cells it cuts (the GPU cut pass's input and recovery take every cut cell's
+// quads through it); kernelQuadsOf builds a cell's quads from nothing. Every
+// cut cell of random strokes (several strokes, at both kerfs) gets the same
+// quads both ways, bit for bit, with the cells taken last to first (so a
+// prism is asked for before the prisms of its stroke before it).
+TEST(Remesh, KernelQuadsGivesEveryCellTheQuadsKernelQuadsOfGives)
+{
+    auto same = [](const std::vector<remesh_detail::QuadGeom>& a, const std::vector<remesh_detail::QuadGeom>& b) {
+        if (a.size() != b.size()) return false;
+        auto samePlane = [](const remesh_detail::Plane& p, const remesh_detail::Plane& q) { return p.n == q.n && p.d == q.d; };
+        for (size_t i = 0; i < a.size(); ++i) {
+            const auto &x = a[i], &y = b[i];
+            if (x.id != y.id || !samePlane(x.pi, y.pi) || x.sides.size() != y.sides.size()) return false;
+            for (size_t k = 0; k < x.sides.size(); ++k) {
+                const auto &s = x.sides[k], &t = y.sides[k];
+                if (s.id != t.id || !samePlane(s.plane, t.plane) || s.orient != t.orient || s.partner != t.partner ||
+                    s.partnerId != t.partnerId || s.cornerSides != t.cornerSides)
+                    return false;
+            }
+        }
+        return true;
+    };
+    vdb::PhantomOptions options;
+    options.dims = Coord(160, 160, 128);
+    const vdb::Volume phantom = vdb::makePhantom(options);
+    for (double kerf : {0.0, 0.5}) {
+        size_t cells = 0, quads = 0, sides = 0;
+        for (uint32_t seed = 1; seed <= 3; ++seed) {
+            CutMask mask(frameOf(phantom), kerf);
+            for (const auto& poses : makeRandomStrokes(frameOf(phantom), seed, 3, 150, 0.5 + 0.1 * seed, 40.0))
+                addStroke(mask, poses);
+            std::vector<Coord> cut;
+            mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { cut.push_back(c); });
+            remesh_detail::KernelQuads shared(mask);
+            for (auto c = cut.rbegin(); c != cut.rend(); ++c) {
+                const std::vector<remesh_detail::QuadGeom> got = shared.of(*c), want = remesh_detail::kernelQuadsOf(mask, *c);
+                ASSERT_TRUE(same(got, want)) << "cell " << *c << ", kerf " << kerf << ", seed " << seed;
+                ++cells;
+                quads += got.size();
+                for (const auto& q : got) sides += q.sides.size();
+            }
+        }
+        std::printf("kerf %.1f: %zu cut cells, %zu quads, %zu sides the same both ways\n", kerf, cells, quads, sides);
+        EXPECT_GT(cells, 1000u);
+        EXPECT_GT(quads, cells); // cells cut by two quads or more: junctions shared across cells
+    }
+}
 
 // The kernel names a point once per tet: a later naming with the same
 // simplex and planes (the crossing of two pieces' common edge, a line's

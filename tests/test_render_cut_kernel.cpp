@@ -139,8 +139,9 @@ Tally compare(const render::GpuCutKernel& gpu, const vdb::Volume& vol, float iso
         const std::vector<openvdb::Coord>& cells = cut.cells;
         t.strokes += cut.strokes;
         const std::vector<GpuTetPhaseOne> got = gpu.phaseOne(cut.input);
+        cutter::remesh_detail::KernelQuads kernelQuads(mask);
         for (size_t i = 0; i < cells.size(); ++i) {
-            const auto quads = cutter::remesh_detail::kernelQuadsOf(mask, cells[i]);
+            const auto quads = kernelQuads.of(cells[i]);
             const auto want = cpu.phaseOneForTesting(cells[i], quads, kerf > 0);
             for (int k = 0; k < cutter::kTetsPerCell; ++k) {
                 const TetPhaseOne& c = want[size_t(k)];
@@ -251,12 +252,12 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
         const size_t tets = 5 * cut.cells.size();
         const std::vector<render::GpuArrangedTet> got = gpu.arrangement(cut.input, 0, tets, kLanesPerTet);
         size_t g = 0;
+        cutter::remesh_detail::KernelQuads kernelQuads(cut.mask);
         for (size_t i = 0; i < cut.cells.size(); ++i) {
             std::array<cutter::remesh_detail::ArrangementProbe, cutter::kTetsPerCell> want;
             bool refused = false;
             try {
-                want = cpu.arrangementForTesting(cut.cells[i], cutter::remesh_detail::kernelQuadsOf(cut.mask, cut.cells[i]),
-                                                 kerf > 0);
+                want = cpu.arrangementForTesting(cut.cells[i], kernelQuads.of(cut.cells[i]), kerf > 0);
             } catch (const std::runtime_error&) {
                 refused = true;
                 ++t.refusedCells;
@@ -437,9 +438,10 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
             ASSERT_EQ(got.cells.size(), cut.cells.size());
             byGpu += got.byGpu;
             byCpu += got.byCpu;
+            cutter::remesh_detail::KernelQuads kernelQuads(cut.mask);
             for (size_t i = 0; i < cut.cells.size(); ++i) {
                 cutter::CutCellGeometry want;
-                cpu.remesh(cut.cells[i], cutter::remesh_detail::kernelQuadsOf(cut.mask, cut.cells[i]), kerf > 0, want);
+                cpu.remesh(cut.cells[i], kernelQuads.of(cut.cells[i]), kerf > 0, want);
                 const cutter::CutCellGeometry& g = got.cells[i];
                 ++cells;
                 triangles += want.indices.size() / 3;
@@ -618,10 +620,11 @@ TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
             const cutter::PackedKernelInput& input = cut.input;
             std::vector<render::GpuVertexQuery> queries;
             std::vector<glm::dvec3> want;
+            cutter::remesh_detail::KernelQuads kernelQuads(mask);
             for (size_t i = 0; i < cells.size(); ++i) {
                 std::array<std::vector<cutter::remesh_detail::VertexProbe>, cutter::kTetsPerCell> probes;
                 try {
-                    probes = cpu.verticesForTesting(cells[i], cutter::remesh_detail::kernelQuadsOf(mask, cells[i]), kerf > 0);
+                    probes = cpu.verticesForTesting(cells[i], kernelQuads.of(cells[i]), kerf > 0);
                 } catch (const std::runtime_error&) {
                     ++refused; // a cell the kernel refuses: nothing to compare
                     continue;
@@ -689,9 +692,9 @@ TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
             const cutter::PackedKernelInput& input = cut.input;
             std::vector<render::GpuNameQuery> queries;
             std::vector<cutter::remesh_detail::NameProbe> want;
+            cutter::remesh_detail::KernelQuads kernelQuads(mask);
             for (size_t i = 0; i < cells.size(); ++i)
-                for (auto& probe :
-                     cpu.namesForTesting(cells[i], cutter::remesh_detail::kernelQuadsOf(mask, cells[i]), kerf > 0)) {
+                for (auto& probe : cpu.namesForTesting(cells[i], kernelQuads.of(cells[i]), kerf > 0)) {
                     if (probe.defining.size() > 8) {
                         ++skipped;
                         continue;
