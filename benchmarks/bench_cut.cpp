@@ -32,9 +32,11 @@
 //          cells (all eight corners outside the bone) are recorded without it,
 //          so "us per cell" is a whole update's time per cell of bone.
 //   noop:  update() when nothing changed (the per-update O(cut cells) scan).
-//   kernel: remeshCell() over every cut cell, from outside: a kernel and the
-//          quads' geometry made anew per cell, no caches (with kerf > 0 each
-//          prism per cell, so it can take longer than the whole update()).
+//   kernel: one CellKernel over every cut cell, from outside, each quad's
+//          geometry built once (remesh_detail::KernelQuads); no fusion, no
+//          local check, one thread (until 2026-11-28 each cell's quads were
+//          built anew, with kerf > 0 every prism of the stroke again per cell,
+//          so this column could exceed the whole update()).
 // Times are medians of --runs repeats (steps: runs x kSteps samples).
 //
 // The stroke (benchmarks/BenchCuts.h, shared with bench_render): in a
@@ -73,6 +75,7 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
+#include "cutter/RemeshKernel.h"
 #include "vdb/CutOutputs.h"
 #include "vdb/Phantom.h"
 #include "vdb/VolumeIO.h"
@@ -373,7 +376,9 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
             noop.push_back(msSince(t0));
         }
         row.noopMs = median(noop);
-        // The kernel alone, from outside: remeshCell over every cut cell.
+        // The kernel alone, from outside: one kernel over every cut cell, each
+        // quad's geometry built once (remesh_detail::KernelQuads, as the GPU
+        // pass's input takes it), on this thread.
         std::vector<Coord> cutCells;
         mask->forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { cutCells.push_back(c); });
         std::sort(cutCells.begin(), cutCells.end());
@@ -381,7 +386,9 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         CutCellGeometry scratch;
         for (int r = 0; r < runs; ++r) {
             const auto t0 = Clock::now();
-            for (const Coord& c : cutCells) remeshCell(vc.vol, vc.scene.iso, *mask, c, scratch);
+            remesh_detail::CellKernel cellKernel(vc.vol, vc.scene.iso);
+            remesh_detail::KernelQuads kernelQuads(*mask);
+            for (const Coord& c : cutCells) cellKernel.remesh(c, kernelQuads.of(c), mask->kerf() > 0, scratch);
             kernel.push_back(msSince(t0));
         }
         row.kernelMs = median(kernel);
