@@ -11,8 +11,10 @@
 
 #include <algorithm>
 #include <array>
+#include <functional>
 #include <numeric>
 #include <stdexcept>
+#include <tuple>
 #include <unordered_map>
 
 namespace mtcut::cutter {
@@ -36,26 +38,42 @@ struct Group
 /// vertex of a face diagonal; each cell holds part of both). The split is a
 /// function of the fused triangles, so incremental, from-scratch and undone
 /// meshes stay equal. Cost O(new triangles).
-void splitCrossCellPinches(Mesh& m, size_t firstTriangle, size_t firstVertex)
+/// `welded` (ascending): uncut vertices that new triangles use; those of
+/// them with several such fans whose every triangle is a new one
+/// (`allNew`: marching-tetrahedra vertices of grid edges whose cells are
+/// all cut) are split the same way, after the new vertices: where snap
+/// rounding joins a blade vertex of the grid edge into such a vertex
+/// (remesh_detail::joinsAlongGridEdge), the solid round the edge is left as
+/// two parts that meet there.
+void splitCrossCellPinches(Mesh& m, size_t firstTriangle, size_t firstVertex, const std::vector<uint32_t>& welded,
+                           const std::function<bool(uint32_t)>& allNew)
 {
     const size_t nv = m.positions.size();
-    if (nv <= firstVertex) return;
+    if (nv <= firstVertex && welded.empty()) return;
     const bool normals = m.normals.size() == nv;
-    // The corners (3 t + k) at each new vertex, by a counting sort.
-    std::vector<uint32_t> start(nv - firstVertex + 1, 0);
+    // Slots: the new vertices, then `welded`.
+    const size_t slots = nv - firstVertex + welded.size();
+    auto slotOf = [&](uint32_t v) -> size_t {
+        if (v >= firstVertex) return v - firstVertex;
+        const auto it = std::lower_bound(welded.begin(), welded.end(), v);
+        return it != welded.end() && *it == v ? nv - firstVertex + size_t(it - welded.begin()) : SIZE_MAX;
+    };
+    // The corners (3 t + k) at each slot's vertex, by a counting sort.
+    std::vector<uint32_t> start(slots + 1, 0);
     for (size_t c = 3 * firstTriangle; c < m.indices.size(); ++c)
-        if (m.indices[c] >= firstVertex) ++start[m.indices[c] - firstVertex + 1];
+        if (const size_t s = slotOf(m.indices[c]); s != SIZE_MAX) ++start[s + 1];
     for (size_t v = 0; v + 1 < start.size(); ++v) start[v + 1] += start[v];
     std::vector<uint32_t> corners(start.back());
     {
         std::vector<uint32_t> fill(start.begin(), start.end() - 1);
         for (size_t c = 3 * firstTriangle; c < m.indices.size(); ++c)
-            if (m.indices[c] >= firstVertex) corners[fill[m.indices[c] - firstVertex]++] = uint32_t(c);
+            if (const size_t s = slotOf(m.indices[c]); s != SIZE_MAX) corners[fill[s]++] = uint32_t(c);
     }
     std::vector<std::pair<uint32_t, uint32_t>> link;
     std::vector<int> fan;
-    for (size_t v = firstVertex; v < nv; ++v) {
-        const uint32_t b = start[v - firstVertex], e = start[v - firstVertex + 1];
+    for (size_t slot = 0; slot < slots; ++slot) {
+        const size_t v = slot < nv - firstVertex ? firstVertex + slot : welded[slot - (nv - firstVertex)];
+        const uint32_t b = start[slot], e = start[slot + 1];
         if (e - b < 6) continue; // two fans need three triangles each
         link.clear();
         for (uint32_t i = b; i < e; ++i) {
@@ -63,6 +81,7 @@ void splitCrossCellPinches(Mesh& m, size_t firstTriangle, size_t firstVertex)
             link.push_back({m.indices[3 * t + (k + 1) % 3], m.indices[3 * t + (k + 2) % 3]});
         }
         const int fans = remesh_detail::linkFans(link, fan);
+        if (fans >= 2 && v < firstVertex && !allNew(uint32_t(v))) continue;
         for (int f = 1; f < fans; ++f) {
             const uint32_t copy = uint32_t(m.positions.size());
             m.positions.push_back(m.positions[v]);
@@ -192,6 +211,12 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     std::vector<char> intoFace; // per new triangle (CutCellGeometry::intoFace); empty when none is
     size_t intoFaceCount = 0;
     std::vector<uint32_t> index;
+    struct Along
+    {
+        uint32_t iso, other, dir;
+        const CutVertexId *isoId, *otherId;
+    };
+    std::vector<Along> along;
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
@@ -219,7 +244,17 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         }
         const size_t firstOfCell = newVoxels.size();
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
-            for (int j = 0; j < 3; ++j) newIndices.push_back(index[geom.indices[i + size_t(j)]]);
+            for (int j = 0; j < 3; ++j) {
+                newIndices.push_back(index[geom.indices[i + size_t(j)]]);
+                // An edge along a grid edge from its iso vertex (joinsAlongGridEdge).
+                const CutVertexId& a = geom.vertexIds[geom.indices[i + size_t(j)]];
+                const CutVertexId& b = geom.vertexIds[geom.indices[i + size_t(j + 1) % 3]];
+                if (a.dim != 1 || b.dim != 1 || a.feature[0] != b.feature[0] || a.feature[1] != b.feature[1] ||
+                    a.isIsoEdgeVertex() == b.isIsoEdgeVertex())
+                    continue;
+                const uint32_t ia = index[geom.indices[i + size_t(j)]], ib = index[geom.indices[i + size_t(j + 1) % 3]];
+                along.push_back(a.isIsoEdgeVertex() ? Along{ia, ib, 0, &a, &b} : Along{ib, ia, 1, &b, &a});
+            }
             newVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
         }
         if (!geom.intoFace.empty()) {
@@ -257,6 +292,24 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
             if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
         }
     };
+    // An edge from an iso vertex along its grid edge, used twice each way
+    // and shorter than two float steps: its ends are one vertex, the iso
+    // vertex (remesh_detail::joinsAlongGridEdge; the local check's snapRound).
+    std::sort(along.begin(), along.end(), [](const Along& x, const Along& y) {
+        return std::tie(x.iso, x.other, x.dir) < std::tie(y.iso, y.other, y.dir);
+    });
+    for (size_t i = 0, j = 0; i < along.size(); i = j) {
+        size_t each[2] = {0, 0};
+        for (j = i; j < along.size() && along[j].iso == along[i].iso && along[j].other == along[i].other; ++j)
+            ++each[along[j].dir];
+        const Along& e = along[i];
+        if (each[0] != 2 || each[1] != 2 ||
+            !remesh_detail::joinsAlongGridEdge(*e.isoId, *e.otherId, m.positions[e.iso], m.positions[e.other],
+                                               mVolume->origin(), mVolume->spacing()))
+            continue;
+        const uint32_t ra = find(e.iso), rb = find(e.other);
+        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+    }
     auto isCutCell = [&](const glm::ivec3& c) { return mCells.count(openvdb::Coord(c.x, c.y, c.z)) != 0; };
     for (uint32_t t : mSnapTriangles)
         if (!isCutCell(mUncut.triangleVoxels[t])) uniteZeroLength(&mUncut.indices[3 * size_t(t)]);
@@ -354,7 +407,32 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         m.triangleVoxels.push_back(newVoxels[t]);
         if (source) source->push_back(uint32_t(nt + t));
     }
-    if (mSeenKerf > 0) splitCrossCellPinches(m, firstNew, uncutVertices);
+    if (mSeenKerf > 0) {
+        // The welded marching-tetrahedra vertices; all of one's triangles are
+        // new ones when its grid edge's cells with triangles are all cut.
+        auto byVertex = [](const std::pair<uint32_t, const CutVertexId*>& x, const std::pair<uint32_t, const CutVertexId*>& y) {
+            return x.first < y.first;
+        };
+        std::sort(welded.begin(), welded.end(), byVertex);
+        std::vector<uint32_t> weldedVertices;
+        for (const auto& w : welded)
+            if (weldedVertices.empty() || weldedVertices.back() != w.first) weldedVertices.push_back(w.first);
+        auto allNew = [&](uint32_t v) {
+            const CutVertexId& id =
+                *std::lower_bound(welded.begin(), welded.end(), std::make_pair(v, (const CutVertexId*)nullptr), byVertex)->second;
+            const openvdb::Coord a = gridVertexCoord(id.feature[0]), b = gridVertexCoord(id.feature[1]);
+            const openvdb::Coord lo = openvdb::Coord::maxComponent(a, b) - openvdb::Coord(1);
+            const openvdb::Coord hi = openvdb::Coord::minComponent(a, b);
+            for (int x = lo.x(); x <= hi.x(); ++x)
+                for (int y = lo.y(); y <= hi.y(); ++y)
+                    for (int z = lo.z(); z <= hi.z(); ++z) {
+                        const openvdb::Coord c(x, y, z);
+                        if (!mCells.count(c) && uncutRun(uncutAcc, c).second != 0) return false;
+                    }
+            return true;
+        };
+        splitCrossCellPinches(m, firstNew, uncutVertices, weldedVertices, allNew);
+    }
     if (normals) {
         // Only the cut cells' triangles can hold a new vertex.
         for (size_t t = firstNew; t < m.triangleCount(); ++t) {

@@ -504,10 +504,13 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
                              "; the cut has a width) in cell " + cellText(region[toCheck[failed]]));
 }
 
-/// Snap rounding, as fusedMesh() does it: names joined by an edge at one
-/// float position are one vertex (the lowest name), and the triangles that
-/// collapse are dropped.
-void snapRound(LocalRegion& reg)
+/// Snap rounding, as fusedMesh() does it: an edge from a marching-tetrahedra
+/// vertex along its grid edge used twice each way and shorter than two float
+/// steps (remesh_detail::joinsAlongGridEdge) has its ends joined into the
+/// iso vertex, names joined by an edge at one float position are one vertex
+/// (the lowest name; the iso vertex, as fusedMesh keeps the uncut one), and
+/// the triangles that collapse are dropped.
+void snapRound(const vdb::Volume& volume, LocalRegion& reg)
 {
     const std::vector<CutVertexId>& ids = reg.ids;
     std::vector<Tri>& tris = reg.tris;
@@ -521,12 +524,38 @@ void snapRound(LocalRegion& reg)
         while (rep[x] != r) x = std::exchange(rep[x], r);
         return r;
     };
+    // Edges along a grid edge from its iso vertex: (iso, other, direction).
+    std::vector<std::array<uint32_t, 3>> along;
+    for (const Tri& tr : tris)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
+            const CutVertexId &ia = ids[a], &ib = ids[b];
+            if (ia.dim != 1 || ib.dim != 1 || ia.feature[0] != ib.feature[0] || ia.feature[1] != ib.feature[1] ||
+                ia.isIsoEdgeVertex() == ib.isIsoEdgeVertex())
+                continue;
+            along.push_back(ia.isIsoEdgeVertex() ? std::array<uint32_t, 3>{a, b, 0} : std::array<uint32_t, 3>{b, a, 1});
+        }
+    std::sort(along.begin(), along.end());
+    for (size_t i = 0, j = 0; i < along.size(); i = j) {
+        size_t each[2] = {0, 0};
+        for (j = i; j < along.size() && along[j][0] == along[i][0] && along[j][1] == along[i][1]; ++j) ++each[along[j][2]];
+        const uint32_t iso = along[i][0], other = along[i][1];
+        if (each[0] != 2 || each[1] != 2 || !known[iso] || !known[other] ||
+            !remesh_detail::joinsAlongGridEdge(ids[iso], ids[other], world[iso], world[other], volume.origin(),
+                                               volume.spacing()))
+            continue;
+        rep[find(other)] = find(iso);
+    }
     for (const Tri& tr : tris)
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
             if (a == b || !known[a] || !known[b] || !(world[a] == world[b])) continue;
             const uint32_t ra = find(a), rb = find(b);
-            if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+            if (ra == rb) continue;
+            // The group's iso vertex stays its root (fusedMesh keeps the uncut vertex).
+            const bool isoA = ids[ra].isIsoEdgeVertex(), isoB = ids[rb].isIsoEdgeVertex();
+            if (isoA != isoB) rep[isoA ? rb : ra] = isoA ? ra : rb;
+            else rep[std::max(ra, rb)] = std::min(ra, rb);
         }
     reg.joined.clear();
     for (uint32_t v = 0; v < uint32_t(rep.size()); ++v)
@@ -739,9 +768,20 @@ void checkVertexLinks(const LocalRegion& reg)
         }
         if (steps == link.size()) continue;
         // With kerf, fans that are each a closed disc are a pinch that
-        // fusedMesh() splits (a copy of the vertex per fan but the first).
+        // fusedMesh() splits (a copy of the vertex per fan but the first):
+        // at a new vertex, or at a marching-tetrahedra vertex that only cut
+        // cells' triangles use (all the cells round its grid edge are cut;
+        // the region holds them all).
         std::vector<int> fanOf;
-        if (reg.kerf && !ids[v].isIsoEdgeVertex() && linkFans(link, fanOf) >= 2) continue;
+        if (reg.kerf && linkFans(link, fanOf) >= 2) {
+            bool split = !ids[v].isIsoEdgeVertex();
+            if (!split) {
+                split = true;
+                for (const Tri& tr : tris)
+                    if (!tr.cut && (tr.v[0] == v || tr.v[1] == v || tr.v[2] == v)) split = false;
+            }
+            if (split) continue;
+        }
         Coord lo, hi;
         reg.holding(v, lo, hi);
         Coord cell = changed.front();
@@ -955,7 +995,7 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
             known[name] = 1;
         }
     }
-    snapRound(reg);
+    snapRound(*mVolume, reg);
     reg.debug = std::getenv("MTCUT_REMESH_DEBUG") != nullptr;
     reg.kerf = kerf;
     auto closedManifold = [&] {

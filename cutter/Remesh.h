@@ -62,10 +62,12 @@
 // slightly different lines) is refused by the local check, never written.
 //
 // Snap rounding (fusedMesh): new vertices joined by an edge that round to
-// the same float position are one vertex of the written mesh, and the
-// triangles that collapse are dropped, and so are the pairs it folds back
-// onto each other (remesh_detail::markCancellingPairs); the local check
-// judges the mesh after that step.
+// the same float position are one vertex of the written mesh, and so are
+// the ends of an edge from an isosurface vertex along its grid edge that
+// four triangles use, a float step long (remesh_detail::joinsAlongGridEdge);
+// the triangles that collapse are dropped, and so are the pairs it folds
+// back onto each other (remesh_detail::markCancellingPairs); the local
+// check judges the mesh after that step.
 #pragma once
 
 #include "cutter/CutMask.h"
@@ -188,7 +190,8 @@ public:
     /// float world mm (as fusedMesh() writes it); and every vertex of the
     /// changed cells must have one fan (no pinch points; with kerf > 0, a
     /// new vertex whose fans are each a closed disc is a pinch, which
-    /// fusedMesh() splits); otherwise it throws
+    /// fusedMesh() splits, and so is such an isosurface vertex whose
+    /// triangles are all cut cells'); otherwise it throws
     /// std::runtime_error("remesh: open or inconsistent surface ... in cell
     /// (i, j, k)"). With kerf > 0, no triangle of the changed cells may
     /// cross or touch another in float world mm, decided exactly
@@ -254,7 +257,9 @@ public:
     /// vertex whose triangles form several fans, each a closed disc (a pinch
     /// that spans cells: an offset plane through a saddle of the isosurface
     /// on a cell face), gets a copy per fan but the first, at its position,
-    /// appended after the new vertices. With `source`, for each
+    /// appended after the new vertices; so does such an isosurface vertex
+    /// whose triangles are all cut cells' (every cell round its grid edge
+    /// that has triangles is cut), after them. With `source`, for each
     /// fused triangle where it came from: an uncut triangle's index, or
     /// uncut().triangleCount() + j for the j-th triangle of cells() (cells
     /// ascending, each cell's triangles in order). Cost O(mesh).

@@ -19,24 +19,16 @@
 
 namespace mtcut::cutter::remesh_detail {
 
-namespace {
-
-constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
-constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
-constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
-/// repairFloatFolds: an edge shorter than this many float steps (float
-/// epsilon times the cell's largest world coordinate) is mended (2 at the
-/// VHM head's 1100 mm are 0.26 um: the least that mends test_cut_props'
-/// strokes; 8 does too, moving more vertices further); snapToGridVertices
-/// takes the same reach.
-constexpr double kFloatStepsShort = 2.0;
-
-/// kFloatStepsShort float steps at world coordinates up to `extent` (mm).
 double floatShortAt(double extent)
 {
     return kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
 }
 
+namespace {
+
+constexpr uint64_t kIso = 1, kIsoA = 2, kIsoB = 3;
+constexpr uint64_t kMid = 4;      ///< marks a Steiner midpoint of a slit chord between two rim points
+constexpr uint64_t kCentroid = 5; ///< marks the Steiner centre of a cap region
 double epsAt(const dvec3& x)
 {
     return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
@@ -2597,6 +2589,21 @@ void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, b
     mKernel->finishCell(cell, quads, prism, out);
     snapToGridVertices(mOrigin, mSpacing, out);
     repairFloatFolds(cell, mOrigin, mSpacing, out);
+}
+
+bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const glm::vec3& isoAt, const glm::vec3& otherAt,
+                        const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
+{
+    if (!iso.isIsoEdgeVertex() || other.dim != 1 || other.tagCount != 0 || other.planeCount == 0 ||
+        other.planes[0] == kIso || other.feature[0] != iso.feature[0] || other.feature[1] != iso.feature[1])
+        return false;
+    double extent = 0.0;
+    for (const uint64_t id : {iso.feature[0], iso.feature[1]}) {
+        const Coord g = gridVertexCoord(id);
+        const dvec3 w = exactWorldPosition(origin, spacing, dvec3(g.x(), g.y(), g.z()));
+        extent = std::max({extent, std::abs(w.x), std::abs(w.y), std::abs(w.z)});
+    }
+    return glm::length(dvec3(otherAt) - dvec3(isoAt)) < floatShortAt(extent);
 }
 
 size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out)

@@ -248,6 +248,15 @@ private:
     std::unique_ptr<QuadGeomCache> mQuadGeoms;
 };
 
+/// The float repair's reach: an edge shorter than kFloatStepsShort float
+/// steps (float epsilon times the largest world coordinate, `extent` mm,
+/// of the cell, face or grid edge that judges it) is mended (2 at the VHM
+/// head's 1100 mm are 0.26 um: the least that mends test_cut_props'
+/// strokes; 8 does too, moving more vertices further); snapToGridVertices
+/// and joinsAlongGridEdge take the same reach.
+constexpr double kFloatStepsShort = 2.0;
+double floatShortAt(double extent);
+
 /// Sub-float clusters at a grid vertex: a new vertex of `out` (not a plain
 /// marching-tetrahedra vertex, which is the uncut mesh's) whose exact world
 /// position lies within kFloatStepsShort float steps (at the grid vertex's
@@ -342,5 +351,23 @@ int linkFans(const std::vector<std::pair<uint32_t, uint32_t>>& link, std::vector
 void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
                          const std::vector<std::array<uint32_t, 3>>& before, const std::vector<char>& intoFace,
                          std::vector<char>& drop);
+
+/// Snap rounding's second rule (fusedMesh and the local check alike): the
+/// edge from a marching-tetrahedra vertex X (`iso`) to another vertex of its
+/// grid edge (`other`: on blade planes only, no tag), used twice each way,
+/// joins its ends into X when they lie within two float steps (at the grid
+/// edge's largest world coordinate) of each other as written (`isoAt`,
+/// `otherAt`: float world mm). A blade plane that crosses a grid edge that
+/// close to X leaves a sliver of solid round the edge, thinner than float,
+/// in every cell round it; the float repair's face rule pinches it in two
+/// faces opposite each other across the edge (each face point where the iso
+/// line and the blade's line meet goes onto X), and the four cells round the
+/// edge each join the plane's vertex to X along the edge (tooth at 400,
+/// kerf 0.5, random strokes seed 9076: 6e-6 mm apart at y = 10 mm). Joined,
+/// the sliver's four triangles collapse, and the two parts of the solid
+/// meet at X alone: a pinch, which fusedMesh splits with kerf > 0. Only an
+/// edge the rest of the pipeline refuses (used four times) is asked.
+bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const glm::vec3& isoAt, const glm::vec3& otherAt,
+                        const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
 } // namespace mtcut::cutter::remesh_detail

@@ -1664,6 +1664,35 @@ TEST(CutPropsDefects, ShortEdgesAreMendedShortestFirst)
     expectCleanRandomCut(path, "tooth at 400", 1009, 4, 0.5);
 }
 
+// Tooth at 400, seed 9076, w = 0.5 mm: an offset plane crossed the grid edge
+// (52, 10..11, 71) 6e-6 voxel from the isosurface's vertex X on it, a sliver
+// of solid round the edge thinner than float; the float repair's face rule
+// pinched it in the two faces opposite each other across the edge, and the
+// four cells round it used the edge from the plane's vertex to X twice each
+// way (refused, stroke 1). Snap rounding now joins the ends of such an edge
+// into X (FloatFolds.OnlyAnIsoVertexAndABladeVertexOfItsGridEdge...), the
+// sliver's triangles collapse, and the two parts of the solid that meet at
+// X are a pinch that fusion splits (X's triangles are all cut cells').
+TEST(CutPropsDefects, AnEdgeAlongAGridEdgeUsedFourTimesIsJoinedIntoItsIsoVertex)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanRandomCut(path, "tooth at 400", 9076, 2, 0.5);
+    // The split is a function of the fused triangles: from scratch, the same mesh.
+    HeadStrokeCut cut(path, 9076, 0.5, 2);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    CutRemesher scratch(cut.vol, 400.0f, cut.uncut);
+    ASSERT_EQ(tryUpdate(scratch, cut.mask).outcome, Outcome::Ok);
+    const Mesh fused = cut.remesher.fusedMesh();
+    EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused));
+    // X, the marching-tetrahedra vertex at (52, 10.0039, 71) mm, is split: the
+    // two parts of the solid meet there, each with its own copy.
+    const glm::vec3 x(52.0f, 10.00390625f, 71.0f);
+    std::set<uint32_t> atX;
+    for (uint32_t v : fused.indices)
+        if (fused.positions[v] == x) atX.insert(v);
+    EXPECT_EQ(atX.size(), 2u);
+}
+
 // The 1 mm head (DICOM) at kerf 0, random strokes seed 2002: a slit copy
 // of an iso vertex on a face diagonal lay 2.5e-5 voxel from a cap vertex in
 // that face, at z = 1241 mm where a float step is 1.2e-4 mm; the triangle

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <set>
@@ -493,6 +494,39 @@ TEST(FloatFolds, AFacePairClosingATentOfTheCellsOwnBecomesOneWithTheTentGone)
     CutCellGeometry far = tentAtFace(1e-2);
     EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), origin, spacing, far), 0u);
     EXPECT_EQ(far.indices.size(), 18u);
+}
+
+// Snap rounding's rule for an edge along a grid edge used four times
+// (fusedMesh and the local check; tooth at 400, kerf 0.5, seed 9076: a blade
+// plane 6e-6 mm from the isosurface's vertex on a grid edge, the sliver of
+// solid round the edge pinched by the face rule in two opposite faces):
+// only from the edge's iso vertex to a blade-only, untagged vertex of the
+// same grid edge, within two float steps at the edge's largest coordinate.
+TEST(FloatFolds, OnlyAnIsoVertexAndABladeVertexOfItsGridEdgeAFloatStepApartJoinAlongIt)
+{
+    using mtcut::cutter::remesh_detail::joinsAlongGridEdge;
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    const Coord a(1, 1, 1), b(2, 1, 1), c(1, 2, 1);
+    const CutVertexId iso = edgeVertex(a, b, 1), blade = edgeVertex(a, b, 200);
+    const glm::vec3 x(1001.5f, 1001.0f, 1001.0f);
+    // Floats at 1001.5 are 6.1e-5 mm apart; the reach, 2 epsilon x 1002 mm, is 2.4e-4 mm.
+    glm::vec3 oneStep = x, fiveSteps = x;
+    oneStep.x = std::nextafter(x.x, 2000.0f);
+    for (int i = 0; i < 5; ++i) fiveSteps.x = std::nextafter(fiveSteps.x, 2000.0f);
+    EXPECT_TRUE(joinsAlongGridEdge(iso, blade, x, oneStep, origin, spacing));
+    EXPECT_FALSE(joinsAlongGridEdge(iso, blade, x, fiveSteps, origin, spacing)) << "beyond the reach";
+    EXPECT_FALSE(joinsAlongGridEdge(blade, iso, oneStep, x, origin, spacing)) << "the first must be the iso vertex";
+    EXPECT_FALSE(joinsAlongGridEdge(iso, edgeVertex(a, c, 200), x, oneStep, origin, spacing)) << "another grid edge";
+    CutVertexId tagged = blade;
+    tagged.tags[tagged.tagCount++] = 200u << 1;
+    EXPECT_FALSE(joinsAlongGridEdge(iso, tagged, x, oneStep, origin, spacing)) << "a side or pinch copy";
+    CutVertexId isoOnPlane = blade; // an iso vertex on a blade plane: {1, 200}
+    isoOnPlane.planeCount = 2;
+    isoOnPlane.planes = {1, 200};
+    EXPECT_FALSE(joinsAlongGridEdge(iso, isoOnPlane, x, oneStep, origin, spacing)) << "an iso vertex on a plane";
+    // Near the origin a float step is smaller, and so is the reach.
+    const glm::vec3 y(1.5f, 1.0f, 1.0f);
+    EXPECT_FALSE(joinsAlongGridEdge(iso, blade, y, y + glm::vec3(1e-6f, 0, 0), openvdb::Vec3d(0.0), spacing));
 }
 
 // remesh_detail::linkFans, on which the split of pinches across cells
