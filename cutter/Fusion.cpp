@@ -27,6 +27,22 @@ struct Group
     double volume = 0.0, area = 0.0;
 };
 
+/// Calls f(cell) for each cell round the grid edge of `id` (a vertex on a
+/// grid edge: a cube edge has four, a face diagonal two) while f returns
+/// true; false when one returned false.
+template <class F>
+bool everyCellRoundGridEdge(const CutVertexId& id, F&& f)
+{
+    const openvdb::Coord a = gridVertexCoord(id.feature[0]), b = gridVertexCoord(id.feature[1]);
+    const openvdb::Coord lo = openvdb::Coord::maxComponent(a, b) - openvdb::Coord(1);
+    const openvdb::Coord hi = openvdb::Coord::minComponent(a, b);
+    for (int x = lo.x(); x <= hi.x(); ++x)
+        for (int y = lo.y(); y <= hi.y(); ++y)
+            for (int z = lo.z(); z <= hi.z(); ++z)
+                if (!f(openvdb::Coord(x, y, z))) return false;
+    return true;
+}
+
 /// Kerf > 0: the new vertices (index firstVertex on) of the triangles from
 /// firstTriangle on whose fans are several closed discs (remesh_detail::
 /// linkFans): every fan but the first (in triangle order) gets its own copy
@@ -325,19 +341,14 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
             if (!isCutCell(mUncut.triangleVoxels[t])) candidates.push_back(t);
         for (const auto& [v, id] : welded) {
             if (find(v) == v) continue;
-            const openvdb::Coord a = gridVertexCoord(id->feature[0]), b = gridVertexCoord(id->feature[1]);
-            const openvdb::Coord lo = openvdb::Coord::maxComponent(a, b) - openvdb::Coord(1);
-            const openvdb::Coord hi = openvdb::Coord::minComponent(a, b);
-            for (int x = lo.x(); x <= hi.x(); ++x)
-                for (int y = lo.y(); y <= hi.y(); ++y)
-                    for (int z = lo.z(); z <= hi.z(); ++z) {
-                        const openvdb::Coord c(x, y, z);
-                        const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, c);
-                        if (run.second == 0 || mCells.count(c)) continue;
-                        for (uint32_t t = run.first; t < run.first + run.second; ++t)
-                            for (int k = 0; k < 3; ++k)
-                                if (mUncut.indices[3 * size_t(t) + size_t(k)] == v) candidates.push_back(t);
-                    }
+            everyCellRoundGridEdge(*id, [&, v = v](const openvdb::Coord& c) {
+                const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, c);
+                if (run.second == 0 || mCells.count(c)) return true;
+                for (uint32_t t = run.first; t < run.first + run.second; ++t)
+                    for (int k = 0; k < 3; ++k)
+                        if (mUncut.indices[3 * size_t(t) + size_t(k)] == v) candidates.push_back(t);
+                return true;
+            });
         }
         std::sort(candidates.begin(), candidates.end());
         candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
@@ -420,16 +431,9 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         auto allNew = [&](uint32_t v) {
             const CutVertexId& id =
                 *std::lower_bound(welded.begin(), welded.end(), std::make_pair(v, (const CutVertexId*)nullptr), byVertex)->second;
-            const openvdb::Coord a = gridVertexCoord(id.feature[0]), b = gridVertexCoord(id.feature[1]);
-            const openvdb::Coord lo = openvdb::Coord::maxComponent(a, b) - openvdb::Coord(1);
-            const openvdb::Coord hi = openvdb::Coord::minComponent(a, b);
-            for (int x = lo.x(); x <= hi.x(); ++x)
-                for (int y = lo.y(); y <= hi.y(); ++y)
-                    for (int z = lo.z(); z <= hi.z(); ++z) {
-                        const openvdb::Coord c(x, y, z);
-                        if (!mCells.count(c) && uncutRun(uncutAcc, c).second != 0) return false;
-                    }
-            return true;
+            return everyCellRoundGridEdge(id, [&](const openvdb::Coord& c) {
+                return mCells.count(c) != 0 || uncutRun(uncutAcc, c).second == 0;
+            });
         };
         splitCrossCellPinches(m, firstNew, uncutVertices, weldedVertices, allNew);
     }
