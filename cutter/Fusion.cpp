@@ -233,6 +233,12 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         const CutVertexId *isoId, *otherId;
     };
     std::vector<Along> along;
+    struct RoundEdge // an edge between faces round a cube edge (joinsRoundCubeEdge)
+    {
+        uint32_t keep, other; // the lower name, the higher
+        const CutVertexId *keepId, *otherId;
+    };
+    std::vector<RoundEdge> round;
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
@@ -262,9 +268,12 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             for (int j = 0; j < 3; ++j) {
                 newIndices.push_back(index[geom.indices[i + size_t(j)]]);
-                // An edge along a grid edge from its iso vertex (joinsAlongGridEdge).
                 const CutVertexId& a = geom.vertexIds[geom.indices[i + size_t(j)]];
                 const CutVertexId& b = geom.vertexIds[geom.indices[i + size_t(j + 1) % 3]];
+                if (a.dim == 2 && b.dim == 2 && a < b && remesh_detail::facesMeetAtCubeEdge(a, b))
+                    round.push_back(RoundEdge{index[geom.indices[i + size_t(j)]],
+                                              index[geom.indices[i + size_t(j + 1) % 3]], &a, &b});
+                // An edge along a grid edge from its iso vertex (joinsAlongGridEdge).
                 if (a.dim != 1 || b.dim != 1 || a.feature[0] != b.feature[0] || a.feature[1] != b.feature[1] ||
                     a.isIsoEdgeVertex() == b.isIsoEdgeVertex())
                     continue;
@@ -324,6 +333,17 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
                                                mVolume->origin(), mVolume->spacing()))
             continue;
         const uint32_t ra = find(e.iso), rb = find(e.other);
+        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    // Two vertices of faces round a cube edge, both rounded onto it less
+    // than two float steps apart: one vertex, the lower name's position
+    // (remesh_detail::joinsRoundCubeEdge; the local check's snapRound).
+    for (const RoundEdge& e : round) {
+        if (!remesh_detail::joinsRoundCubeEdge(*e.keepId, *e.otherId, m.positions[e.keep], m.positions[e.other],
+                                               mVolume->origin(), mVolume->spacing()))
+            continue;
+        m.positions[e.other] = m.positions[e.keep];
+        const uint32_t ra = find(e.keep), rb = find(e.other);
         if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
     }
     auto isCutCell = [&](const glm::ivec3& c) { return mCells.count(openvdb::Coord(c.x, c.y, c.z)) != 0; };

@@ -507,14 +507,17 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
 /// Snap rounding, as fusedMesh() does it: an edge from a marching-tetrahedra
 /// vertex along its grid edge used twice each way and shorter than two float
 /// steps (remesh_detail::joinsAlongGridEdge) has its ends joined into the
-/// iso vertex, names joined by an edge at one float position are one vertex
+/// iso vertex, two vertices of faces round a cube edge both rounded onto it
+/// less than two float steps apart (remesh_detail::joinsRoundCubeEdge) are
+/// one, at the lower name's position, names joined by an edge at one float
+/// position are one vertex
 /// (the lowest name; the iso vertex, as fusedMesh keeps the uncut one), and
 /// the triangles that collapse are dropped.
 void snapRound(const vdb::Volume& volume, LocalRegion& reg)
 {
     const std::vector<CutVertexId>& ids = reg.ids;
     std::vector<Tri>& tris = reg.tris;
-    const std::vector<glm::vec3>& world = reg.world;
+    std::vector<glm::vec3>& world = reg.world;
     const std::vector<char>& known = reg.known;
     std::vector<uint32_t> rep(ids.size());
     for (size_t v = 0; v < rep.size(); ++v) rep[v] = uint32_t(v);
@@ -546,6 +549,19 @@ void snapRound(const vdb::Volume& volume, LocalRegion& reg)
             continue;
         rep[find(other)] = find(iso);
     }
+    // Two vertices of faces round a cube edge (joinsRoundCubeEdge): one, at
+    // the lower name's position.
+    for (const Tri& tr : tris)
+        for (int k = 0; k < 3; ++k) {
+            uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
+            if (ids[a].dim != 2 || ids[b].dim != 2 || !known[a] || !known[b]) continue;
+            if (ids[b] < ids[a]) std::swap(a, b);
+            if (!remesh_detail::joinsRoundCubeEdge(ids[a], ids[b], world[a], world[b], volume.origin(), volume.spacing()))
+                continue;
+            world[b] = world[a];
+            const uint32_t ra = find(a), rb = find(b);
+            if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+        }
     for (const Tri& tr : tris)
         for (int k = 0; k < 3; ++k) {
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];

@@ -11,6 +11,7 @@
 
 #include <boost/container/small_vector.hpp>
 
+#include <algorithm>
 #include <cassert>
 #include <limits>
 #include <sstream>
@@ -2604,6 +2605,52 @@ bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const 
         extent = std::max({extent, std::abs(w.x), std::abs(w.y), std::abs(w.z)});
     }
     return glm::length(dvec3(otherAt) - dvec3(isoAt)) < floatShortAt(extent);
+}
+
+bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b)
+{
+    if (a.dim != 2 || b.dim != 2 || a.tagCount != 0 || b.tagCount != 0 || a.planeCount == 0 ||
+        a.planeCount != b.planeCount || a.feature == b.feature)
+        return false;
+    for (uint8_t k = 0; k < a.planeCount; ++k)
+        if (a.planes[k] != b.planes[k]) return false;
+    // Both in cell faces (the three grid vertices share a coordinate), of
+    // different axes, with two grid vertices in common: the cube edge.
+    auto faceAxis = [](const CutVertexId& v) {
+        const Coord g0 = gridVertexCoord(v.feature[0]), g1 = gridVertexCoord(v.feature[1]),
+                    g2 = gridVertexCoord(v.feature[2]);
+        for (int axis = 0; axis < 3; ++axis)
+            if (g0[axis] == g1[axis] && g1[axis] == g2[axis]) return axis;
+        return -1;
+    };
+    const int axisA = faceAxis(a), axisB = faceAxis(b);
+    if (axisA < 0 || axisB < 0 || axisA == axisB) return false;
+    int common = 0;
+    for (const uint64_t f : a.feature) common += int(std::count(b.feature.begin(), b.feature.end(), f));
+    return common == 2;
+}
+
+bool joinsRoundCubeEdge(const CutVertexId& a, const CutVertexId& b, const glm::vec3& aAt, const glm::vec3& bAt,
+                        const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
+{
+    if (!facesMeetAtCubeEdge(a, b)) return false;
+    uint64_t edge[2];
+    int n = 0;
+    for (const uint64_t f : a.feature)
+        if (std::count(b.feature.begin(), b.feature.end(), f) && n < 2) edge[n++] = f;
+    const Coord g0 = gridVertexCoord(edge[0]), g1 = gridVertexCoord(edge[1]);
+    const dvec3 w0 = exactWorldPosition(origin, spacing, dvec3(g0.x(), g0.y(), g0.z()));
+    const dvec3 w1 = exactWorldPosition(origin, spacing, dvec3(g1.x(), g1.y(), g1.z()));
+    // Both rounded onto the edge's line: equal to its float coordinates
+    // across it.
+    for (int axis = 0; axis < 3; ++axis) {
+        if (g0[axis] != g1[axis]) continue;
+        const float on = float(w0[axis]);
+        if (aAt[axis] != on || bAt[axis] != on) return false;
+    }
+    const double extent = std::max({std::abs(w0.x), std::abs(w0.y), std::abs(w0.z), std::abs(w1.x), std::abs(w1.y),
+                                    std::abs(w1.z)});
+    return glm::length(dvec3(aAt) - dvec3(bAt)) < floatShortAt(extent);
 }
 
 size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out)

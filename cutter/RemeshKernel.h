@@ -370,4 +370,23 @@ void markCancellingPairs(const std::vector<std::array<uint32_t, 3>>& tris,
 bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const glm::vec3& isoAt, const glm::vec3& otherAt,
                         const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
+/// True when a and b lie in two cell faces that meet at a cube edge (their
+/// tet faces share its two grid vertices), on the same planes, untagged:
+/// the same curve (e.g. the isosurface's line on a blade plane) crossing
+/// both faces, which passes that edge closer than the cell it cuts across
+/// there is wide. The cheap half of joinsRoundCubeEdge, by name alone.
+bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b);
+
+/// Snap rounding's rule for such a pair joined by an edge: when both round
+/// onto the cube edge's line (`aAt`, `bAt`: float world mm) and lie less
+/// than kFloatStepsShort float steps apart along it, they are one vertex,
+/// the lower name's (1 mm head at 400, kerf 0.5, random strokes seed 9065:
+/// the isosurface's line on a kerf plane crosses faces z = 1053 and
+/// x = 212 1.6e-5 mm apart beside their edge; rounded, the sliver of
+/// isosurface between them lies flat in face z = 1053, and the cap
+/// triangle below it, whose edge lies in that face, runs into it). Joined,
+/// the sliver's two triangles collapse.
+bool joinsRoundCubeEdge(const CutVertexId& a, const CutVertexId& b, const glm::vec3& aAt, const glm::vec3& bAt,
+                        const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
+
 } // namespace mtcut::cutter::remesh_detail

@@ -529,6 +529,52 @@ TEST(FloatFolds, OnlyAnIsoVertexAndABladeVertexOfItsGridEdgeAFloatStepApartJoinA
     EXPECT_FALSE(joinsAlongGridEdge(iso, blade, y, y + glm::vec3(1e-6f, 0, 0), openvdb::Vec3d(0.0), spacing));
 }
 
+// Snap rounding's rule for two vertices of faces round a cube edge (1 mm
+// head at 400, kerf 0.5, seed 9065: the isosurface's line on a kerf plane
+// crossing faces z = 1053 and x = 212 1.6e-5 mm apart beside their edge):
+// the same planes, untagged, in faces of two axes that share the edge, both
+// rounded onto the edge's line, within two float steps of each other.
+TEST(FloatFolds, OnlyVerticesOfTwoFacesRoundACubeEdgeRoundedOntoItAFloatStepApartJoin)
+{
+    using mtcut::cutter::remesh_detail::facesMeetAtCubeEdge;
+    using mtcut::cutter::remesh_detail::joinsRoundCubeEdge;
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    // The cube edge (1, 1..2, 1); face z = 1 and face x = 1 (their tet faces' grid vertices).
+    const Coord e0(1, 1, 1), e1(1, 2, 1);
+    const CutVertexId inZ = faceVertex(e0, Coord(2, 1, 1), e1, 1, 300);
+    const CutVertexId inX = faceVertex(e0, e1, Coord(1, 1, 2), 1, 300);
+    ASSERT_TRUE(facesMeetAtCubeEdge(inZ, inX));
+    ASSERT_TRUE(facesMeetAtCubeEdge(inX, inZ));
+    const glm::vec3 a(1001.0f, 1001.5f, 1001.0f);
+    glm::vec3 oneStep = a, fiveSteps = a;
+    oneStep.y = std::nextafter(a.y, 2000.0f);
+    for (int i = 0; i < 5; ++i) fiveSteps.y = std::nextafter(fiveSteps.y, 2000.0f);
+    EXPECT_TRUE(joinsRoundCubeEdge(inZ, inX, a, oneStep, origin, spacing));
+    EXPECT_TRUE(joinsRoundCubeEdge(inZ, inX, a, a, origin, spacing));
+    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, a, fiveSteps, origin, spacing)) << "beyond the reach";
+    glm::vec3 offLine = oneStep;
+    offLine.x = std::nextafter(offLine.x, 2000.0f);
+    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, a, offLine, origin, spacing)) << "one is off the edge's line in float";
+    offLine = a;
+    offLine.z = std::nextafter(offLine.z, 2000.0f);
+    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, offLine, oneStep, origin, spacing)) << "one is off the edge's line in float";
+    // Other planes, a tag, one face, opposite faces, faces meeting at a point only.
+    EXPECT_FALSE(facesMeetAtCubeEdge(inZ, faceVertex(e0, e1, Coord(1, 1, 2), 1, 301))) << "another line";
+    CutVertexId tagged = inX;
+    tagged.tags[tagged.tagCount++] = 300u << 1;
+    EXPECT_FALSE(facesMeetAtCubeEdge(inZ, tagged)) << "a side or pinch copy";
+    EXPECT_FALSE(facesMeetAtCubeEdge(inZ, inZ)) << "one vertex";
+    EXPECT_FALSE(facesMeetAtCubeEdge(inZ, faceVertex(Coord(2, 2, 1), Coord(2, 1, 1), e1, 1, 300)))
+        << "the other tet face of the same cell face";
+    EXPECT_FALSE(facesMeetAtCubeEdge(inZ, faceVertex(e0, Coord(1, 0, 1), Coord(1, 1, 0), 1, 300))) << "a point in common";
+    // Face y = 1 meets face z = 1 at another cube edge, (1..2, 1, 1): inZ on it is off that line.
+    const CutVertexId inY = faceVertex(e0, Coord(2, 1, 1), Coord(2, 1, 2), 1, 300);
+    EXPECT_TRUE(facesMeetAtCubeEdge(inZ, inY));
+    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inY, a, a, origin, spacing)) << "off that edge's line";
+    EXPECT_FALSE(facesMeetAtCubeEdge(inZ, faceVertex(e0, e1, Coord(2, 1, 2), 1, 300))) << "an inner tet face";
+    EXPECT_FALSE(facesMeetAtCubeEdge(edgeVertex(e0, e1, 300), inX)) << "a vertex of the edge itself";
+}
+
 // remesh_detail::linkFans, on which the split of pinches across cells
 // (CutRemesher::fusedMesh, kerf > 0) and the local check rely: a vertex's
 // link that is one cycle is one fan; two disjoint cycles are two fans, each
