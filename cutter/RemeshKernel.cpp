@@ -2388,15 +2388,19 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
         auto loopOf = [&](const std::pair<uint32_t, uint32_t>& range) {
             return std::vector<int>(corners.begin() + range.first, corners.begin() + range.first + range.second);
         };
-        // A region that is one triangle too small for its corners to span an
-        // area in double (a cap piece a few nm across where planes meet near
-        // a grid edge; seed 2013 on the 1 mm head): the triangle, as its loop
-        // runs (its edges are its neighbours' reversed); repairFloatFolds or
-        // the local check see to it once it is rounded.
+        // A region whose one loop is too thin to span an area in double: a
+        // cap piece a few nm across where planes meet near a grid edge (a
+        // triangle; seed 2013 on the 1 mm head), or a strip between two
+        // lines on a plane 1e-10 voxel apart, where the next quad's offset
+        // face nearly continues this one's (four corners; tooth at 400, kerf
+        // 0.5, seeds 9124 and 9159). Its one loop is its outline: a fan from
+        // its first corner, as the loop runs (its edges are its neighbours'
+        // reversed); snap rounding, repairFloatFolds or the local check see
+        // to it once it is rounded.
         bool lone = false;
         if (outers.empty()) {
             if (holes.empty()) continue;
-            if (holes.size() != 1 || holes[0].second != 3)
+            if (holes.size() != 1)
                 throw std::runtime_error("remesh: region without outer loop in cell " + cellText(mCell));
             outers.push_back(holes[0]);
             holes.clear();
@@ -2456,8 +2460,14 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                 const auto& tags = nodes[size_t(ptNode[size_t(i)])].tags;
                 return std::binary_search(tags.begin(), tags.end(), r.cap->id << 1 | (r.side < 0 ? 1u : 0u));
             });
-            if (ownCorner || lone) {
+            if (ownCorner) {
                 tris.insert(tris.end(), poly.begin(), poly.end());
+            } else if (lone) {
+                for (size_t i = 1; i + 1 < poly.size(); ++i) {
+                    tris.push_back(poly[0]);
+                    tris.push_back(poly[i]);
+                    tris.push_back(poly[i + 1]);
+                }
             } else if (convex) {
                 // A cap region: fan from a tagged centre, so no chord joins two rim
                 // points (the two sides of the slit would share it).

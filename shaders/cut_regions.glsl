@@ -552,11 +552,12 @@ void triangulateRegion(int r)
             lastHole = j;
         }
     }
-    // One loop of three corners too small to span an area: that triangle.
+    // One loop too thin to span an area (a triangle a few nm across, a strip
+    // 1e-10 voxel wide): a fan from its first corner.
     bool lone = false;
     if (outers == 0) {
         if (holes == 0) return;
-        if (holes != 1 || gLoopPts[lastHole] != 3) {
+        if (holes != 1) {
             gFail |= kRefused; // a region without an outer loop
             return;
         }
@@ -628,8 +629,10 @@ void triangulateRegion(int r)
         bool ownCorner = false;
         for (int i = 0; i < n && convex && n == 3; ++i)
             ownCorner = ownCorner || nodeHasTag(gPtNode[poly2Poly[i]], sideTag(q, gRegionSide(r)));
-        if (ownCorner || lone) {
+        if (ownCorner) {
             poly2AddTri(poly2Poly[0], poly2Poly[1], poly2Poly[2]); // (n is 3 here)
+        } else if (lone) {
+            for (int i = 1; i + 1 < n; ++i) poly2AddTri(poly2Poly[0], poly2Poly[i], poly2Poly[i + 1]);
         } else if (convex) {
             // A cap region: a fan from a tagged centre.
             precise dvec3 centre = dvec3(0.0lf);

@@ -216,3 +216,28 @@ TEST(LiveStroke, ASliverOfIsosurfaceRoundACubeEdgeDoesNotStopTheStroke)
     EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), cut.quads.size());
     cut.expectSameAsFromScratch();
 }
+
+// Tooth, kerf 0.5, seed 9124, stroke 0: from its 6th quad on, quad 4's
+// mitre face held a strip of cap between its lines with quad 4's and
+// quad 5's offset faces, 1e-10 voxel wide and 0.08 long (the two offset
+// faces nearly one plane), in cell (60, 73, 122); its one loop was too thin
+// to count as an outline, and the kernel refused the cell ("region without
+// outer loop"), so the stroke stopped at its 5th quad of 189 (seed 9159
+// likewise). Such a loop is now the region's outline, fanned; rounded to
+// float, the strip's triangles collapse.
+TEST(LiveStroke, AStripOfCapThinnerThanDoubleDoesNotStopTheStroke)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    StrokeCut cut(path, 0.5, 9124, 0);
+    ASSERT_EQ(cut.quads.size(), 189u);
+    LiveStroke live(cut.mask, cut.remesher);
+    size_t notAccepted = 0;
+    for (size_t q = 0; q < cut.quads.size(); ++q) {
+        ASSERT_TRUE(live.add(cut.quads[q])) << "stopped before quad " << q;
+        const LiveStroke::Result r = live.update();
+        if (r.outcome != LiveStroke::Outcome::Accepted && notAccepted++ == 0) ADD_FAILURE() << "quad " << q << ": " << r.refusal;
+    }
+    EXPECT_EQ(notAccepted, 0u);
+    EXPECT_EQ(live.finish().outcome, LiveStroke::Outcome::Unchanged);
+    cut.expectSameAsFromScratch();
+}

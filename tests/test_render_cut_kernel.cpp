@@ -476,6 +476,51 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
 }
 
 
+// The tooth at 400, kerf 0.5, seed 9124, the first six quads of stroke 0:
+// in cell (60, 73, 122) a strip of cap 1e-10 voxel wide between two nearly
+// equal offset faces' lines on a mitre face, whose one loop is too thin to
+// count as an outline; both kernels fan it from its first corner
+// (LiveStroke.AStripOfCapThinnerThanDoubleDoesNotStopTheStroke). The cells
+// round it, recovered from the GPU, equal the CPU kernel's.
+TEST(CutKernelGpu, AStripThinnerThanDoubleIsTriangulatedAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    const render::GpuCutKernel& gpu = cutKernel();
+    const vdb::Volume tooth = vdb::readVolume(path);
+    CutMask mask(cutter::frameOf(tooth), 0.5);
+    const uint32_t seed = 9124;
+    const auto poses = cutter::makeRandomStrokes(mask.frame(), seed, 1, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
+                                                 20.0 + 10.0 * (seed % 4))[0];
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(poses, mask.frame());
+    ASSERT_GE(quads.size(), 6u);
+    mask.beginStroke();
+    for (size_t q = 0; q < 6; ++q) mask.addQuad(quads[q]);
+    const openvdb::Coord at(60, 73, 122);
+    std::vector<openvdb::Coord> cells;
+    mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) {
+        if (std::abs(c.x() - at.x()) <= 1 && std::abs(c.y() - at.y()) <= 1 && std::abs(c.z() - at.z()) <= 1) cells.push_back(c);
+    });
+    std::sort(cells.begin(), cells.end());
+    ASSERT_TRUE(std::binary_search(cells.begin(), cells.end(), at));
+    const render::RecoveredCells got = render::recoverCutCells(gpu, tooth, 400.0f, mask, cells, 1);
+    ASSERT_EQ(got.cells.size(), cells.size());
+    CellKernel cpu(tooth, 400.0f);
+    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    size_t triangles = 0;
+    for (size_t i = 0; i < cells.size(); ++i) {
+        cutter::CutCellGeometry want;
+        ASSERT_NO_THROW(cpu.remesh(cells[i], kernelQuads.of(cells[i]), true, want));
+        triangles += want.indices.size() / 3;
+        EXPECT_TRUE(got.cells[i].vertexIds == want.vertexIds) << "cell " << i;
+        EXPECT_EQ(got.cells[i].indices, want.indices) << "cell " << i;
+    }
+    std::printf("tooth seed 9124, 6 quads: %zu cells round (60, 73, 122), %zu triangles, %zu made by the GPU\n",
+                cells.size(), triangles, got.byGpu);
+    const size_t atIndex = size_t(std::lower_bound(cells.begin(), cells.end(), at) - cells.begin());
+    EXPECT_TRUE(got.madeByGpu[atIndex]) << "the GPU flagged the strip's cell for the CPU";
+}
+
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
 // into its draw buffers and drawn with glDrawArraysIndirect over the
 // discard pass, on the sphere cut by the slanted stroke, against the CPU:
