@@ -335,8 +335,8 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         const uint32_t ra = find(e.iso), rb = find(e.other);
         if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
     }
-    // Two vertices of faces round a cube edge, both rounded onto it less
-    // than two float steps apart: one vertex, the lower name's position
+    // Two vertices of faces round a cube edge, both rounded to within two
+    // float steps of it and of each other: one vertex, the lower name's position
     // (remesh_detail::joinsRoundCubeEdge; the local check's snapRound).
     for (const RoundEdge& e : round) {
         if (!remesh_detail::joinsRoundCubeEdge(*e.keepId, *e.otherId, m.positions[e.keep], m.positions[e.other],

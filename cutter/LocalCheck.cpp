@@ -507,8 +507,8 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
 /// Snap rounding, as fusedMesh() does it: an edge from a marching-tetrahedra
 /// vertex along its grid edge used twice each way and shorter than two float
 /// steps (remesh_detail::joinsAlongGridEdge) has its ends joined into the
-/// iso vertex, two vertices of faces round a cube edge both rounded onto it
-/// less than two float steps apart (remesh_detail::joinsRoundCubeEdge) are
+/// iso vertex, two vertices of faces round a cube edge both rounded to
+/// within two float steps of it and of each other (joinsRoundCubeEdge) are
 /// one, at the lower name's position, names joined by an edge at one float
 /// position are one vertex
 /// (the lowest name; the iso vertex, as fusedMesh keeps the uncut one), and

@@ -2651,16 +2651,17 @@ bool joinsRoundCubeEdge(const CutVertexId& a, const CutVertexId& b, const glm::v
     const Coord g0 = gridVertexCoord(edge[0]), g1 = gridVertexCoord(edge[1]);
     const dvec3 w0 = exactWorldPosition(origin, spacing, dvec3(g0.x(), g0.y(), g0.z()));
     const dvec3 w1 = exactWorldPosition(origin, spacing, dvec3(g1.x(), g1.y(), g1.z()));
-    // Both rounded onto the edge's line: equal to its float coordinates
-    // across it.
-    for (int axis = 0; axis < 3; ++axis) {
-        if (g0[axis] != g1[axis]) continue;
-        const float on = float(w0[axis]);
-        if (aAt[axis] != on || bAt[axis] != on) return false;
-    }
+    // Both rounded to within the reach of the edge's line, and of each other.
     const double extent = std::max({std::abs(w0.x), std::abs(w0.y), std::abs(w0.z), std::abs(w1.x), std::abs(w1.y),
                                     std::abs(w1.z)});
-    return glm::length(dvec3(aAt) - dvec3(bAt)) < floatShortAt(extent);
+    const double reach = floatShortAt(extent);
+    double offA = 0.0, offB = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+        if (g0[axis] != g1[axis]) continue;
+        offA += (double(aAt[axis]) - w0[axis]) * (double(aAt[axis]) - w0[axis]);
+        offB += (double(bAt[axis]) - w0[axis]) * (double(bAt[axis]) - w0[axis]);
+    }
+    return offA < reach * reach && offB < reach * reach && glm::length(dvec3(aAt) - dvec3(bAt)) < reach;
 }
 
 size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out)

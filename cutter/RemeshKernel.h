@@ -378,14 +378,15 @@ bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const 
 bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b);
 
 /// Snap rounding's rule for such a pair joined by an edge: when both round
-/// onto the cube edge's line (`aAt`, `bAt`: float world mm) and lie less
-/// than kFloatStepsShort float steps apart along it, they are one vertex,
-/// the lower name's (1 mm head at 400, kerf 0.5, random strokes seed 9065:
-/// the isosurface's line on a kerf plane crosses faces z = 1053 and
-/// x = 212 1.6e-5 mm apart beside their edge; rounded, the sliver of
-/// isosurface between them lies flat in face z = 1053, and the cap
-/// triangle below it, whose edge lies in that face, runs into it). Joined,
-/// the sliver's two triangles collapse.
+/// to within kFloatStepsShort float steps of the cube edge's line (`aAt`,
+/// `bAt`: float world mm; the steps at the edge's largest coordinate) and
+/// of each other, they are one vertex, the lower name's (1 mm head at 400,
+/// kerf 0.5, random strokes seed 9065: the isosurface's line on a kerf
+/// plane crosses faces z = 1053 and x = 212 1.6e-5 mm apart beside their
+/// edge; rounded onto it, the sliver of isosurface between them lies flat
+/// in face z = 1053, and the cap triangle below it, whose edge lies in that
+/// face, runs into it; seeds 9103 and 9239: two offset faces' line, one end
+/// a float step off the edge). Joined, the sliver's two triangles collapse.
 bool joinsRoundCubeEdge(const CutVertexId& a, const CutVertexId& b, const glm::vec3& aAt, const glm::vec3& bAt,
                         const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 

@@ -533,7 +533,7 @@ TEST(FloatFolds, OnlyAnIsoVertexAndABladeVertexOfItsGridEdgeAFloatStepApartJoinA
 // head at 400, kerf 0.5, seed 9065: the isosurface's line on a kerf plane
 // crossing faces z = 1053 and x = 212 1.6e-5 mm apart beside their edge):
 // the same planes, untagged, in faces of two axes that share the edge, both
-// rounded onto the edge's line, within two float steps of each other.
+// rounded to within two float steps of the edge's line and of each other.
 TEST(FloatFolds, OnlyVerticesOfTwoFacesRoundACubeEdgeRoundedOntoItAFloatStepApartJoin)
 {
     using mtcut::cutter::remesh_detail::facesMeetAtCubeEdge;
@@ -552,12 +552,16 @@ TEST(FloatFolds, OnlyVerticesOfTwoFacesRoundACubeEdgeRoundedOntoItAFloatStepApar
     EXPECT_TRUE(joinsRoundCubeEdge(inZ, inX, a, oneStep, origin, spacing));
     EXPECT_TRUE(joinsRoundCubeEdge(inZ, inX, a, a, origin, spacing));
     EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, a, fiveSteps, origin, spacing)) << "beyond the reach";
-    glm::vec3 offLine = oneStep;
+    // One float step off the edge's line is within the reach (1 mm head, seed
+    // 9239: y one step below 249 mm in face z = 1125); five are not.
+    glm::vec3 offLine = oneStep, farOff = oneStep;
     offLine.x = std::nextafter(offLine.x, 2000.0f);
-    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, a, offLine, origin, spacing)) << "one is off the edge's line in float";
-    offLine = a;
-    offLine.z = std::nextafter(offLine.z, 2000.0f);
-    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, offLine, oneStep, origin, spacing)) << "one is off the edge's line in float";
+    for (int i = 0; i < 5; ++i) farOff.x = std::nextafter(farOff.x, 2000.0f);
+    EXPECT_TRUE(joinsRoundCubeEdge(inZ, inX, a, offLine, origin, spacing));
+    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, a, farOff, origin, spacing)) << "one is off the edge's line";
+    farOff = a;
+    for (int i = 0; i < 5; ++i) farOff.z = std::nextafter(farOff.z, 0.0f);
+    EXPECT_FALSE(joinsRoundCubeEdge(inZ, inX, farOff, a, origin, spacing)) << "one is off the edge's line";
     // Other planes, a tag, one face, opposite faces, faces meeting at a point only.
     EXPECT_FALSE(facesMeetAtCubeEdge(inZ, faceVertex(e0, e1, Coord(1, 1, 2), 1, 301))) << "another line";
     CutVertexId tagged = inX;

@@ -192,6 +192,29 @@ TEST(LiveStroke, PatienceBelowOneIsRefused)
     EXPECT_NO_THROW(LiveStroke(mask, remesher, 1));
 }
 
+/// The live stroke `stroke` of `seed` on `path` at 400 with kerf w (the
+/// strokes before it cut whole), updated after each of its first `quads`
+/// quads (all when 0): every update accepted, and the cut then equals a
+/// from-scratch cut of the same mask.
+void expectEveryUpdateAccepted(const std::string& path, uint32_t seed, size_t stroke, size_t quads = 0)
+{
+    SCOPED_TRACE("seed " + std::to_string(seed) + " stroke " + std::to_string(stroke));
+    StrokeCut cut(path, 0.5, seed, stroke);
+    if (quads == 0) quads = cut.quads.size();
+    ASSERT_LE(quads, cut.quads.size());
+    LiveStroke live(cut.mask, cut.remesher);
+    size_t notAccepted = 0;
+    for (size_t q = 0; q < quads; ++q) {
+        ASSERT_TRUE(live.add(cut.quads[q])) << "stopped before quad " << q;
+        const LiveStroke::Result r = live.update();
+        if (r.outcome != LiveStroke::Outcome::Accepted && notAccepted++ == 0) ADD_FAILURE() << "quad " << q << ": " << r.refusal;
+    }
+    EXPECT_EQ(notAccepted, 0u);
+    EXPECT_EQ(live.finish().outcome, LiveStroke::Outcome::Unchanged);
+    EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), quads);
+    cut.expectSameAsFromScratch();
+}
+
 // The 1 mm head, kerf 0.5, seed 9065, stroke 0: at its 50th quad the
 // isosurface's line on a kerf plane crossed faces z = 1053 and x = 212 of
 // cell (212, 198, 53) 1.6e-5 mm apart beside their cube edge; both rounded
@@ -199,22 +222,15 @@ TEST(LiveStroke, PatienceBelowOneIsRefused)
 // z = 1053 and the cap triangle below ran into it. Every later update was
 // refused, and the stroke stopped with 49 of its 109 quads. Snap rounding
 // now joins the two (FloatFolds.OnlyVerticesOfTwoFacesRoundACubeEdge...).
+// Seeds 9103 (stroke 1, at quad 282 of 293) and 9239 (stroke 3, at quad 6
+// of 335): two offset faces' line, one of its points a float step off the
+// cube edge once rounded (y = 248.999985 mm beside y = 249).
 TEST(LiveStroke, ASliverOfIsosurfaceRoundACubeEdgeDoesNotStopTheStroke)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    StrokeCut cut(dir, 0.5, 9065, 0);
-    ASSERT_EQ(cut.quads.size(), 109u);
-    LiveStroke live(cut.mask, cut.remesher);
-    size_t notAccepted = 0;
-    for (size_t q = 0; q < cut.quads.size(); ++q) {
-        ASSERT_TRUE(live.add(cut.quads[q])) << "stopped before quad " << q;
-        const LiveStroke::Result r = live.update();
-        if (r.outcome != LiveStroke::Outcome::Accepted && notAccepted++ == 0) ADD_FAILURE() << "quad " << q << ": " << r.refusal;
-    }
-    EXPECT_EQ(notAccepted, 0u);
-    EXPECT_EQ(live.finish().outcome, LiveStroke::Outcome::Unchanged);
-    EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), cut.quads.size());
-    cut.expectSameAsFromScratch();
+    expectEveryUpdateAccepted(dir, 9065, 0);
+    expectEveryUpdateAccepted(dir, 9239, 3, 20);
+    expectEveryUpdateAccepted(dir, 9103, 1);
 }
 
 // Tooth, kerf 0.5, seed 9124, stroke 0: from its 6th quad on, quad 4's
