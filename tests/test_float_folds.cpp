@@ -496,6 +496,50 @@ TEST(FloatFolds, AFacePairClosingATentOfTheCellsOwnBecomesOneWithTheTentGone)
     EXPECT_EQ(far.indices.size(), 18u);
 }
 
+// A tent of three triangles over a triangle of a cell face, its apex inside
+// the cell 6.1e-5 mm below the face (1 mm head, kerf 0.5, seed 9202, cell
+// (205, 295, 134) at z = 1135 mm, where a float step is 1.2e-4 mm: the
+// face triangle bounded by the isosurface's line, a kerf plane's line and
+// the face's diagonal). Rounded, the apex lies in the face outside that
+// triangle, and the tent's triangles overlap there. Its collapses all lay
+// a triangle into the face, which a round refuses; when the cell's own
+// triangles cross (the local check's second pass), the shortest short edge
+// goes anyway and the triangle left in the face is marked (intoFace). Not
+// without crossings: a cut that passes its check is not touched.
+TEST(FloatFolds, ATentOverAFaceTriangleThatCrossesOnceWrittenFlattensIntoTheFace)
+{
+    const openvdb::Vec3d origin(0.0, 0.0, 1000.0), spacing(1.0);
+    const Coord d0(206, 295, 135), d1(205, 296, 135); // the face z = 135's diagonal
+    auto tent = [&] {
+        Builder b;
+        const uint32_t iso = b.add(edgeVertex(d0, d1, 1), {205.637860082305, 295.362139917695, 135.0});
+        const uint32_t blade = b.add(edgeVertex(d0, d1, 200), {205.637780245954, 295.362219754046, 135.0});
+        const uint32_t inFace =
+            b.add(faceVertex(d0, d1, Coord(206, 296, 135), 1, 200), {205.638770076005, 295.366494887550, 135.0});
+        const uint32_t apex =
+            b.add(faceVertex(Coord(206, 296, 134), d0, d1, 1, 200), {205.637883342519, 295.362177652792, 134.999939004689});
+        b.tri(inFace, iso, apex);
+        b.tri(blade, inFace, apex);
+        b.tri(iso, blade, apex);
+        return b.g;
+    };
+    const Coord cell(205, 295, 134);
+    CutCellGeometry g = tent();
+    EXPECT_EQ(repairFloatFolds(cell, origin, spacing, g, false), 0u) << "a round lays no triangle into a face";
+    EXPECT_EQ(g.indices.size(), 9u);
+    EXPECT_EQ(repairFloatFolds(cell, origin, spacing, g, true), 1u);
+    ASSERT_EQ(g.indices.size(), 3u) << "the tent flattens into one triangle";
+    EXPECT_EQ(g.vertexIds.size(), 3u);
+    for (const CutVertexId& id : g.vertexIds) EXPECT_TRUE(id.dim == 1 || id.feature[0] != gridVertexId(206, 296, 134));
+    EXPECT_EQ(g.intoFace, std::vector<uint32_t>{0}) << "the triangle left in the face is marked";
+    // Its edges are the tent's rim, each the same way round.
+    const auto rim = directedEdges(tent());
+    for (const auto& [edge, n] : directedEdges(g)) {
+        EXPECT_EQ(n, 1);
+        EXPECT_EQ(rim.count(edge), 1u);
+    }
+}
+
 // Snap rounding's rule for an edge along a grid edge used four times
 // (fusedMesh and the local check; tooth at 400, kerf 0.5, seed 9076: a blade
 // plane 6e-6 mm from the isosurface's vertex on a grid edge, the sliver of

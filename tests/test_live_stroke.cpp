@@ -233,6 +233,21 @@ TEST(LiveStroke, ASliverOfIsosurfaceRoundACubeEdgeDoesNotStopTheStroke)
     expectEveryUpdateAccepted(dir, 9103, 1);
 }
 
+// The 1 mm head, kerf 0.5, seed 9202, stroke 0, from its 192nd quad: in
+// cell (205, 295, 134) a tent of three triangles over a triangle of the
+// face z = 1135 mm (bounded by the isosurface's line, a kerf plane's line
+// and the face's diagonal), its apex 6.1e-5 mm below the face, rounded flat
+// into it and overlapping itself; the float repair could not move the apex
+// without laying a triangle into the face. When a cell's own triangles
+// cross, it now may (FloatFolds.ATentOverAFaceTriangle...). (The stroke
+// still stops at its 202nd quad, another cell: two vertices of one face at
+// one float position with no edge between them.)
+TEST(LiveStroke, ATentRoundedIntoACellFaceIsFlattenedThere)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    expectEveryUpdateAccepted(dir, 9202, 0, 201);
+}
+
 // Tooth, kerf 0.5, seed 9124, stroke 0: from its 6th quad on, quad 4's
 // mitre face held a strip of cap between its lines with quad 4's and
 // quad 5's offset faces, 1e-10 voxel wide and 0.08 long (the two offset
