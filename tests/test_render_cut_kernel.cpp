@@ -797,9 +797,13 @@ TEST(CutKernelGpu, LoopLimitProbeSeesEveryLoopCutShort)
     MTCUT_REQUIRE_GL();
     const render::Program program = render::buildProgram({"cut_loop_probe_test.vert"},
                                                          render::cutPassLibrary("cut_loop_probe_test.vert"));
-    const render::Buffer out(2 * sizeof(int32_t), nullptr);
+    // Starts at -1, so a draw that never wrote is told from a loop of 0.
+    const int32_t unwritten[2] = {-1, -1};
+    const render::Buffer out(sizeof unwritten, unwritten, GL_DYNAMIC_STORAGE_BIT);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 10, out.id());
     program.use();
+    ASSERT_GE(program.uniform("uTrips"), 0);
+    ASSERT_GE(program.uniform("uProbeTrips"), 0);
     glProgramUniform1i(program.id(), program.uniform("uProbeTrips"), 2);
     const bool llvmpipe = std::strstr(reinterpret_cast<const char*>(glGetString(GL_RENDERER)), "llvmpipe") != nullptr;
     const render::PointPass pass;
@@ -810,6 +814,8 @@ TEST(CutKernelGpu, LoopLimitProbeSeesEveryLoopCutShort)
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
         int32_t r[2] = {-1, -1};
         glGetNamedBufferSubData(out.id(), 0, sizeof r, r);
+        glNamedBufferSubData(out.id(), 0, sizeof unwritten, unwritten);
+        ASSERT_TRUE(r[0] >= 0 && (r[1] == 0 || r[1] == 1)) << "the probe's draw wrote nothing: " << r[0] << " " << r[1];
         const bool hit = r[1] != 0;
         std::printf("loop of %d iterations: ran %d, probe %s\n", trips, r[0], hit ? "hit" : "clear");
         if (r[0] != trips) {
