@@ -164,7 +164,8 @@ GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
 /// so slower) and, per arrangement() call, the stages that took 100 ms or
 /// more printed to stderr with their first draw's time, to find where a
 /// driver's first-use work goes (NVIDIA 580: the first cut of a process
-/// took 28-58 s more than the next with the programs from the cache).
+/// took 28-58 s more than the next with the programs from the cache; the
+/// driver's own disk cache keeps that work for later processes).
 class StageTimes
 {
 public:

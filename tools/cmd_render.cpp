@@ -145,8 +145,9 @@ int runRender(const Args& args)
                 const render::GpuCutKernel gpu;
                 const size_t cached = render::programCacheCounts().loaded - cachedBefore;
                 // The first draws of a process then take the driver's own
-                // compile (RESULTS: NVIDIA 28-58 s; llvmpipe minutes after a
-                // shader change, then kept in Mesa's disk cache).
+                // compile (RESULTS: NVIDIA 28-58 s, then kept in its shader
+                // disk cache; llvmpipe minutes after a shader change, then
+                // kept in Mesa's disk cache).
                 std::fprintf(stderr,
                              "mtcut: --gpu-cut: shaders built in %.1f s (%zu of 5 from the program cache); "
                              "making the cut geometry of %zu cells (a driver compiles the programs' code at their "
