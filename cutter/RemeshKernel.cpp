@@ -2820,17 +2820,95 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         std::sort(hit.begin(), hit.end());
         hit.erase(std::unique(hit.begin(), hit.end()), hit.end());
     };
+    std::vector<unsigned> faces(nv);
+    bool facesKnown = false;
+    auto knowFaces = [&] {
+        if (facesKnown) return;
+        for (size_t i = 0; i < nv; ++i) faces[i] = cellFaces(out.vertexIds[i], cell);
+        facesKnown = true;
+    };
+    auto inOneFace = [&](uint32_t v) { return faces[v] != 0 && (faces[v] & (faces[v] - 1)) == 0; };
+    // Spikes of a face's section (tooth, kerf 0.5, random strokes seeds
+    // 9074, 9082, 9160): a vertex C inside one cell face joined along the
+    // face to exactly two vertices A and B inside it, which share no edge and
+    // are one float point once written. The line of two faces of one quad's
+    // prism pokes through the next quad's offset face by 2e-5 mm (3e-4 in
+    // 9082): the face's section runs along the offset face's line to A, out
+    // to C and back to B, A and B 1e-6 mm apart. Written, the spike has no
+    // width, and in the cell where the section's two edges at C bound
+    // triangles on the same side, those two triangles lie on each other. A
+    // function of the section and the rounding, which the two cells of the
+    // face share, so both find it. (tip, survivor, merged): A the lesser name.
+    struct Spike
+    {
+        uint32_t tip, a, b;
+    };
+    auto findSpikes = [&](std::vector<Spike>& spikes) {
+        spikes.clear();
+        knowFaces();
+        std::vector<std::pair<uint32_t, uint32_t>> along; // both ways, both ends inside one same face
+        for (size_t t = 0; t < nt; ++t)
+            for (int e = 0; alive[t] && e < 3; ++e) {
+                const uint32_t u = tris[t][size_t(e)], v = tris[t][size_t((e + 1) % 3)];
+                if (!inOneFace(u) || faces[u] != faces[v]) continue;
+                along.push_back({u, v});
+                along.push_back({v, u});
+            }
+        std::sort(along.begin(), along.end());
+        along.erase(std::unique(along.begin(), along.end()), along.end());
+        auto joined = [&](uint32_t u, uint32_t v) {
+            for (size_t t = 0; t < nt; ++t)
+                if (alive[t] && std::count(tris[t].begin(), tris[t].end(), u) && std::count(tris[t].begin(), tris[t].end(), v))
+                    return true;
+            return false;
+        };
+        for (size_t i = 0; i + 1 < along.size(); ++i) {
+            const uint32_t c = along[i].first;
+            if ((i > 0 && along[i - 1].first == c) || along[i + 1].first != c ||
+                (i + 2 < along.size() && along[i + 2].first == c))
+                continue; // not exactly two neighbours along the face
+            uint32_t a = along[i].second, b = along[i + 1].second;
+            const CutVertexId &ia = out.vertexIds[a], &ib = out.vertexIds[b];
+            if (ia.tagCount != ib.tagCount || ia.tags != ib.tags) continue; // copies of one point stay apart
+            // Inside tet faces, as the search below asks (both cells see the same).
+            if (ia.dim != 2 || ib.dim != 2 || written[a] != written[b] || joined(a, b)) continue;
+            if (ib < ia) std::swap(a, b);
+            spikes.push_back({c, a, b});
+        }
+        std::sort(spikes.begin(), spikes.end(), [&](const Spike& x, const Spike& y) {
+            if (out.vertexIds[x.a] < out.vertexIds[y.a]) return true;
+            if (out.vertexIds[y.a] < out.vertexIds[x.a]) return false;
+            return out.vertexIds[x.b] < out.vertexIds[y.b];
+        });
+    };
     std::vector<size_t> crossing;
+    std::vector<Spike> spikes;
     bool any = false;
     for (size_t t = 0; t < nt && !any; ++t) any = needsMending(t);
     if (crossings && !any) {
         crossingTriangles(crossing);
         any = !crossing.empty();
     }
+    {
+        // A spike's base is two vertices inside tet faces at one float
+        // point: rare, so looked for first (a few dozen vertices a cell).
+        SmallVector<uint32_t, 64> inTetFace;
+        for (uint32_t v = 0; v < uint32_t(nv); ++v)
+            if (out.vertexIds[v].dim == 2) inTetFace.push_back(v);
+        auto less = [&](uint32_t u, uint32_t v) {
+            const glm::vec3 &x = written[u], &y = written[v];
+            return x.x != y.x ? x.x < y.x : x.y != y.y ? x.y < y.y : x.z < y.z;
+        };
+        std::sort(inTetFace.begin(), inTetFace.end(), less);
+        bool onePoint = false;
+        for (size_t i = 1; i < inTetFace.size() && !onePoint; ++i)
+            onePoint = written[inTetFace[i - 1]] == written[inTetFace[i]];
+        if (onePoint) findSpikes(spikes);
+        any = any || !spikes.empty();
+    }
     if (!any) return 0;
 
-    std::vector<unsigned> faces(nv);
-    for (size_t i = 0; i < nv; ++i) faces[i] = cellFaces(out.vertexIds[i], cell);
+    knowFaces();
     auto canMove = [&](uint32_t v) { return faces[v] == 0; };
     std::vector<uint32_t> mergedInto(nv);
     for (size_t i = 0; i < nv; ++i) mergedInto[i] = uint32_t(i);
@@ -2867,7 +2945,10 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     /// the vertices left without a triangle, which must be the cell's own.
     /// Done only when every edge of the changed triangles is then used at most
     /// once each way, and one used only once lies in a cell face.
-    auto collapseCancelling = [&](uint32_t p, uint32_t q, const std::vector<size_t>& onEdge) {
+    /// `tip`: a vertex of a cell face that may be left without a triangle
+    /// (a spike's, below), as the cell's own vertices may.
+    auto collapseCancelling = [&](uint32_t p, uint32_t q, const std::vector<size_t>& onEdge,
+                                  uint32_t tip = UINT32_MAX) {
         std::vector<size_t> touched;
         for (const std::vector<size_t>* list : {&atP, &atQ})
             for (size_t t : *list)
@@ -2920,7 +3001,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 const size_t there = uses(u, v), back = uses(v, u);
                 if (there > 1 || back > 1 || (there + back == 1 && !(faces[u] & faces[v]))) return false;
                 if (u != q && !used(u)) {
-                    if (faces[u] != 0) return false;
+                    if (faces[u] != 0 && u != tip) return false;
                     dropped.push_back(u);
                 }
             }
@@ -3004,7 +3085,6 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     // seed 2002, z = 1226 mm) rounded onto the edge beyond it, and the next
     // cells' triangles touched the edge between them there (CGAL).
     {
-        auto inOneFace = [&](uint32_t v) { return faces[v] != 0 && (faces[v] & (faces[v] - 1)) == 0; };
         std::vector<std::pair<uint32_t, uint32_t>> onFace; // (survivor, merged)
         for (size_t t = 0; t < nt; ++t)
             for (int e = 0; e < 3; ++e) {
@@ -3022,6 +3102,18 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         std::sort(onFace.begin(), onFace.end(), byName);
         for (const auto& [a, b] : onFace)
             if (mergedInto[a] == a && mergedInto[b] == b) collapse(b, a, true);
+    }
+    // A spike's two ends become one (B into A), in both cells of the face
+    // alike: where the two triangles at C lay on each other they now coincide
+    // facing opposite ways and go, with C (the cell across keeps C, its two
+    // edges there now one edge used both ways); only the link of a 2-manifold
+    // is asked, as for the face rule.
+    if (!spikes.empty()) findSpikes(spikes); // as the face rule left the section
+    for (const Spike& k : spikes) {
+        if (mergedInto[k.a] != k.a || mergedInto[k.b] != k.b || mergedInto[k.tip] != k.tip) continue;
+        trianglesAt(k.b, atP);
+        trianglesAt(k.a, atQ);
+        collapseCancelling(k.b, k.a, {}, k.tip);
     }
     // Then rounds: every short edge, shortest first (exact length, then
     // names), its private end moving; only when none can go, a folded

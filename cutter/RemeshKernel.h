@@ -280,7 +280,8 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 /// (double) orientation has folded over; one with an edge shorter than
 /// kFloatStepsShort float steps can (its ends round apart across a
 /// neighbour, or a vertex just off a cell face rounds onto the face and
-/// touches the next cell's triangles). Mended in two steps, both
+/// touches the next cell's triangles), or a face's section doubles back on
+/// itself once written. Mended in two steps, both
 /// deterministic (a function of `out` and the transform), so incremental,
 /// from-scratch and undone geometry stay equal:
 /// - a vertex inside one cell face (in a tet face there or on the face's
@@ -296,6 +297,11 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 ///   unmitred joint that tooSharpForMitre now mitres; none of test_cut_props'
 ///   strokes does it); a triangle it moves into another cell face is listed
 ///   in out.intoFace (the cell across may make its twin: markCancellingPairs);
+///   then the two ends of a spike of a face's section (a vertex inside the
+///   face joined along it to exactly two vertices inside tet faces there
+///   that share no edge and round to one float point) become one, the lesser
+///   name, in both cells alike; two triangles that then coincide facing
+///   opposite ways go, and the spike's tip with them where it has no other;
 /// - then, in rounds, every short edge of the cell, shortest first, and only
 ///   when none of them can go, a folded triangle's edges (any, shortest
 ///   first), is collapsed where it can be: a vertex private to the cell

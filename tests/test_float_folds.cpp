@@ -6,6 +6,7 @@
 // cells), orientation, and the same decision in both cells of a shared face.
 // The head tests (test_cut_props) check the effect on real cuts with CGAL.
 #include "cutter/RemeshKernel.h"
+#include "cutter/TriangleIntersect.h"
 
 #include <gtest/gtest.h>
 
@@ -537,6 +538,113 @@ TEST(FloatFolds, ATentOverAFaceTriangleThatCrossesOnceWrittenFlattensIntoTheFace
     for (const auto& [edge, n] : directedEdges(g)) {
         EXPECT_EQ(n, 1);
         EXPECT_EQ(rim.count(edge), 1u);
+    }
+}
+
+// A spike in a cell face's section (tooth at 400, kerf 0.5, seed 9074,
+// stroke 2 at its fifth quad; face z = 10 between cells (69, 69, 9) and
+// (69, 69, 10), the positions as the kernel made them): quad 3's rim line
+// (planes 301, 303 here) pokes 2.2e-5 mm through quad 4's offset face
+// (403), so the face's section runs along 403's line to A, out to the tip
+// C and back to B, A and B 9e-7 mm apart and one float point once written.
+// Below, the two triangles at C share the apex I and lie on each other
+// written (and the cone's other triangles meet them where A and B do);
+// above, their two apexes keep them apart but for that point. Both cells
+// merge B into A: below, the two triangles then coincide facing opposite
+// ways and go with C; above, C's two edges are one edge used both ways.
+// The seam stays; nothing crosses.
+TEST(FloatFolds, ASpikeOfAFacesSectionWhoseBaseRoundsToOnePointIsClosedInBothCells)
+{
+    const openvdb::Vec3d origin(0.0), spacing(1.0);
+    const Coord lo(69, 69, 9), hi(69, 69, 10);
+    const Coord f0(69, 69, 10), f1(69, 70, 10), f2(70, 70, 10); // a tet face in z = 10
+    const CutVertexId A = faceVertex(f0, f1, f2, 301, 403), B = faceVertex(f0, f1, f2, 303, 403),
+                      C = faceVertex(f0, f1, f2, 301, 303);
+    const CutVertexId P1 = faceVertex(f0, f1, f2, 403, 500), P2 = faceVertex(f0, f1, f2, 403, 501),
+                      Q = faceVertex(f0, f1, f2, 500, 501);
+    const dvec3 atA(69.363578927312, 69.472530621625, 10.0), atB(69.363579780012, 69.472530912011, 10.0),
+        atC(69.363579725147, 69.472552351740, 10.0), atP1(69.294747703859, 69.449090221756, 10.0),
+        atP2(69.528794665312, 69.528794665312, 10.0), atQ(69.45, 69.35, 10.0);
+    auto cell = [&](bool below) {
+        Builder b;
+        const uint32_t a = b.add(A, atA), bb = b.add(B, atB), c = b.add(C, atC), p1 = b.add(P1, atP1),
+                       p2 = b.add(P2, atP2), q = b.add(Q, atQ);
+        if (below) { // a cone from I over the section P2, B, C, A, P1, Q
+            const uint32_t i = b.add(innerVertex(lo, 3, 403), {69.333599328304, 69.426568763327, 9.943579951057});
+            b.tri(p2, bb, i);
+            b.tri(bb, c, i);
+            b.tri(c, a, i);
+            b.tri(a, p1, i);
+            b.tri(p1, q, i);
+            b.tri(q, p2, i);
+        } else { // the section the other way round, under two apexes
+            const uint32_t k1 = b.add(innerVertex(hi, 1, 301), {69.36, 69.42, 10.02});
+            const uint32_t k2 = b.add(innerVertex(hi, 1, 303), {69.44, 69.43, 10.02});
+            b.tri(a, c, k1);
+            b.tri(c, k2, k1);
+            b.tri(c, bb, k2);
+            b.tri(bb, p2, k2);
+            b.tri(p2, q, k2);
+            b.tri(k2, q, k1);
+            b.tri(q, p1, k1);
+            b.tri(p1, a, k1);
+        }
+        return b.g;
+    };
+    // Pairs of the cell's triangles that cross or touch once written (as the
+    // local check judges a cut with a width, names as vertex ids).
+    auto crossings = [](const CutCellGeometry& g) {
+        std::map<CutVertexId, uint32_t> number;
+        for (const CutVertexId& id : g.vertexIds) number.emplace(id, uint32_t(number.size()));
+        size_t n = 0;
+        for (size_t s = 0; s + 2 < g.indices.size(); s += 3)
+            for (size_t t = s + 3; t + 2 < g.indices.size(); t += 3) {
+                std::array<glm::vec3, 3> ps, pt;
+                std::array<uint32_t, 3> is, it;
+                for (size_t k = 0; k < 3; ++k) {
+                    ps[k] = glm::vec3(g.indexPositions[g.indices[s + k]]);
+                    pt[k] = glm::vec3(g.indexPositions[g.indices[t + k]]);
+                    is[k] = number[g.vertexIds[g.indices[s + k]]];
+                    it[k] = number[g.vertexIds[g.indices[t + k]]];
+                }
+                n += mtcut::cutter::trianglesCross(ps, is, pt, it) != mtcut::cutter::Contact::None;
+            }
+        return n;
+    };
+    auto seam = [](const CutCellGeometry& below, const CutCellGeometry& above) {
+        const auto b = boundary(below), a = boundary(above);
+        if (b.size() != a.size() || b.empty()) return false;
+        for (const KeyEdge& e : b)
+            if (!a.count({e.second, e.first})) return false;
+        return true;
+    };
+    CutCellGeometry below = cell(true), above = cell(false);
+    // The premise: the cells weld, A and B are one float point, the two
+    // triangles at C below lie on each other once written, and above none do.
+    ASSERT_TRUE(seam(below, above));
+    ASSERT_EQ(glm::vec3(atA), glm::vec3(atB));
+    ASSERT_EQ(crossings(below), 4u); // the pair at C, and each side of the cone once A and B meet
+    ASSERT_EQ(crossings(above), 1u); // the triangles at C, which meet where A and B do
+    // In every cell the kernel makes (not only once the local check has
+    // failed: a cell kept from an earlier update and one made now must agree).
+    EXPECT_EQ(repairFloatFolds(lo, origin, spacing, below), 1u);
+    EXPECT_EQ(repairFloatFolds(hi, origin, spacing, above), 1u);
+    EXPECT_EQ(below.indices.size(), 12u) << "the two triangles at the tip go";
+    EXPECT_EQ(above.indices.size(), 24u);
+    for (const CutCellGeometry* g : {&below, &above}) {
+        EXPECT_EQ(std::count(g->vertexIds.begin(), g->vertexIds.end(), B), 0) << "B is A now";
+        EXPECT_EQ(std::count(g->vertexIds.begin(), g->vertexIds.end(), A), 1);
+        EXPECT_EQ(crossings(*g), 0u);
+    }
+    EXPECT_EQ(std::count(below.vertexIds.begin(), below.vertexIds.end(), C), 0) << "the tip goes below";
+    EXPECT_EQ(std::count(above.vertexIds.begin(), above.vertexIds.end(), C), 1) << "and stays above";
+    EXPECT_TRUE(seam(below, above)) << "the cells of the face judged the spike differently";
+    // A base float keeps apart is no spike: the same section with B moved
+    // 1e-4 mm along 403's line is left as it is.
+    for (const bool below : {true, false}) {
+        CutCellGeometry wide = cell(below);
+        wide.indexPositions[1] = atA + 1e-4 / glm::length(atP2 - atP1) * (atP2 - atP1);
+        EXPECT_EQ(repairFloatFolds(below ? lo : hi, origin, spacing, wide, true), 0u);
     }
 }
 

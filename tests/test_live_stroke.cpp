@@ -266,3 +266,20 @@ TEST(LiveStroke, AStripOfCapThinnerThanDoubleDoesNotStopTheStroke)
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
     expectEveryUpdateAccepted(path, 9124, 0, 0, 189);
 }
+
+// Tooth, kerf 0.5, seed 9074, stroke 2: at its fifth quad, quad 3's rim line
+// poked 2.2e-5 mm through quad 4's offset face in the face z = 10 of cell
+// (69, 69, 9), so the face's section ran out to the rim line's point and
+// back, the spike's base 9e-7 mm wide: one float point once written, and
+// the two triangles at the spike lay on each other. Every update after was
+// refused and the stroke stopped at its 4th quad of 300. Both cells of the
+// face now close such a spike (FloatFolds.ASpikeOfAFacesSection...). Seeds
+// 9082 (stroke 2, stopped at quad 18 of 211: a spike 3e-4 mm long in face
+// y = 41) and 9160 (stroke 1, at quad 35 of 79) likewise.
+TEST(LiveStroke, ASpikeOfAFacesSectionThinnerThanAFloatStepDoesNotStopTheStroke)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectEveryUpdateAccepted(path, 9074, 2, 30, 300);
+    expectEveryUpdateAccepted(path, 9082, 2, 40, 211);
+    expectEveryUpdateAccepted(path, 9160, 1, 0, 79);
+}
