@@ -2843,6 +2843,14 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     {
         uint32_t tip, a, b;
     };
+    // A base vertex: inside a tet face, or on a grid edge but not the
+    // isosurface's own vertex there (inside one cell face, below, for both:
+    // in a tet face there or on its diagonal). The search's trigger asks the
+    // same, so both cells of the face look.
+    auto baseCandidate = [&](uint32_t v) {
+        const CutVertexId& id = out.vertexIds[v];
+        return id.dim == 2 || (id.dim == 1 && !id.isIsoEdgeVertex());
+    };
     auto findSpikes = [&](std::vector<Spike>& spikes) {
         spikes.clear();
         knowFaces();
@@ -2870,8 +2878,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             uint32_t a = along[i].second, b = along[i + 1].second;
             const CutVertexId &ia = out.vertexIds[a], &ib = out.vertexIds[b];
             if (ia.tagCount != ib.tagCount || ia.tags != ib.tags) continue; // copies of one point stay apart
-            // Inside tet faces, as the search below asks (both cells see the same).
-            if (ia.dim != 2 || ib.dim != 2 || written[a] != written[b] || joined(a, b)) continue;
+            if (!baseCandidate(a) || !baseCandidate(b) || written[a] != written[b] || joined(a, b)) continue;
             if (ib < ia) std::swap(a, b);
             spikes.push_back({c, a, b});
         }
@@ -2890,19 +2897,19 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         any = !crossing.empty();
     }
     {
-        // A spike's base is two vertices inside tet faces at one float
-        // point: rare, so looked for first (a few dozen vertices a cell).
-        SmallVector<uint32_t, 64> inTetFace;
+        // A spike's base is two such vertices at one float point: rare, so
+        // looked for first (a few dozen vertices a cell).
+        SmallVector<uint32_t, 64> candidates;
         for (uint32_t v = 0; v < uint32_t(nv); ++v)
-            if (out.vertexIds[v].dim == 2) inTetFace.push_back(v);
+            if (baseCandidate(v)) candidates.push_back(v);
         auto less = [&](uint32_t u, uint32_t v) {
             const glm::vec3 &x = written[u], &y = written[v];
             return x.x != y.x ? x.x < y.x : x.y != y.y ? x.y < y.y : x.z < y.z;
         };
-        std::sort(inTetFace.begin(), inTetFace.end(), less);
+        std::sort(candidates.begin(), candidates.end(), less);
         bool onePoint = false;
-        for (size_t i = 1; i < inTetFace.size() && !onePoint; ++i)
-            onePoint = written[inTetFace[i - 1]] == written[inTetFace[i]];
+        for (size_t i = 1; i < candidates.size() && !onePoint; ++i)
+            onePoint = written[candidates[i - 1]] == written[candidates[i]];
         if (onePoint) findSpikes(spikes);
         any = any || !spikes.empty();
     }

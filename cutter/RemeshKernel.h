@@ -298,8 +298,8 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 ///   strokes does it); a triangle it moves into another cell face is listed
 ///   in out.intoFace (the cell across may make its twin: markCancellingPairs);
 ///   then the two ends of a spike of a face's section (a vertex inside the
-///   face joined along it to exactly two vertices inside tet faces there
-///   that share no edge and round to one float point) become one, the lesser
+///   face joined along it to exactly two vertices inside it, not the
+///   isosurface's own, that share no edge and round to one float point) become one, the lesser
 ///   name, in both cells alike; two triangles that then coincide facing
 ///   opposite ways go, and the spike's tip with them where it has no other;
 /// - then, in rounds, every short edge of the cell, shortest first, and only

@@ -275,11 +275,13 @@ TEST(LiveStroke, AStripOfCapThinnerThanDoubleDoesNotStopTheStroke)
 // refused and the stroke stopped at its 4th quad of 300. Both cells of the
 // face now close such a spike (FloatFolds.ASpikeOfAFacesSection...). Seeds
 // 9082 (stroke 2, stopped at quad 18 of 211: a spike 3e-4 mm long in face
-// y = 41) and 9160 (stroke 1, at quad 35 of 79) likewise.
+// y = 41) and 9160 (stroke 1, at quad 35 of 79) likewise, and 9099 (stroke
+// 2, at quad 27 of 329), whose spike's base lies on the face's diagonal.
 TEST(LiveStroke, ASpikeOfAFacesSectionThinnerThanAFloatStepDoesNotStopTheStroke)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
     expectEveryUpdateAccepted(path, 9074, 2, 30, 300);
     expectEveryUpdateAccepted(path, 9082, 2, 40, 211);
     expectEveryUpdateAccepted(path, 9160, 1, 0, 79);
+    expectEveryUpdateAccepted(path, 9099, 2, 40, 329);
 }
