@@ -2829,7 +2829,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     };
     auto inOneFace = [&](uint32_t v) { return faces[v] != 0 && (faces[v] & (faces[v] - 1)) == 0; };
     // Spikes of a face's section (tooth, kerf 0.5, random strokes seeds
-    // 9074, 9082, 9160): a vertex C inside one cell face joined along the
+    // 9074, 9082, 9160; 9099 with its base on the face's diagonal): a vertex C inside one cell face joined along the
     // face to exactly two vertices A and B inside it, which share no edge and
     // are one float point once written. The line of two faces of one quad's
     // prism pokes through the next quad's offset face by 2e-5 mm (3e-4 in
