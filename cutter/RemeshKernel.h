@@ -274,6 +274,25 @@ double floatShortAt(double extent);
 /// vertices moved.
 size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out);
 
+/// A vertex private to `cell` (inside it, on no cell face: no other cell
+/// names it) whose exact position lies inside the cell but whose float world
+/// coordinate rounds onto one of the cell's faces is put one float step
+/// inside (its index position moved so that it writes there). Rounded into
+/// the face, a triangle at it lies in the face, where the cell across has
+/// triangles with edges in the face that then run through it (tooth, kerf
+/// 0.5, random strokes seed 9127: a vertex 3e-6 mm above the face z = 160
+/// mm, a float step there 1.5e-5). Not a tent's apex, a vertex whose
+/// neighbours all lie in that face: its triangles lie on a face triangle
+/// that both cells of the face flatten alike (repairFloatFolds; 1 mm head,
+/// kerf 0.5, seed 9202); nor one a triangle of which would then fold or
+/// have no area once written (the centre of a strip of cap thinner than a
+/// float step, which the float repair collapses). Run before
+/// repairFloatFolds; a function of the cell's geometry alone, so every
+/// update and a cut from scratch move the same vertices. Returns the
+/// vertices moved.
+size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                        CutCellGeometry& out);
+
 /// Float folds (DESIGN invariant 7 once written): a triangle of `out` whose
 /// float world position (origin + spacing * index, rounded to float, as
 /// CutRemesher::fusedMesh writes it) is degenerate or faces against its exact

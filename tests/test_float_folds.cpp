@@ -22,6 +22,7 @@ namespace {
 using mtcut::cutter::CutCellGeometry;
 using mtcut::cutter::CutVertexId;
 using mtcut::cutter::gridVertexId;
+using mtcut::cutter::remesh_detail::liftOffCellFaces;
 using mtcut::cutter::remesh_detail::repairFloatFolds;
 using mtcut::cutter::remesh_detail::snapToGridVertices;
 using glm::dvec3;
@@ -641,10 +642,10 @@ TEST(FloatFolds, ASpikeOfAFacesSectionWhoseBaseRoundsToOnePointIsClosedInBothCel
     EXPECT_TRUE(seam(below, above)) << "the cells of the face judged the spike differently";
     // A base float keeps apart is no spike: the same section with B moved
     // 1e-4 mm along 403's line is left as it is.
-    for (const bool below : {true, false}) {
-        CutCellGeometry wide = cell(below);
+    for (const bool lower : {true, false}) {
+        CutCellGeometry wide = cell(lower);
         wide.indexPositions[1] = atA + 1e-4 / glm::length(atP2 - atP1) * (atP2 - atP1);
-        EXPECT_EQ(repairFloatFolds(below ? lo : hi, origin, spacing, wide, true), 0u);
+        EXPECT_EQ(repairFloatFolds(lower ? lo : hi, origin, spacing, wide, true), 0u);
     }
 }
 
@@ -737,6 +738,77 @@ TEST(FloatFolds, OnlyVerticesOfTwoFacesRoundACubeEdgeRoundedOntoItAFloatStepApar
 // edge numbered by its cycle in order of first edge; anything else (an open
 // link, a link vertex starting two edges, two cycles sharing a vertex, a
 // cycle of two edges: two triangles back to back) is 0.
+// Tooth, kerf 0.5, random strokes seed 9127: in cell (78, 24, 160) a vertex
+// inside tet 0, 3e-6 mm above the face z = 160 (a float step there is
+// 1.5e-5), rounded into the face; its triangle with two vertices of the face
+// then lay in the face, and the cell below's triangle with an edge in the
+// face ran through it. Such a private vertex is put one float step inside
+// its cell; a tent's apex (every neighbour in the face) and vertices that
+// round inside are left as they are.
+TEST(FloatFolds, APrivateVertexRoundedIntoItsCellsFaceIsPutAFloatStepInside)
+{
+    const Coord cell(78, 24, 160);
+    Builder b;
+    // The face z = 160 (the cell's lower face), a tet face in it and its edge x = 79.
+    const uint32_t F = b.add(faceVertex({78, 24, 160}, {79, 24, 160}, {79, 25, 160}, 1, 7),
+                             {78.999031, 24.166344, 160.0});
+    const uint32_t E = b.add(edgeVertex({79, 24, 160}, {79, 25, 160}, 1), {79.0, 24.166666, 160.0});
+    const uint32_t G = b.add(faceVertex({78, 24, 160}, {78, 25, 160}, {79, 25, 160}, 1, 7), {78.4, 24.9, 160.0});
+    const uint32_t H = b.add(faceVertex({78, 24, 160}, {78, 24, 161}, {79, 24, 161}, 1, 7), {78.7, 24.0, 160.6});
+    const uint32_t V = b.add(innerVertex(cell, 0, 7), {78.999092, 24.166515, 160.0 + 3e-6}); // rounds into z = 160
+    const uint32_t T = b.add(innerVertex(cell, 1, 8), {78.6, 24.5, 160.0 + 2e-6});           // a tent's apex
+    const uint32_t U = b.add(innerVertex(cell, 2, 9), {78.5, 24.5, 161.0 - 3e-6});           // rounds into z = 161
+    const uint32_t W = b.add(innerVertex(cell, 3, 9), {78.5, 24.5, 160.0 + 3e-4});           // rounds inside
+    // A centre S of a strip thinner than a float step (P and Q 1e-5 mm above
+    // the face, written one float step above it): lifted, S would lie on the
+    // line P Q once written, so it is left to the float repair.
+    const uint32_t S = b.add(innerVertex(cell, 4, 10), {78.5, 24.2, 160.0 + 3e-6});
+    const uint32_t P = b.add(innerVertex(cell, 4, 11), {78.2, 24.2, 160.0 + 1e-5});
+    const uint32_t Q = b.add(innerVertex(cell, 4, 12), {78.8, 24.2, 160.0 + 1e-5});
+    b.tri(F, E, V);
+    b.tri(V, E, H);
+    b.tri(F, V, H);
+    b.tri(F, G, T);
+    b.tri(G, E, T);
+    b.tri(E, F, T);
+    b.tri(U, H, W);
+    b.tri(W, H, G);
+    b.tri(S, P, Q);
+    CutCellGeometry g = b.g;
+    const dvec3 origin(0.0), spacing(1.0);
+    auto lift = [](const Coord& c, const dvec3& o, const dvec3& s, CutCellGeometry& x) {
+        return liftOffCellFaces(c, openvdb::Vec3d(o.x, o.y, o.z), openvdb::Vec3d(s.x, s.y, s.z), x);
+    };
+    auto written = [&](uint32_t v, int axis) { return float(origin[axis] + spacing[axis] * g.indexPositions[v][axis]); };
+    ASSERT_EQ(written(V, 2), 160.0f);
+    ASSERT_EQ(written(T, 2), 160.0f);
+    ASSERT_EQ(written(U, 2), 161.0f);
+    ASSERT_NE(written(W, 2), 160.0f);
+    ASSERT_EQ(written(S, 2), 160.0f);
+    ASSERT_EQ(written(P, 2), std::nextafter(160.0f, 161.0f));
+    EXPECT_EQ(lift(cell, origin, spacing, g), 2u);
+    EXPECT_EQ(written(V, 2), std::nextafter(160.0f, 161.0f));
+    EXPECT_EQ(written(U, 2), std::nextafter(161.0f, 160.0f));
+    EXPECT_GT(g.indexPositions[V].z, 160.0);
+    EXPECT_LT(g.indexPositions[U].z, 161.0);
+    for (uint32_t v : {V, U}) // only the coordinate that rounded into the face moved
+        for (int axis : {0, 1}) EXPECT_EQ(g.indexPositions[v][axis], b.g.indexPositions[v][axis]);
+    for (uint32_t v : {F, E, G, H, T, W, S, P, Q}) EXPECT_EQ(g.indexPositions[v], b.g.indexPositions[v]);
+    EXPECT_EQ(lift(cell, origin, spacing, g), 0u); // nothing left to lift
+    // The same in a grid whose origin and spacing are not 0 and 1 (the scan's mm).
+    CutCellGeometry h = b.g;
+    const dvec3 origin2(-12.25, 3.5, 1002.0), spacing2(0.5, 0.5, 0.625);
+    h.indexPositions[V].z = h.indexPositions[T].z = 160.0 + 1e-6 / spacing2.z;
+    // Here a float step is 1.2e-4 mm: P and Q round into the face too, and
+    // go up with V and U; S, below them, would then fold and stays.
+    EXPECT_EQ(lift(cell, origin2, spacing2, h), 4u);
+    EXPECT_EQ(h.indexPositions[S], b.g.indexPositions[S]);
+    const float low = float(origin2.z + spacing2.z * 160.0), high = float(origin2.z + spacing2.z * 161.0);
+    EXPECT_EQ(float(origin2.z + spacing2.z * h.indexPositions[V].z), std::nextafter(low, high));
+    EXPECT_EQ(float(origin2.z + spacing2.z * h.indexPositions[U].z), std::nextafter(high, low));
+    EXPECT_EQ(h.indexPositions[T].z, 160.0 + 1e-6 / spacing2.z);
+}
+
 TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
 {
     using mtcut::cutter::remesh_detail::linkFans;

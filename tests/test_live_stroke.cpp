@@ -285,3 +285,17 @@ TEST(LiveStroke, ASpikeOfAFacesSectionThinnerThanAFloatStepDoesNotStopTheStroke)
     expectEveryUpdateAccepted(path, 9160, 1, 0, 79);
     expectEveryUpdateAccepted(path, 9099, 2, 40, 329);
 }
+
+// Tooth, kerf 0.5, seed 9127, stroke 0: from its 10th quad, a vertex inside
+// a tet of cell (78, 24, 160), 3e-6 mm above the face z = 160 mm, rounded
+// into the face; its triangle with two vertices of the face lay in the face
+// and the cell below's triangle with an edge there ran through it, so the
+// stroke stopped with 9 of its 245 quads. Seed 9065, stroke 2 (15 of 101,
+// cell (50, 74, 159)) likewise. Such a vertex is now put a float step inside
+// its cell (FloatFolds.APrivateVertexRoundedIntoItsCellsFace...).
+TEST(LiveStroke, AVertexRoundedIntoItsCellsFaceDoesNotStopTheStroke)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectEveryUpdateAccepted(path, 9127, 0, 30, 245);
+    expectEveryUpdateAccepted(path, 9065, 2, 30, 101);
+}
