@@ -61,7 +61,9 @@ double Args::kerfMm() const
 
 float Args::isoValue(const std::string& command) const
 {
-    if (!has("iso")) throw InputError("mtcut " + command + " needs --iso V (the isovalue, in the scan's units)");
+    if (!has("iso"))
+        throw InputError("mtcut " + command +
+                         " needs --iso V (the isovalue, in the scan's units; `mtcut info INPUT` suggests one for bone)");
     const double iso = getDouble("iso", 0.0);
     if (!std::isfinite(iso)) throw InputError("--iso " + get("iso") + ": expected a finite number");
     return float(iso);
