@@ -2719,66 +2719,67 @@ size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const o
     for (size_t v = 0; v < nv; ++v) {
         if (out.vertexIds[v].isIsoEdgeVertex()) continue; // the uncut mesh's vertex, on a grid edge
         dvec3& p = out.indexPositions[v];
-        for (int axis = 0; axis < 3; ++axis)
-            for (int side = 0; side < 2; ++side) {
-                auto writes = [&](double x) { return float(origin[axis] + spacing[axis] * x); };
-                if (writes(p[axis]) != faceAt[axis][side]) continue;
-                const double face = double(cell[axis] + side);
-                if (side == 0 ? !(p[axis] > face) : !(p[axis] < face)) continue; // on the face: not ours
-                if (faces.empty()) {
-                    faces.resize(nv);
-                    for (size_t w = 0; w < nv; ++w) faces[w] = cellFaces(out.vertexIds[w], cell);
-                }
-                if (faces[v] != 0) continue; // another cell has it too
-                // A tent's apex: every neighbour in this face.
-                const unsigned bit = 1u << (2 * axis + side);
-                bool tent = true, any = false;
-                for (size_t k = 0; k + 2 < out.indices.size() && tent; k += 3) {
-                    const uint32_t* t = &out.indices[k];
-                    if (t[0] != v && t[1] != v && t[2] != v) continue;
-                    for (int j = 0; j < 3; ++j)
-                        if (t[j] != v) {
-                            any = true;
-                            tent = tent && (faces[t[j]] & bit) != 0;
-                        }
-                }
-                if (!any || tent) continue;
-                // One float step inside, and an index coordinate that writes there.
-                const float target = std::nextafter(faceAt[axis][side], faceAt[axis][1 - side]);
-                double q = (double(target) - origin[axis]) / spacing[axis];
-                for (int i = 0; i < 64 && writes(q) != target; ++i)
-                    q = std::nextafter(q, writes(q) < target ? std::numeric_limits<double>::infinity()
-                                                             : -std::numeric_limits<double>::infinity());
-                if (writes(q) != target || !(q > double(cell[axis])) || !(q < double(cell[axis] + 1))) continue;
-                // Not when a triangle at it would then be folded or of no
-                // area once written (a strip of cap thinner than a float step
-                // fanned from a centre that rounds into the face: the float
-                // repair collapses the centre instead; 1 mm head, kerf 0, the
-                // tip line 1.45e-5 mm above y = 249 mm).
-                const dvec3 before = p;
-                dvec3 after = p;
-                after[axis] = q;
-                bool folds = false;
-                // Held as float on the heap (GCC 12.2 folded the vectorised
-                // round trip double(float(x)) away: repairFloatFolds).
-                std::vector<glm::vec3> written(3);
-                for (size_t k = 0; k + 2 < out.indices.size() && !folds; k += 3) {
-                    const uint32_t* t = &out.indices[k];
-                    if (t[0] != v && t[1] != v && t[2] != v) continue;
-                    std::array<dvec3, 3> exact;
-                    for (int j = 0; j < 3; ++j) {
-                        exact[size_t(j)] = exactWorldPosition(origin, spacing, t[j] == v ? before : out.indexPositions[t[j]]);
-                        const dvec3 w = exactWorldPosition(origin, spacing, t[j] == v ? after : out.indexPositions[t[j]]);
-                        written[size_t(j)] = glm::vec3(float(w.x), float(w.y), float(w.z));
-                    }
-                    const dvec3 n = glm::cross(exact[1] - exact[0], exact[2] - exact[0]);
-                    const dvec3 a(written[0]), b(written[1]), d(written[2]);
-                    folds = !(glm::dot(glm::cross(b - a, d - a), n) > 0.0);
-                }
-                if (folds) continue;
-                p[axis] = q;
-                ++lifted;
+        for (int axis = 0; axis < 3; ++axis) {
+            auto writes = [&](double x) { return float(origin[axis] + spacing[axis] * x); };
+            const float at = writes(p[axis]);
+            if (at != faceAt[axis][0] && at != faceAt[axis][1]) continue; // (nearly every vertex)
+            const int side = at == faceAt[axis][0] ? 0 : 1;
+            const double face = double(cell[axis] + side);
+            if (side == 0 ? !(p[axis] > face) : !(p[axis] < face)) continue; // on the face: not ours
+            if (faces.empty()) {
+                faces.resize(nv);
+                for (size_t w = 0; w < nv; ++w) faces[w] = cellFaces(out.vertexIds[w], cell);
             }
+            if (faces[v] != 0) continue; // another cell has it too
+            // A tent's apex: every neighbour in this face.
+            const unsigned bit = 1u << (2 * axis + side);
+            bool tent = true, any = false;
+            for (size_t k = 0; k + 2 < out.indices.size() && tent; k += 3) {
+                const uint32_t* t = &out.indices[k];
+                if (t[0] != v && t[1] != v && t[2] != v) continue;
+                for (int j = 0; j < 3; ++j)
+                    if (t[j] != v) {
+                        any = true;
+                        tent = tent && (faces[t[j]] & bit) != 0;
+                    }
+            }
+            if (!any || tent) continue;
+            // One float step inside, and an index coordinate that writes there.
+            const float target = std::nextafter(faceAt[axis][side], faceAt[axis][1 - side]);
+            double q = (double(target) - origin[axis]) / spacing[axis];
+            for (int i = 0; i < 64 && writes(q) != target; ++i)
+                q = std::nextafter(q, writes(q) < target ? std::numeric_limits<double>::infinity()
+                                                         : -std::numeric_limits<double>::infinity());
+            if (writes(q) != target || !(q > double(cell[axis])) || !(q < double(cell[axis] + 1))) continue;
+            // Not when a triangle at it would then be folded or of no
+            // area once written (a strip of cap thinner than a float step
+            // fanned from a centre that rounds into the face: the float
+            // repair collapses the centre instead; 1 mm head, kerf 0, the
+            // tip line 1.45e-5 mm above y = 249 mm).
+            const dvec3 before = p;
+            dvec3 after = p;
+            after[axis] = q;
+            bool folds = false;
+            // Held as float on the heap (GCC 12.2 folded the vectorised
+            // round trip double(float(x)) away: repairFloatFolds).
+            std::vector<glm::vec3> written(3);
+            for (size_t k = 0; k + 2 < out.indices.size() && !folds; k += 3) {
+                const uint32_t* t = &out.indices[k];
+                if (t[0] != v && t[1] != v && t[2] != v) continue;
+                std::array<dvec3, 3> exact;
+                for (int j = 0; j < 3; ++j) {
+                    exact[size_t(j)] = exactWorldPosition(origin, spacing, t[j] == v ? before : out.indexPositions[t[j]]);
+                    const dvec3 w = exactWorldPosition(origin, spacing, t[j] == v ? after : out.indexPositions[t[j]]);
+                    written[size_t(j)] = glm::vec3(float(w.x), float(w.y), float(w.z));
+                }
+                const dvec3 n = glm::cross(exact[1] - exact[0], exact[2] - exact[0]);
+                const dvec3 a(written[0]), b(written[1]), d(written[2]);
+                folds = !(glm::dot(glm::cross(b - a, d - a), n) > 0.0);
+            }
+            if (folds) continue;
+            p[axis] = q;
+            ++lifted;
+        }
     }
     return lifted;
 }
