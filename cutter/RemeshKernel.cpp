@@ -2731,19 +2731,17 @@ size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const o
                 for (size_t w = 0; w < nv; ++w) faces[w] = cellFaces(out.vertexIds[w], cell);
             }
             if (faces[v] != 0) continue; // another cell has it too
+            SmallVector<const uint32_t*, 16> star; // its triangles
+            for (size_t k = 0; k + 2 < out.indices.size(); k += 3) {
+                const uint32_t* t = &out.indices[k];
+                if (t[0] == v || t[1] == v || t[2] == v) star.push_back(t);
+            }
             // A tent's apex: every neighbour in this face.
             const unsigned bit = 1u << (2 * axis + side);
-            bool tent = true, any = false;
-            for (size_t k = 0; k + 2 < out.indices.size() && tent; k += 3) {
-                const uint32_t* t = &out.indices[k];
-                if (t[0] != v && t[1] != v && t[2] != v) continue;
-                for (int j = 0; j < 3; ++j)
-                    if (t[j] != v) {
-                        any = true;
-                        tent = tent && (faces[t[j]] & bit) != 0;
-                    }
-            }
-            if (!any || tent) continue;
+            bool tent = true;
+            for (const uint32_t* t : star)
+                for (int j = 0; j < 3; ++j) tent = tent && (t[j] == v || (faces[t[j]] & bit) != 0);
+            if (star.empty() || tent) continue;
             // One float step inside, and an index coordinate that writes there.
             const float target = std::nextafter(faceAt[axis][side], faceAt[axis][1 - side]);
             double q = (double(target) - origin[axis]) / spacing[axis];
@@ -2763,9 +2761,8 @@ size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const o
             // Held as float on the heap (GCC 12.2 folded the vectorised
             // round trip double(float(x)) away: repairFloatFolds).
             std::vector<glm::vec3> written(3);
-            for (size_t k = 0; k + 2 < out.indices.size() && !folds; k += 3) {
-                const uint32_t* t = &out.indices[k];
-                if (t[0] != v && t[1] != v && t[2] != v) continue;
+            for (size_t i = 0; i < star.size() && !folds; ++i) {
+                const uint32_t* t = star[i];
                 std::array<dvec3, 3> exact;
                 for (int j = 0; j < 3; ++j) {
                     exact[size_t(j)] = exactWorldPosition(origin, spacing, t[j] == v ? before : out.indexPositions[t[j]]);
