@@ -647,21 +647,17 @@ void checkEdgeUses(const LocalRegion& reg)
                     if (isChanged(Coord(x, y, z))) return true;
         return false;
     };
-    // Per use that matters: (undirected edge, direction, triangle, index in
-    // triangle order), sorted, so an edge's uses are one run, each
-    // direction's in triangle order. An edge is fine when it is used once
-    // each way; the one reported is the failing edge used first in triangle
-    // order, as a walk over the uses in that order would find it.
+    // Per use that matters, in triangle order: (undirected edge, direction,
+    // triangle); per edge, its uses each way (an open-addressing table over
+    // the edges, sized at most half full). An edge is fine when it is used
+    // once each way; the one reported is the failing edge used first in
+    // triangle order. (In place of sorting the uses by edge: the sort was
+    // most of this check.)
     struct Use
     {
-        uint64_t edge;  ///< min vertex << 32 | max vertex
-        uint32_t dir;   ///< 0: from the lower vertex to the higher, 1: back
+        uint64_t edge; ///< min vertex << 32 | max vertex
+        uint32_t dir;  ///< 0: from the lower vertex to the higher, 1: back
         uint32_t tri;
-        uint32_t order; ///< index of the use in triangle order
-        bool operator<(const Use& o) const
-        {
-            return edge != o.edge ? edge < o.edge : dir != o.dir ? dir < o.dir : tri < o.tri;
-        }
     };
     std::vector<Use> uses;
     for (size_t t = 0; t < tris.size(); ++t) {
@@ -670,38 +666,49 @@ void checkEdgeUses(const LocalRegion& reg)
             const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
             if (!matters(a, b, tr.changed)) continue;
             const uint64_t edge = uint64_t(std::min(a, b)) << 32 | std::max(a, b);
-            uses.push_back({edge, a < b ? 0u : 1u, uint32_t(t), uint32_t(uses.size())});
+            uses.push_back({edge, a < b ? 0u : 1u, uint32_t(t)});
         }
     }
-    std::sort(uses.begin(), uses.end());
+    struct Slot
+    {
+        uint64_t edge = UINT64_MAX; ///< UINT64_MAX: empty (vertex numbers are below UINT32_MAX)
+        uint32_t count[2] = {0, 0};
+    };
+    size_t size = 64;
+    while (size < 2 * uses.size()) size *= 2;
+    std::vector<Slot> table(size);
+    std::vector<uint32_t> slotOf(uses.size());
+    const size_t mask = size - 1;
+    for (size_t i = 0; i < uses.size(); ++i) {
+        const uint64_t e = uses[i].edge;
+        uint64_t h = e * 0x9e3779b97f4a7c15ull;
+        size_t at = size_t(h ^ (h >> 29)) & mask;
+        while (table[at].edge != UINT64_MAX && table[at].edge != e) at = (at + 1) & mask;
+        table[at].edge = e;
+        ++table[at].count[uses[i].dir];
+        slotOf[i] = uint32_t(at);
+    }
     struct Uses
     {
         uint32_t count = 0, triangle = 0; ///< uses, and the first one's triangle
     };
-    size_t failOrder = SIZE_MAX, failAt = 0; // the failing edge's first use: its order, and its run
-    for (size_t begin = 0, end = 0; begin < uses.size(); begin = end) {
-        uint32_t count[2] = {0, 0}, first = UINT32_MAX;
-        for (end = begin; end < uses.size() && uses[end].edge == uses[begin].edge; ++end) {
-            ++count[uses[end].dir];
-            first = std::min(first, uses[end].order);
-        }
-        if (count[0] == 1 && count[1] == 1) continue;
-        if (first < failOrder) {
-            failOrder = first;
-            failAt = begin;
-        }
+    size_t failOrder = SIZE_MAX; // the failing edge's first use
+    for (size_t i = 0; i < uses.size() && failOrder == SIZE_MAX; ++i) {
+        const Slot& s = table[slotOf[i]];
+        if (!(s.count[0] == 1 && s.count[1] == 1)) failOrder = i;
     }
     if (failOrder != SIZE_MAX) {
         // The first use's direction is "one way"; each direction's count and first triangle.
         Uses way[2];
-        uint32_t firstDir = 0;
-        for (size_t i = failAt; i < uses.size() && uses[i].edge == uses[failAt].edge; ++i) {
+        const uint64_t failEdge = uses[failOrder].edge;
+        const uint32_t firstDir = uses[failOrder].dir;
+        for (size_t i = failOrder; i < uses.size(); ++i) {
+            if (uses[i].edge != failEdge) continue;
             Uses& w = way[uses[i].dir];
             if (w.count++ == 0) w.triangle = uses[i].tri;
-            if (uses[i].order == failOrder) firstDir = uses[i].dir;
         }
         const Uses u = way[firstDir], r = way[1 - firstDir];
-        const uint32_t lo = uint32_t(uses[failAt].edge >> 32), hi = uint32_t(uses[failAt].edge);
+        const uint32_t lo = uint32_t(failEdge >> 32), hi = uint32_t(failEdge);
         const uint64_t key = firstDir == 0 ? uint64_t(lo) << 32 | hi : uint64_t(hi) << 32 | lo;
         const uint32_t back = r.count;
         // Name a changed cell: the triangle's own, else a changed cell holding the edge.
