@@ -68,6 +68,26 @@ using poly2::Vec2;
 template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
 using PlaneList = SmallVector<uint64_t, 8>;
 
+/// Sorts `v` ascending and drops repeats: by insertion when short (a
+/// vertex's planes, a handful: std::sort's set-up cost more than the sort
+/// in nameVertex), else std::sort.
+template <class Vec> void sortUnique(Vec& v)
+{
+    auto* d = v.data();
+    const size_t n = v.size();
+    if (n > 24) {
+        std::sort(v.begin(), v.end());
+    } else {
+        for (size_t i = 1; i < n; ++i) {
+            const auto x = d[i];
+            size_t j = i;
+            for (; j > 0 && x < d[j - 1]; --j) d[j] = d[j - 1];
+            d[j] = x;
+        }
+    }
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+
 class RemeshKernel
 {
 public:
@@ -893,14 +913,12 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
     // both (the three meet in one line, the stick, whether or not the point is
     // inside the quads); at the ends of the shared edge, on either rim side is
     // on both. `on`: the planes the point lies on (made by them, or within eps).
-    std::sort(planes.begin(), planes.end());
-    planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+    sortUnique(planes);
     PlaneList on(defining.begin(), defining.end());
     for (const auto& pl : mPlanes)
         if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
     on.insert(on.end(), planes.begin(), planes.end());
-    std::sort(on.begin(), on.end());
-    on.erase(std::unique(on.begin(), on.end()), on.end());
+    sortUnique(on);
     // Prisms: the offset planes of two quads meet on their mitre (it bisects
     // them), so a point on the mitre and on one quad's offset plane is on the
     // partner's same-side offset plane too; a point in neither closed prism
@@ -932,8 +950,7 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
         }
     }
     if (mPrism) {
-        std::sort(planes.begin(), planes.end());
-        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+        sortUnique(planes);
     }
     for (int round = 0; round < 4 && !mPrism; ++round) {
         PlaneList add;
@@ -955,11 +972,9 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
         if (add.empty()) break;
         const size_t before = on.size();
         on.insert(on.end(), add.begin(), add.end());
-        std::sort(on.begin(), on.end());
-        on.erase(std::unique(on.begin(), on.end()), on.end());
+        sortUnique(on);
         planes.insert(planes.end(), add.begin(), add.end());
-        std::sort(planes.begin(), planes.end());
-        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+        sortUnique(planes);
         if (on.size() == before) break;
     }
     // A face needs two planes, an edge one, the inside three; inside the tet
@@ -971,8 +986,7 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
     // only in this tet, so the union is the same whichever pair made it).
     if (int(planes.size()) < int(key.dim) || (key.dim == 3 && independentPlanes(planes).size() < 3)) {
         planes.insert(planes.end(), defining.begin(), defining.end());
-        std::sort(planes.begin(), planes.end());
-        planes.erase(std::unique(planes.begin(), planes.end()), planes.end());
+        sortUnique(planes);
     }
     if (planes.size() > key.planes.size() && key.dim == 3) {
         // A point inside the tet on more planes than a name holds (a blade
