@@ -208,11 +208,14 @@ public:
     /// compare it with this off.
     void skipHeldMitresForTesting(bool skip);
     /// For tests: whether the kernel answers a repeated naming (the same
-    /// simplex and planes again in one tet) from its memo (on by default).
-    /// The output is the same either way.
+    /// simplex and planes again in one tet; a tet face or edge point with the
+    /// same defining planes again in one cell) from its memos (on by
+    /// default). The output is the same either way.
     void useNameMemoForTesting(bool use);
     /// For tests: how many namings the memo has answered.
     size_t nameMemoHitsForTesting() const;
+    /// Of the namings, those the per-cell memo answered (a tet face or edge point an earlier tet named).
+    size_t cellNameMemoHitsForTesting() const;
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;

@@ -1260,14 +1260,16 @@ TEST(Remesh, KernelQuadsGivesEveryCellTheQuadsKernelQuadsOfGives)
 // The kernel names a point once per tet: a later naming with the same
 // simplex and planes (the crossing of two pieces' common edge, a line's
 // point on each surface through it) takes the first one's vertex from a
-// memo. The memo must change no vertex, position or triangle: every cut
-// cell of random strokes (phantom; the 4 mm head when present), at both
-// kerfs, re-meshed with it and without; and it must answer calls, or this
+// memo; and a point on a tet face or edge once per cell: the next tet
+// through that face takes the first one's name from a second memo. The
+// memos must change no vertex, position or triangle: every cut cell of
+// random strokes (phantom; the 4 mm head when present), at both kerfs,
+// re-meshed with them and without; and each must answer calls, or this
 // tests nothing.
 TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
 {
     auto compare = [](const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes,
-                      size_t& cells, size_t& hits) {
+                      size_t& cells, size_t& hits, size_t& cellHits) {
         remesh_detail::CellKernel memo(vol, 400.0f), full(vol, 400.0f);
         full.useNameMemoForTesting(false);
         forEachKernelCell(vol, kerf, strokes, [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) {
@@ -1281,7 +1283,9 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
             ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c << ", kerf " << kerf;
         });
         EXPECT_EQ(full.nameMemoHitsForTesting(), 0u);
+        EXPECT_EQ(full.cellNameMemoHitsForTesting(), 0u);
         hits += memo.nameMemoHitsForTesting();
+        cellHits += memo.cellNameMemoHitsForTesting();
     };
     vdb::PhantomOptions options;
     options.dims = Coord(160, 160, 128);
@@ -1289,19 +1293,21 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
     const std::string head = test::dataPath("vhm_head_4mm.nhdr");
     const vdb::Volume headVol = head.empty() ? vdb::Volume() : vdb::readVolume(head);
     for (double kerf : {0.0, 0.5}) {
-        size_t cells = 0, hits = 0;
+        size_t cells = 0, hits = 0, cellHits = 0;
         for (uint32_t seed = 1; seed <= 4; ++seed)
             compare(phantom, kerf, makeRandomStrokes(frameOf(phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0), cells,
-                    hits);
+                    hits, cellHits);
         if (!head.empty())
             for (uint32_t seed : {1009u, 1019u})
                 compare(headVol, kerf,
                         makeRandomStrokes(frameOf(headVol), seed, 4, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
                                           20.0 + 10.0 * (seed % 4)),
-                        cells, hits);
-        std::printf("kerf %.1f: %zu cut cells equal, %zu namings answered by the memo\n", kerf, cells, hits);
+                        cells, hits, cellHits);
+        std::printf("kerf %.1f: %zu cut cells equal, %zu namings answered by the tet memo, %zu by the cell memo\n", kerf,
+                    cells, hits, cellHits);
         EXPECT_GT(cells, 1000u);
         EXPECT_GT(hits, 1000u) << "the memo answered (almost) nothing";
+        EXPECT_GT(cellHits, 1000u) << "the cell memo answered (almost) nothing";
     }
 }
 
