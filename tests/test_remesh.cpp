@@ -1311,6 +1311,56 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
     }
 }
 
+// The cell memo holds names made with one call's quads: a kernel that
+// re-meshes a cell with other quads (the next step of a stroke re-meshes
+// its cells) must not answer from the last call's names. Every cell cut by
+// random strokes and by the same strokes moved a fraction of a voxel,
+// re-meshed by one kernel with the first quads and then the second: the
+// second call's memo answers exactly what a fresh kernel's does (none of
+// the first call's names; the moved strokes' planes keep their ids, so a
+// memo kept across calls answers more), and the geometry equals the second
+// quads re-meshed by a kernel without memos.
+TEST(Remesh, TheCellNameMemoStartsAfreshWithEachRemesh)
+{
+    vdb::PhantomOptions options;
+    options.dims = Coord(160, 160, 128);
+    const vdb::Volume phantom = vdb::makePhantom(options);
+    for (double kerf : {0.0, 0.5}) {
+        SCOPED_TRACE("kerf " + std::to_string(kerf));
+        const std::vector<std::vector<Pose>> first = makeRandomStrokes(frameOf(phantom), 7, 3, 300, 0.6, 40.0);
+        std::vector<std::vector<Pose>> moved = first;
+        for (auto& stroke : moved)
+            for (Pose& p : stroke) p.base += dvec3(0.37, 0.21, 0.29);
+        std::map<Coord, std::vector<remesh_detail::QuadGeom>> before;
+        forEachKernelCell(phantom, kerf, first,
+                          [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) { before[c] = quads; });
+        remesh_detail::CellKernel reused(phantom, 400.0f), once(phantom, 400.0f), fresh(phantom, 400.0f);
+        fresh.useNameMemoForTesting(false);
+        size_t cells = 0;
+        forEachKernelCell(phantom, kerf, moved, [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) {
+            auto it = before.find(c);
+            if (it == before.end()) return;
+            CutCellGeometry a, b, o;
+            (void)remeshOrRefusal(reused, c, it->second, kerf > 0, a);
+            const size_t hitsBefore = reused.cellNameMemoHitsForTesting(), onceBefore = once.cellNameMemoHitsForTesting();
+            const std::string whyA = remeshOrRefusal(reused, c, quads, kerf > 0, a);
+            (void)remeshOrRefusal(once, c, quads, kerf > 0, o);
+            ASSERT_EQ(reused.cellNameMemoHitsForTesting() - hitsBefore, once.cellNameMemoHitsForTesting() - onceBefore)
+                << "cell " << c << ": the memo answered from the last call's names";
+            const std::string whyB = remeshOrRefusal(fresh, c, quads, kerf > 0, b);
+            ASSERT_EQ(whyA, whyB) << "cell " << c;
+            ++cells;
+            ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c;
+            ASSERT_TRUE(a.indexPositions == b.indexPositions) << "positions differ in cell " << c;
+            ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c;
+        });
+        std::printf("kerf %.1f: %zu cells re-meshed again equal, %zu namings answered by the cell memo\n", kerf, cells,
+                    reused.cellNameMemoHitsForTesting());
+        EXPECT_GT(cells, 500u);
+        EXPECT_GT(reused.cellNameMemoHitsForTesting(), 200u) << "the cell memo answered (almost) nothing";
+    }
+}
+
 // A tet's caps that can keep no piece (the section of the tet by the cap's
 // plane holds no point, by 1e-9 (1 + |x|) voxel, both inside the cap's own
 // quad, at kerf > 0 its closed prism, and inside the solid), and at kerf > 0
