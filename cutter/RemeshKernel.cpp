@@ -286,15 +286,20 @@ private:
                  int vertex)
     {
         slot = MemoEntry{hash, mMemoGeneration, vertex, support, uint8_t(count), planes};
-        if (2 * ++mMemoUsed <= mMemo.size()) return;
-        std::vector<MemoEntry> old(2 * mMemo.size());
-        old.swap(mMemo);
-        const size_t mask = mMemo.size() - 1;
-        for (const MemoEntry& e : old) {
-            if (e.generation != mMemoGeneration) continue;
+        if (2 * ++mMemoUsed > mMemo.size()) growMemo(mMemo, mMemoGeneration);
+    }
+    /// Doubles a memo's open-addressing table, keeping the entries of the
+    /// current generation.
+    template <class Entry> static void growMemo(std::vector<Entry>& table, uint32_t generation)
+    {
+        std::vector<Entry> old(2 * table.size());
+        old.swap(table);
+        const size_t mask = table.size() - 1;
+        for (const Entry& e : old) {
+            if (e.generation != generation) continue;
             size_t i = size_t(e.hash) & mask;
-            while (mMemo[i].generation == mMemoGeneration) i = (i + 1) & mask;
-            mMemo[i] = e;
+            while (table[i].generation == generation) i = (i + 1) & mask;
+            table[i] = e;
         }
     }
     void memoReset()
@@ -381,16 +386,7 @@ private:
         slot.generation = mCellMemoGeneration;
         slot.planeCount = uint8_t(planes.size());
         std::copy(planes.begin(), planes.end(), slot.planes.begin());
-        if (2 * ++mCellMemoUsed <= mCellMemo.size()) return;
-        std::vector<CellMemoEntry> old(2 * mCellMemo.size());
-        old.swap(mCellMemo);
-        const size_t mask = mCellMemo.size() - 1;
-        for (const CellMemoEntry& e : old) {
-            if (e.generation != mCellMemoGeneration) continue;
-            size_t i = size_t(e.hash) & mask;
-            while (mCellMemo[i].generation == mCellMemoGeneration) i = (i + 1) & mask;
-            mCellMemo[i] = e;
-        }
+        if (2 * ++mCellMemoUsed > mCellMemo.size()) growMemo(mCellMemo, mCellMemoGeneration);
     }
     /// sign() memo, one column per plane of mPlanes (a plane's signs over
     /// the vertices are contiguous: splitting pieces asks one plane about many
