@@ -1,5 +1,6 @@
 #include "cutter/Fusion.h"
 
+#include "cutter/FloatRepair.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"

@@ -5,6 +5,7 @@
 // another; otherwise the step is refused and the last good mesh kept.
 #include "cutter/Remesh.h"
 
+#include "cutter/FloatRepair.h"
 #include "cutter/RemeshKernel.h"
 #include "cutter/TriangleIntersect.h"
 

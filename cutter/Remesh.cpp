@@ -1,5 +1,6 @@
 #include "cutter/Remesh.h"
 
+#include "cutter/FloatRepair.h"
 #include "cutter/Isosurface.h"
 #include "cutter/RemeshKernel.h"
 #include "vdb/Error.h"

@@ -1,10 +1,11 @@
-// repairFloatFolds (cutter/RemeshKernel.h): a cut cell's exact geometry can
+// repairFloatFolds (cutter/FloatRepair.h): a cut cell's exact geometry can
 // hold features below a float step of the world position it is written at;
 // the kernel mends them before the cell leaves it. These tests build cells by
 // hand so that the exact geometry is valid and its float rounding is not, and
 // check what the repair keeps: the cell's boundary (the seam with the next
 // cells), orientation, and the same decision in both cells of a shared face.
 // The head tests (test_cut_props) check the effect on real cuts with CGAL.
+#include "cutter/FloatRepair.h"
 #include "cutter/RemeshKernel.h"
 #include "cutter/TriangleIntersect.h"
 
@@ -118,7 +119,7 @@ size_t foldedInFloat(const CutCellGeometry& g, const dvec3& origin, const dvec3&
     size_t n = 0;
     auto world = [&](uint32_t v) { return origin + spacing * g.indexPositions[v]; };
     // Through float storage: GCC 12.2 at -O2 folds dvec3(double(float(x)), ..)
-    // away for the lanes it vectorises (RemeshKernel.cpp, repairFloatFolds).
+    // away for the lanes it vectorises (FloatRepair.cpp, repairFloatFolds).
     auto rounded = [](const dvec3& p) {
         volatile float f[3] = {float(p.x), float(p.y), float(p.z)};
         return dvec3(f[0], f[1], f[2]);

@@ -1,0 +1,735 @@
+// The float repair (cutter/FloatRepair.h): snapping, lifting and collapsing
+// the kernel's vertices so that each cell stays clean once written in float.
+#include "cutter/FloatRepair.h"
+
+#include "cutter/RemeshKernel.h"
+#include "cutter/TriangleIntersect.h"
+
+#include <boost/container/small_vector.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+namespace mtcut::cutter::remesh_detail {
+
+namespace {
+template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
+} // namespace
+
+double floatShortAt(double extent)
+{
+    return kFloatStepsShort * extent * double(std::numeric_limits<float>::epsilon());
+}
+
+bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const glm::vec3& isoAt, const glm::vec3& otherAt,
+                        const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
+{
+    if (!iso.isIsoEdgeVertex() || other.dim != 1 || other.tagCount != 0 || other.planeCount == 0 ||
+        other.planes[0] == kIso || other.feature[0] != iso.feature[0] || other.feature[1] != iso.feature[1])
+        return false;
+    double extent = 0.0;
+    for (const uint64_t id : {iso.feature[0], iso.feature[1]}) {
+        const Coord g = gridVertexCoord(id);
+        const dvec3 w = exactWorldPosition(origin, spacing, dvec3(g.x(), g.y(), g.z()));
+        extent = std::max({extent, std::abs(w.x), std::abs(w.y), std::abs(w.z)});
+    }
+    return glm::length(dvec3(otherAt) - dvec3(isoAt)) < floatShortAt(extent);
+}
+
+bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b)
+{
+    if (a.dim != 2 || b.dim != 2 || a.tagCount != 0 || b.tagCount != 0 || a.planeCount == 0 ||
+        a.planeCount != b.planeCount || a.feature == b.feature)
+        return false;
+    for (uint8_t k = 0; k < a.planeCount; ++k)
+        if (a.planes[k] != b.planes[k]) return false;
+    // Both in cell faces (the three grid vertices share a coordinate), of
+    // different axes, with two grid vertices in common: the cube edge.
+    auto faceAxis = [](const CutVertexId& v) {
+        const Coord g0 = gridVertexCoord(v.feature[0]), g1 = gridVertexCoord(v.feature[1]),
+                    g2 = gridVertexCoord(v.feature[2]);
+        for (int axis = 0; axis < 3; ++axis)
+            if (g0[axis] == g1[axis] && g1[axis] == g2[axis]) return axis;
+        return -1;
+    };
+    const int axisA = faceAxis(a), axisB = faceAxis(b);
+    if (axisA < 0 || axisB < 0 || axisA == axisB) return false;
+    int common = 0;
+    for (const uint64_t f : a.feature) common += int(std::count(b.feature.begin(), b.feature.end(), f));
+    return common == 2;
+}
+
+bool joinsRoundCubeEdge(const CutVertexId& a, const CutVertexId& b, const glm::vec3& aAt, const glm::vec3& bAt,
+                        const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
+{
+    if (!facesMeetAtCubeEdge(a, b)) return false;
+    uint64_t edge[2];
+    int n = 0;
+    for (const uint64_t f : a.feature)
+        if (std::count(b.feature.begin(), b.feature.end(), f) && n < 2) edge[n++] = f;
+    const Coord g0 = gridVertexCoord(edge[0]), g1 = gridVertexCoord(edge[1]);
+    const dvec3 w0 = exactWorldPosition(origin, spacing, dvec3(g0.x(), g0.y(), g0.z()));
+    const dvec3 w1 = exactWorldPosition(origin, spacing, dvec3(g1.x(), g1.y(), g1.z()));
+    // Both rounded to within the reach of the edge's line, and of each other.
+    const double extent = std::max({std::abs(w0.x), std::abs(w0.y), std::abs(w0.z), std::abs(w1.x), std::abs(w1.y),
+                                    std::abs(w1.z)});
+    const double reach = floatShortAt(extent);
+    double offA = 0.0, offB = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+        if (g0[axis] != g1[axis]) continue;
+        offA += (double(aAt[axis]) - w0[axis]) * (double(aAt[axis]) - w0[axis]);
+        offB += (double(bAt[axis]) - w0[axis]) * (double(bAt[axis]) - w0[axis]);
+    }
+    return offA < reach * reach && offB < reach * reach && glm::length(dvec3(aAt) - dvec3(bAt)) < reach;
+}
+
+size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, CutCellGeometry& out)
+{
+    size_t moved = 0;
+    for (size_t v = 0; v < out.vertexIds.size(); ++v) {
+        if (out.vertexIds[v].isIsoEdgeVertex()) continue; // the uncut mesh's vertex, as it is
+        dvec3& p = out.indexPositions[v];
+        const dvec3 g = glm::round(p);
+        if (p == g) continue;
+        const dvec3 wg = exactWorldPosition(origin, spacing, g);
+        const double extent = std::max({std::abs(wg.x), std::abs(wg.y), std::abs(wg.z)});
+        if (glm::length(exactWorldPosition(origin, spacing, p) - wg) < floatShortAt(extent)) {
+            p = g;
+            ++moved;
+        }
+    }
+    return moved;
+}
+
+namespace {
+
+/// The faces of `cell` the vertex lies on (bit 2 * axis + side); 0 for a
+/// vertex private to the cell, inside it, which no other cell names. Tet
+/// edges all lie on cell faces (the 5-tet split has no inner edge), so only
+/// tet-face and inside-tet vertices can be private.
+unsigned cellFaces(const CutVertexId& id, const Coord& cell)
+{
+    if (id.dim == 3) return 0;
+    unsigned faces = 0;
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+            bool on = true;
+            for (int f = 0; f <= id.dim; ++f)
+                on = on && gridVertexCoord(id.feature[size_t(f)])[axis] == cell[axis] + side;
+            if (on) faces |= 1u << (2 * axis + side);
+        }
+    return faces;
+}
+
+} // namespace
+
+size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                        CutCellGeometry& out)
+{
+    const size_t nv = out.indexPositions.size();
+    size_t lifted = 0;
+    float faceAt[3][2]; // the cell's faces, written
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side)
+            faceAt[axis][side] = float(origin[axis] + spacing[axis] * double(cell[axis] + side));
+    std::vector<unsigned> faces; // cellFaces of every vertex, once one is a candidate
+    for (size_t v = 0; v < nv; ++v) {
+        if (out.vertexIds[v].isIsoEdgeVertex()) continue; // the uncut mesh's vertex, on a grid edge
+        dvec3& p = out.indexPositions[v];
+        for (int axis = 0; axis < 3; ++axis) {
+            auto writes = [&](double x) { return float(origin[axis] + spacing[axis] * x); };
+            const float at = writes(p[axis]);
+            if (at != faceAt[axis][0] && at != faceAt[axis][1]) continue; // (nearly every vertex)
+            const int side = at == faceAt[axis][0] ? 0 : 1;
+            const double face = double(cell[axis] + side);
+            if (side == 0 ? !(p[axis] > face) : !(p[axis] < face)) continue; // on the face: not ours
+            if (faces.empty()) {
+                faces.resize(nv);
+                for (size_t w = 0; w < nv; ++w) faces[w] = cellFaces(out.vertexIds[w], cell);
+            }
+            if (faces[v] != 0) continue; // another cell has it too
+            SmallVector<const uint32_t*, 16> star; // its triangles
+            for (size_t k = 0; k + 2 < out.indices.size(); k += 3) {
+                const uint32_t* t = &out.indices[k];
+                if (t[0] == v || t[1] == v || t[2] == v) star.push_back(t);
+            }
+            // A tent's apex: every neighbour in this face.
+            const unsigned bit = 1u << (2 * axis + side);
+            bool tent = true;
+            for (const uint32_t* t : star)
+                for (int j = 0; j < 3; ++j) tent = tent && (t[j] == v || (faces[t[j]] & bit) != 0);
+            if (star.empty() || tent) continue;
+            // One float step inside, and an index coordinate that writes there.
+            const float target = std::nextafter(faceAt[axis][side], faceAt[axis][1 - side]);
+            double q = (double(target) - origin[axis]) / spacing[axis];
+            for (int i = 0; i < 64 && writes(q) != target; ++i)
+                q = std::nextafter(q, writes(q) < target ? std::numeric_limits<double>::infinity()
+                                                         : -std::numeric_limits<double>::infinity());
+            if (writes(q) != target || !(q > double(cell[axis])) || !(q < double(cell[axis] + 1))) continue;
+            // Not when a triangle at it would then be folded or of no
+            // area once written (a strip of cap thinner than a float step
+            // fanned from a centre that rounds into the face: the float
+            // repair collapses the centre instead; 1 mm head, kerf 0, the
+            // tip line 1.45e-5 mm above y = 249 mm).
+            const dvec3 before = p;
+            dvec3 after = p;
+            after[axis] = q;
+            bool folds = false;
+            // Held as float on the heap (GCC 12.2 folded the vectorised
+            // round trip double(float(x)) away: repairFloatFolds).
+            std::vector<glm::vec3> written(3);
+            for (size_t i = 0; i < star.size() && !folds; ++i) {
+                const uint32_t* t = star[i];
+                std::array<dvec3, 3> exact;
+                for (int j = 0; j < 3; ++j) {
+                    exact[size_t(j)] = exactWorldPosition(origin, spacing, t[j] == v ? before : out.indexPositions[t[j]]);
+                    const dvec3 w = exactWorldPosition(origin, spacing, t[j] == v ? after : out.indexPositions[t[j]]);
+                    written[size_t(j)] = glm::vec3(float(w.x), float(w.y), float(w.z));
+                }
+                const dvec3 n = glm::cross(exact[1] - exact[0], exact[2] - exact[0]);
+                const dvec3 a(written[0]), b(written[1]), d(written[2]);
+                folds = !(glm::dot(glm::cross(b - a, d - a), n) > 0.0);
+            }
+            if (folds) continue;
+            p[axis] = q;
+            ++lifted;
+        }
+    }
+    return lifted;
+}
+
+size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                        CutCellGeometry& out, bool crossings)
+{
+    const size_t nv = out.indexPositions.size(), nt = out.indices.size() / 3;
+    if (nt == 0) return 0;
+    // Exact (double) and written (float) world positions, as fusedMesh.
+    // Held as float: GCC 12.2 at -O2 and above folded the round trip
+    // dvec3(double(float(x)), double(float(y)), ..) of the two lanes it
+    // vectorised away (x and y kept unrounded, z rounded), so a triangle
+    // degenerate once written looked sound here (1 mm head, kerf 0, a tip
+    // line 1.45e-5 mm above the grid plane y = 249: a cap fan thinner than
+    // a float step, refused by the local check). LocalCheck.cpp met the same.
+    std::vector<dvec3> exact(nv);
+    std::vector<glm::vec3> written(nv);
+    for (size_t i = 0; i < nv; ++i) {
+        const dvec3& p = out.indexPositions[i];
+        exact[i] = exactWorldPosition(origin, spacing, p);
+        written[i] = glm::vec3(float(exact[i].x), float(exact[i].y), float(exact[i].z));
+    }
+    std::vector<std::array<uint32_t, 3>> tris(nt);
+    std::vector<dvec3> normal(nt); // exact orientation, from the exact corners as the kernel made them
+    for (size_t t = 0; t < nt; ++t) {
+        tris[t] = {out.indices[3 * t], out.indices[3 * t + 1], out.indices[3 * t + 2]};
+        normal[t] = glm::cross(exact[tris[t][1]] - exact[tris[t][0]], exact[tris[t][2]] - exact[tris[t][0]]);
+    }
+    // Folded once written: degenerate in float, or facing against its exact normal.
+    auto folded = [&](const std::array<uint32_t, 3>& v, const dvec3& n) {
+        const dvec3 a(written[v[0]]), b(written[v[1]]), c(written[v[2]]);
+        const dvec3 f = glm::cross(b - a, c - a);
+        return !(glm::dot(f, n) > 0.0);
+    };
+    // Shorter than a few float steps at the largest coordinate of the box
+    // [lo, hi] holding it: the ends may round together or across each other.
+    // A cell's edges are judged by the cell; a pair inside a cell face by the
+    // face, as the cell on its other side judges it (a cell's own extent
+    // differs across a face whose coordinate is its larger one; tooth seed
+    // 1002 at z = 98 mm).
+    auto extentOf = [&](const Coord& lo, const Coord& hi) {
+        double e = 0.0;
+        for (int a = 0; a < 3; ++a)
+            e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
+        return e;
+    };
+    const double shortEdge = floatShortAt(extentOf(cell, cell + Coord(1)));
+    auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
+    // face: bit 2 * axis + side (cellFaces).
+    auto isShortInFace = [&](uint32_t a, uint32_t b, unsigned face) {
+        int axis = 0;
+        while (!(face >> (2 * axis) & 3u)) ++axis;
+        const int side = (face >> (2 * axis) & 1u) ? 0 : 1;
+        Coord lo = cell, hi = cell + Coord(1);
+        lo[axis] = hi[axis] = cell[axis] + side;
+        return glm::length(exact[a] - exact[b]) < floatShortAt(extentOf(lo, hi));
+    };
+    auto needsMending = [&](size_t t) {
+        const auto& v = tris[t];
+        return folded(v, normal[t]) || isShort(v[0], v[1]) || isShort(v[1], v[2]) || isShort(v[2], v[0]);
+    };
+    std::vector<char> alive(nt, 1);
+    // crossings: the triangles that cross or touch another of the cell's
+    // once written, judged as the local check judges a cut with a width
+    // (trianglesCross, after the snap rounding of fusedMesh: the ends of an
+    // edge at one float position are one vertex; the pinch copies of a name
+    // are one vertex). Ascending, each once.
+    auto crossingTriangles = [&](std::vector<size_t>& hit) {
+        hit.clear();
+        std::vector<uint32_t> rep(nv);
+        std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> plain;
+        for (uint32_t v = 0; v < uint32_t(nv); ++v) {
+            CutVertexId id = out.vertexIds[v];
+            uint8_t n = 0;
+            for (uint8_t k = 0; k < id.tagCount; ++k)
+                if (!(id.tags[k] & kPinchTag)) id.tags[n++] = id.tags[k];
+            for (uint8_t k = n; k < id.tagCount; ++k) id.tags[k] = 0;
+            id.tagCount = n;
+            rep[v] = plain.emplace(id, v).first->second;
+        }
+        auto find = [&](uint32_t x) {
+            while (rep[x] != x) x = rep[x] = rep[rep[x]];
+            return x;
+        };
+        for (size_t t = 0; t < nt; ++t)
+            for (int e = 0; alive[t] && e < 3; ++e) {
+                const uint32_t a = find(tris[t][size_t(e)]), b = find(tris[t][size_t((e + 1) % 3)]);
+                if (a != b && written[a] == written[b]) rep[std::max(a, b)] = std::min(a, b);
+            }
+        struct Tri
+        {
+            size_t t;
+            std::array<uint32_t, 3> id;
+            std::array<glm::vec3, 3> p;
+            glm::vec3 lo, hi;
+        };
+        std::vector<Tri> live;
+        for (size_t t = 0; t < nt; ++t) {
+            if (!alive[t]) continue;
+            Tri x{t, {find(tris[t][0]), find(tris[t][1]), find(tris[t][2])}, {}, {}, {}};
+            if (x.id[0] == x.id[1] || x.id[1] == x.id[2] || x.id[0] == x.id[2]) continue; // snapped away
+            for (int k = 0; k < 3; ++k) x.p[size_t(k)] = written[tris[t][size_t(k)]];
+            x.lo = glm::min(x.p[0], glm::min(x.p[1], x.p[2]));
+            x.hi = glm::max(x.p[0], glm::max(x.p[1], x.p[2]));
+            live.push_back(x);
+        }
+        for (size_t i = 0; i < live.size(); ++i)
+            for (size_t j = i + 1; j < live.size(); ++j) {
+                const Tri &a = live[i], &b = live[j];
+                if (a.hi.x < b.lo.x || b.hi.x < a.lo.x || a.hi.y < b.lo.y || b.hi.y < a.lo.y || a.hi.z < b.lo.z ||
+                    b.hi.z < a.lo.z)
+                    continue;
+                if (trianglesCross(a.p, a.id, b.p, b.id) == Contact::None) continue;
+                hit.push_back(a.t);
+                hit.push_back(b.t);
+            }
+        std::sort(hit.begin(), hit.end());
+        hit.erase(std::unique(hit.begin(), hit.end()), hit.end());
+    };
+    std::vector<unsigned> faces(nv);
+    bool facesKnown = false;
+    auto knowFaces = [&] {
+        if (facesKnown) return;
+        for (size_t i = 0; i < nv; ++i) faces[i] = cellFaces(out.vertexIds[i], cell);
+        facesKnown = true;
+    };
+    auto inOneFace = [&](uint32_t v) { return faces[v] != 0 && (faces[v] & (faces[v] - 1)) == 0; };
+    // Spikes of a face's section (tooth, kerf 0.5, random strokes seeds
+    // 9074, 9082, 9160; 9099 with its base on the face's diagonal): a vertex C inside one cell face joined along the
+    // face to exactly two vertices A and B inside it, which share no edge and
+    // are one float point once written. The line of two faces of one quad's
+    // prism pokes through the next quad's offset face by 2e-5 mm (3e-4 in
+    // 9082): the face's section runs along the offset face's line to A, out
+    // to C and back to B, A and B 1e-6 mm apart. Written, the spike has no
+    // width, and in the cell where the section's two edges at C bound
+    // triangles on the same side, those two triangles lie on each other. A
+    // function of the section and the rounding, which the two cells of the
+    // face share, so both find it. (tip, survivor, merged): A the lesser name.
+    struct Spike
+    {
+        uint32_t tip, a, b;
+    };
+    // A base vertex: inside a tet face, or on a grid edge but not the
+    // isosurface's own vertex there (inside one cell face, below, for both:
+    // in a tet face there or on its diagonal). The search's trigger asks the
+    // same, so both cells of the face look.
+    auto baseCandidate = [&](uint32_t v) {
+        const CutVertexId& id = out.vertexIds[v];
+        return id.dim == 2 || (id.dim == 1 && !id.isIsoEdgeVertex());
+    };
+    auto findSpikes = [&](std::vector<Spike>& spikes) {
+        spikes.clear();
+        knowFaces();
+        std::vector<std::pair<uint32_t, uint32_t>> along; // both ways, both ends inside one same face
+        for (size_t t = 0; t < nt; ++t)
+            for (int e = 0; alive[t] && e < 3; ++e) {
+                const uint32_t u = tris[t][size_t(e)], v = tris[t][size_t((e + 1) % 3)];
+                if (!inOneFace(u) || faces[u] != faces[v]) continue;
+                along.push_back({u, v});
+                along.push_back({v, u});
+            }
+        std::sort(along.begin(), along.end());
+        along.erase(std::unique(along.begin(), along.end()), along.end());
+        auto joined = [&](uint32_t u, uint32_t v) {
+            for (size_t t = 0; t < nt; ++t)
+                if (alive[t] && std::count(tris[t].begin(), tris[t].end(), u) && std::count(tris[t].begin(), tris[t].end(), v))
+                    return true;
+            return false;
+        };
+        for (size_t i = 0; i + 1 < along.size(); ++i) {
+            const uint32_t c = along[i].first;
+            if ((i > 0 && along[i - 1].first == c) || along[i + 1].first != c ||
+                (i + 2 < along.size() && along[i + 2].first == c))
+                continue; // not exactly two neighbours along the face
+            uint32_t a = along[i].second, b = along[i + 1].second;
+            const CutVertexId &ia = out.vertexIds[a], &ib = out.vertexIds[b];
+            if (ia.tagCount != ib.tagCount || ia.tags != ib.tags) continue; // copies of one point stay apart
+            if (!baseCandidate(a) || !baseCandidate(b) || written[a] != written[b] || joined(a, b)) continue;
+            if (ib < ia) std::swap(a, b);
+            spikes.push_back({c, a, b});
+        }
+        std::sort(spikes.begin(), spikes.end(), [&](const Spike& x, const Spike& y) {
+            if (out.vertexIds[x.a] < out.vertexIds[y.a]) return true;
+            if (out.vertexIds[y.a] < out.vertexIds[x.a]) return false;
+            return out.vertexIds[x.b] < out.vertexIds[y.b];
+        });
+    };
+    std::vector<size_t> crossing;
+    std::vector<Spike> spikes;
+    bool any = false;
+    for (size_t t = 0; t < nt && !any; ++t) any = needsMending(t);
+    if (crossings && !any) {
+        crossingTriangles(crossing);
+        any = !crossing.empty();
+    }
+    {
+        // A spike's base is two such vertices at one float point: rare, so
+        // looked for first (a few dozen vertices a cell).
+        SmallVector<uint32_t, 64> candidates;
+        for (uint32_t v = 0; v < uint32_t(nv); ++v)
+            if (baseCandidate(v)) candidates.push_back(v);
+        auto less = [&](uint32_t u, uint32_t v) {
+            const glm::vec3 &x = written[u], &y = written[v];
+            return x.x != y.x ? x.x < y.x : x.y != y.y ? x.y < y.y : x.z < y.z;
+        };
+        std::sort(candidates.begin(), candidates.end(), less);
+        bool onePoint = false;
+        for (size_t i = 1; i < candidates.size() && !onePoint; ++i)
+            onePoint = written[candidates[i - 1]] == written[candidates[i]];
+        if (onePoint) findSpikes(spikes);
+        any = any || !spikes.empty();
+    }
+    if (!any) return 0;
+
+    knowFaces();
+    auto canMove = [&](uint32_t v) { return faces[v] == 0; };
+    std::vector<uint32_t> mergedInto(nv);
+    for (size_t i = 0; i < nv; ++i) mergedInto[i] = uint32_t(i);
+    size_t removed = 0;
+    // The triangles the face rule moves into a cell face (out.intoFace:
+    // kept from an earlier repair of this geometry).
+    std::vector<char> intoFace(nt, 0);
+    for (uint32_t t : out.intoFace)
+        if (t < nt) intoFace[t] = 1;
+    auto inCellFace = [&](const std::array<uint32_t, 3>& v) { return (faces[v[0]] & faces[v[1]] & faces[v[2]]) != 0; };
+    // Triangles at a vertex, rebuilt after each collapse (cells hold tens to
+    // a few hundred triangles, and collapses are rare).
+    auto trianglesAt = [&](uint32_t v, std::vector<size_t>& list) {
+        list.clear();
+        for (size_t t = 0; t < nt; ++t)
+            if (alive[t] && (tris[t][0] == v || tris[t][1] == v || tris[t][2] == v)) list.push_back(t);
+    };
+    std::vector<size_t> atP, atQ;
+    auto neighbours = [&](const std::vector<size_t>& list, uint32_t v) {
+        std::vector<uint32_t> n;
+        for (size_t t : list)
+            for (uint32_t w : tris[t])
+                if (w != v) n.push_back(w);
+        std::sort(n.begin(), n.end());
+        n.erase(std::unique(n.begin(), n.end()), n.end());
+        return n;
+    };
+    /// The face rule's collapse where the link condition fails because p and
+    /// q close a small tent of the cell's own (2 mm head, kerf 0.5, seed 3023:
+    /// a vertex inside a tet whose only triangles run to p, q and one vertex
+    /// inside the tet's face; the cell on the face's other side merged p into
+    /// q, this one could not, and the seam opened). p becomes q; triangles
+    /// that then coincide with opposite orientations go in pairs, and so do
+    /// the vertices left without a triangle, which must be the cell's own.
+    /// Done only when every edge of the changed triangles is then used at most
+    /// once each way, and one used only once lies in a cell face.
+    /// `tip`: a vertex of a cell face that may be left without a triangle
+    /// (a spike's, below), as the cell's own vertices may.
+    auto collapseCancelling = [&](uint32_t p, uint32_t q, const std::vector<size_t>& onEdge,
+                                  uint32_t tip = UINT32_MAX) {
+        std::vector<size_t> touched;
+        for (const std::vector<size_t>* list : {&atP, &atQ})
+            for (size_t t : *list)
+                if (std::find(onEdge.begin(), onEdge.end(), t) == onEdge.end()) touched.push_back(t);
+        std::sort(touched.begin(), touched.end());
+        touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+        std::vector<std::array<uint32_t, 3>> moved(touched.size());
+        std::vector<char> keep(touched.size(), 1);
+        for (size_t i = 0; i < touched.size(); ++i) {
+            moved[i] = tris[touched[i]];
+            for (uint32_t& w : moved[i])
+                if (w == p) w = q;
+        }
+        // Rotated to start at the least vertex: two triangles on one vertex set
+        // face opposite ways when their second corners differ.
+        auto rotated = [](std::array<uint32_t, 3> v) {
+            while (v[0] > v[1] || v[0] > v[2]) std::rotate(v.begin(), v.begin() + 1, v.end());
+            return v;
+        };
+        for (size_t i = 0; i < touched.size(); ++i)
+            for (size_t j = i + 1; j < touched.size(); ++j) {
+                if (!keep[i] || !keep[j]) continue;
+                const auto a = rotated(moved[i]), b = rotated(moved[j]);
+                if (a[0] != b[0] || std::minmax(a[1], a[2]) != std::minmax(b[1], b[2])) continue;
+                if (a[1] == b[1]) return false; // the same triangle twice
+                keep[i] = keep[j] = 0;
+            }
+        std::vector<std::array<uint32_t, 3>> after;
+        for (size_t t = 0; t < nt; ++t)
+            if (alive[t] && std::find(onEdge.begin(), onEdge.end(), t) == onEdge.end() &&
+                !std::binary_search(touched.begin(), touched.end(), t))
+                after.push_back(tris[t]);
+        for (size_t i = 0; i < touched.size(); ++i)
+            if (keep[i]) after.push_back(moved[i]);
+        auto uses = [&](uint32_t u, uint32_t v) {
+            size_t n = 0;
+            for (const auto& tri : after)
+                for (int e = 0; e < 3; ++e) n += tri[size_t(e)] == u && tri[size_t((e + 1) % 3)] == v;
+            return n;
+        };
+        auto used = [&](uint32_t v) {
+            for (const auto& tri : after)
+                if (tri[0] == v || tri[1] == v || tri[2] == v) return true;
+            return false;
+        };
+        std::vector<uint32_t> dropped;
+        for (const auto& tri : moved)
+            for (int e = 0; e < 3; ++e) {
+                const uint32_t u = tri[size_t(e)], v = tri[size_t((e + 1) % 3)];
+                const size_t there = uses(u, v), back = uses(v, u);
+                if (there > 1 || back > 1 || (there + back == 1 && !(faces[u] & faces[v]))) return false;
+                if (u != q && !used(u)) {
+                    if (faces[u] != 0 && u != tip) return false;
+                    dropped.push_back(u);
+                }
+            }
+        for (size_t t : onEdge) alive[t] = 0;
+        for (size_t i = 0; i < touched.size(); ++i) {
+            if (keep[i] && !inCellFace(tris[touched[i]]) && inCellFace(moved[i])) intoFace[touched[i]] = 1;
+            tris[touched[i]] = moved[i];
+            alive[touched[i]] = keep[i];
+        }
+        mergedInto[p] = q;
+        for (uint32_t v : dropped) mergedInto[v] = q;
+        ++removed;
+        return true;
+    };
+    /// Collapses p onto q when that keeps a 2-manifold and (unless `onFace`)
+    /// folds nothing and puts no triangle into a cell face (unless
+    /// `intoFaceOk`: such a triangle is marked, out.intoFace); true if done.
+    /// onFace: p and q lie inside one cell face and the edge is on the
+    /// cell's boundary (one triangle).
+    auto collapse = [&](uint32_t p, uint32_t q, bool onFace, bool intoFaceOk = false) {
+        const CutVertexId &ip = out.vertexIds[p], &iq = out.vertexIds[q];
+        if (ip.tagCount != iq.tagCount || ip.tags != iq.tags) return false; // copies of one point stay apart
+        trianglesAt(p, atP);
+        trianglesAt(q, atQ);
+        std::vector<size_t> onEdge;
+        for (size_t t : atP)
+            if (tris[t][0] == q || tris[t][1] == q || tris[t][2] == q) onEdge.push_back(t);
+        if (onEdge.size() != (onFace ? 1u : 2u)) return false;
+        std::vector<uint32_t> apexes;
+        for (size_t t : onEdge)
+            for (uint32_t w : tris[t])
+                if (w != p && w != q) apexes.push_back(w);
+        std::sort(apexes.begin(), apexes.end());
+        const std::vector<uint32_t> np = neighbours(atP, p), nq = neighbours(atQ, q);
+        std::vector<uint32_t> common;
+        std::set_intersection(np.begin(), np.end(), nq.begin(), nq.end(), std::back_inserter(common));
+        if (common != apexes) { // the link condition
+            if (!onFace) return false;
+            // A common neighbour in the face closes a triangle of the face's
+            // section with p and q: both cells of the face see it, and both
+            // keep p and q apart (tooth, kerf 0, seed 1018: the iso line and
+            // the blade's line crossing twice in a face 1e-5 mm apart, the
+            // lens between them left as a bubble in each cell once merged).
+            for (uint32_t w : common)
+                if (faces[w] & faces[p]) return false;
+            return collapseCancelling(p, q, onEdge);
+        }
+        for (size_t t : atP) {
+            if (onFace) break;
+            if (std::find(onEdge.begin(), onEdge.end(), t) != onEdge.end()) continue;
+            std::array<uint32_t, 3> moved = tris[t];
+            for (uint32_t& w : moved)
+                if (w == p) w = q;
+            if (folded(moved, normal[t])) return false;
+            // A triangle in a cell face: the next cell may have it too.
+            if (!intoFaceOk && (faces[moved[0]] & faces[moved[1]] & faces[moved[2]])) return false;
+        }
+        for (size_t t : onEdge) alive[t] = 0;
+        for (size_t t : atP) {
+            const bool wasInFace = inCellFace(tris[t]);
+            for (uint32_t& w : tris[t])
+                if (w == p) w = q;
+            // (Only the face rule and a crossing's last resort can: a round's
+            // collapse refuses it above.)
+            if (alive[t] && !wasInFace && inCellFace(tris[t])) intoFace[t] = 1;
+        }
+        mergedInto[p] = q;
+        ++removed;
+        return true;
+    };
+    // A vertex inside one cell face (inside a tet face there, or on the
+    // face's diagonal, a grid edge no other cell has) joined by a short edge
+    // to another vertex of that closed face: the two cells of the face, and
+    // only they, hold the first, they both hold the second, and both have
+    // the edge on their common boundary. The first becomes the second; of
+    // two inside the face, the greater name becomes the lesser. Pairs in
+    // name order (survivor, then the other), in both cells alike: only the
+    // link condition is asked (a fold or face check could be judged
+    // otherwise by the next cell; the local check judges the fused result).
+    // A face vertex 3e-5 mm above a cube edge vertex (1 mm head, kerf 0.5,
+    // seed 2002, z = 1226 mm) rounded onto the edge beyond it, and the next
+    // cells' triangles touched the edge between them there (CGAL).
+    {
+        std::vector<std::pair<uint32_t, uint32_t>> onFace; // (survivor, merged)
+        for (size_t t = 0; t < nt; ++t)
+            for (int e = 0; e < 3; ++e) {
+                uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                // b inside the face; a inside it too, or on its boundary.
+                if (!inOneFace(b) || (inOneFace(a) && out.vertexIds[b] < out.vertexIds[a])) std::swap(a, b);
+                if (!inOneFace(b) || (faces[a] & faces[b]) != faces[b] || !isShortInFace(a, b, faces[b])) continue;
+                onFace.push_back({a, b});
+            }
+        auto byName = [&](const std::pair<uint32_t, uint32_t>& x, const std::pair<uint32_t, uint32_t>& y) {
+            if (out.vertexIds[x.first] < out.vertexIds[y.first]) return true;
+            if (out.vertexIds[y.first] < out.vertexIds[x.first]) return false;
+            return out.vertexIds[x.second] < out.vertexIds[y.second];
+        };
+        std::sort(onFace.begin(), onFace.end(), byName);
+        for (const auto& [a, b] : onFace)
+            if (mergedInto[a] == a && mergedInto[b] == b) collapse(b, a, true);
+    }
+    // A spike's two ends become one (B into A), in both cells of the face
+    // alike: where the two triangles at C lay on each other they now coincide
+    // facing opposite ways and go, with C (the cell across keeps C, its two
+    // edges there now one edge used both ways); only the link of a 2-manifold
+    // is asked, as for the face rule.
+    if (!spikes.empty()) findSpikes(spikes); // as the face rule left the section
+    for (const Spike& k : spikes) {
+        if (mergedInto[k.a] != k.a || mergedInto[k.b] != k.b || mergedInto[k.tip] != k.tip) continue;
+        trianglesAt(k.b, atP);
+        trianglesAt(k.a, atQ);
+        collapseCancelling(k.b, k.a, {}, k.tip);
+    }
+    // Then rounds: every short edge, shortest first (exact length, then
+    // names), its private end moving; only when none can go, a folded
+    // triangle may lose any of its edges, shortest first. Short edges first:
+    // where a cut line passes within 1e-6 voxel of a tet edge, three
+    // vertices a few 1e-7 apart chain there, and taking the triangles in
+    // order moved the middle one far along a long edge of a folded sliver,
+    // leaving two triangles folded onto each other (tooth seed 1009).
+    std::vector<std::pair<double, std::pair<uint32_t, uint32_t>>> shortEdges; // (exact length, (a, b))
+    // Shortest first, then by the ends' names; each edge once.
+    auto sortEdges = [&] {
+        std::sort(shortEdges.begin(), shortEdges.end(), [&](const auto& x, const auto& y) {
+            if (x.first != y.first) return x.first < y.first;
+            if (out.vertexIds[x.second.first] < out.vertexIds[y.second.first]) return true;
+            if (out.vertexIds[y.second.first] < out.vertexIds[x.second.first]) return false;
+            return out.vertexIds[x.second.second] < out.vertexIds[y.second.second];
+        });
+        shortEdges.erase(std::unique(shortEdges.begin(), shortEdges.end()), shortEdges.end());
+    };
+    for (int round = 0; round < 16; ++round) {
+        bool mended = false;
+        shortEdges.clear();
+        for (size_t t = 0; t < nt; ++t) {
+            if (!alive[t]) continue;
+            for (int e = 0; e < 3; ++e) {
+                uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                if (!isShort(a, b)) continue;
+                if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
+                shortEdges.push_back({glm::length(exact[a] - exact[b]), {a, b}});
+            }
+        }
+        sortEdges(); // each once (its two triangles listed it twice)
+        for (const auto& [len, ab] : shortEdges) {
+            const auto [a, b] = ab;
+            if (mergedInto[a] != a || mergedInto[b] != b) continue;
+            if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) mended = true;
+        }
+        if (mended) continue;
+        for (size_t t = 0; t < nt && !mended; ++t) {
+            if (!alive[t] || !folded(tris[t], normal[t])) continue;
+            std::array<std::pair<double, int>, 3> edges;
+            for (int e = 0; e < 3; ++e)
+                edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
+            std::sort(edges.begin(), edges.end());
+            for (const auto& [len, e] : edges) {
+                const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
+                    mended = true;
+                    break;
+                }
+            }
+        }
+        if (!mended && crossings) {
+            // Last: an edge of a triangle that crosses another of the cell's
+            // once written, shortest first (exact length, then names), one a
+            // round. Sheets of the removed region's boundary on planes a
+            // degree apart meet at a point inside the tet, and near it lie
+            // closer than a float step (2 mm head, kerf 0.5, random strokes
+            // seed 5038: four prism faces of three quads at one point, and
+            // triangles of two of them 20 float steps apart crossed once
+            // written; the exact ones are apart).
+            crossingTriangles(crossing);
+            shortEdges.clear();
+            for (size_t t : crossing)
+                for (int e = 0; e < 3; ++e) {
+                    uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                    if (out.vertexIds[b] < out.vertexIds[a]) std::swap(a, b);
+                    shortEdges.push_back({glm::length(exact[a] - exact[b]), {a, b}});
+                }
+            sortEdges();
+            for (const auto& [len, ab] : shortEdges) {
+                const auto [a, b] = ab;
+                if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
+                    mended = true;
+                    break;
+                }
+            }
+            // Then a short one whose collapse lays a triangle into a cell
+            // face, marked as the face rule marks its own (the cell across
+            // may make it too, facing the other way: a pair that goes). A
+            // tent of three triangles over a triangle of a cell face, its
+            // apex inside the cell 6e-5 mm below the face, rounds flat into
+            // the face and overlaps itself there (1 mm head, kerf 0.5, seed
+            // 9202, z = 1135 mm: the isosurface, a kerf plane and the face's
+            // diagonal bound the face triangle); with the apex on a corner,
+            // the face triangle is left, its rim as the tent's.
+            for (size_t i = 0; i < shortEdges.size() && !mended; ++i) {
+                const auto [a, b] = shortEdges[i].second;
+                if (!isShort(a, b)) break; // shortest first
+                if ((canMove(a) && collapse(a, b, false, true)) || (canMove(b) && collapse(b, a, false, true)))
+                    mended = true;
+            }
+        }
+        if (!mended) break;
+    }
+    if (!removed) return 0;
+    // Compact: drop the merged vertices (keeping the others' order) and the collapsed triangles.
+    std::vector<uint32_t> newIndex(nv, UINT32_MAX);
+    CutCellGeometry kept;
+    for (size_t i = 0; i < nv; ++i) {
+        if (mergedInto[i] != i) continue;
+        newIndex[i] = uint32_t(kept.vertexIds.size());
+        kept.vertexIds.push_back(out.vertexIds[i]);
+        kept.indexPositions.push_back(out.indexPositions[i]);
+    }
+    for (size_t t = 0; t < nt; ++t) {
+        if (!alive[t]) continue;
+        if (intoFace[t]) kept.intoFace.push_back(uint32_t(kept.indices.size() / 3));
+        for (uint32_t w : tris[t]) kept.indices.push_back(newIndex[w]);
+    }
+    out = std::move(kept);
+    return removed;
+}
+
+} // namespace mtcut::cutter::remesh_detail
