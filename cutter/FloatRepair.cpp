@@ -113,15 +113,28 @@ namespace {
 unsigned cellFaces(const CutVertexId& id, const Coord& cell)
 {
     if (id.dim == 3) return 0;
-    unsigned faces = 0;
-    for (int axis = 0; axis < 3; ++axis)
-        for (int side = 0; side < 2; ++side) {
-            bool on = true;
-            for (int f = 0; f <= id.dim; ++f)
-                on = on && gridVertexCoord(id.feature[size_t(f)])[axis] == cell[axis] + side;
-            if (on) faces |= 1u << (2 * axis + side);
+    unsigned faces = 0x3fu; // each feature's grid vertex leaves the faces it is on
+    for (int f = 0; f <= id.dim && faces != 0; ++f) {
+        const Coord g = gridVertexCoord(id.feature[size_t(f)]);
+        for (int axis = 0; axis < 3; ++axis) {
+            if (g[axis] != cell[axis]) faces &= ~(1u << (2 * axis));
+            if (g[axis] != cell[axis] + 1) faces &= ~(1u << (2 * axis + 1));
         }
+    }
     return faces;
+}
+
+/// An index coordinate on `axis` that writes as `target` (origin + spacing
+/// x, rounded to float, as fusedMesh writes it): from the nearest double, a
+/// few double steps at most; NaN where none does within 64.
+double indexWritingAs(float target, int axis, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
+{
+    auto writes = [&](double x) { return float(origin[axis] + spacing[axis] * x); };
+    double x = (double(target) - origin[axis]) / spacing[axis];
+    for (int i = 0; i < 64 && writes(x) != target; ++i)
+        x = std::nextafter(x, writes(x) < target ? std::numeric_limits<double>::infinity()
+                                                 : -std::numeric_limits<double>::infinity());
+    return writes(x) == target ? x : std::numeric_limits<double>::quiet_NaN();
 }
 
 } // namespace
@@ -164,11 +177,8 @@ size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const o
             if (star.empty() || tent) continue;
             // One float step inside, and an index coordinate that writes there.
             const float target = std::nextafter(faceAt[axis][side], faceAt[axis][1 - side]);
-            double q = (double(target) - origin[axis]) / spacing[axis];
-            for (int i = 0; i < 64 && writes(q) != target; ++i)
-                q = std::nextafter(q, writes(q) < target ? std::numeric_limits<double>::infinity()
-                                                         : -std::numeric_limits<double>::infinity());
-            if (writes(q) != target || !(q > double(cell[axis])) || !(q < double(cell[axis] + 1))) continue;
+            const double q = indexWritingAs(target, axis, origin, spacing);
+            if (!(q > double(cell[axis])) || !(q < double(cell[axis] + 1))) continue; // (NaN: none)
             // Not when a triangle at it would then be folded or of no
             // area once written (a strip of cap thinner than a float step
             // fanned from a centre that rounds into the face: the float
@@ -199,6 +209,129 @@ size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const o
         }
     }
     return lifted;
+}
+
+size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                                CutCellGeometry& out)
+{
+    // The vertices inside one cell face that are not the isosurface's (the
+    // uncut mesh's positions stay): the candidates.
+    // (A point of a cell face has the face's coordinate exactly: asked
+    // first, it spares most vertices the name's faces.)
+    const size_t nv = out.indexPositions.size();
+    SmallVector<unsigned, 128> faces(nv, 0u); // (on the stack: this runs for every cell)
+    bool any = false;
+    for (uint32_t v = 0; v < uint32_t(nv); ++v) {
+        const CutVertexId& id = out.vertexIds[v];
+        const dvec3& x = out.indexPositions[v];
+        bool onFace = false;
+        for (int a = 0; a < 3; ++a) onFace = onFace || x[a] == double(cell[a]) || x[a] == double(cell[a] + 1);
+        if (id.dim == 3 || !onFace) continue;
+        faces[v] = cellFaces(id, cell);
+        any = any || (id.dim == 2 && faces[v] != 0 && !id.isIsoEdgeVertex());
+    }
+    if (!any) return 0;
+    // The edges of the cell's triangles that lie in a cell face: (a, b, face
+    // bit). An edge of the face's section has a triangle on either side of
+    // the face, so the cell across has it too. (An edge of two of this
+    // cell's triangles is listed twice; it is asked twice, alike.)
+    SmallVector<std::array<uint32_t, 3>, 64> edges;
+    for (size_t k = 0; k + 2 < out.indices.size(); k += 3)
+        for (int e = 0; e < 3; ++e) {
+            const uint32_t a = out.indices[k + size_t(e)], b = out.indices[k + size_t((e + 1) % 3)];
+            const unsigned common = faces[a] & faces[b];
+            if (!common) continue;
+            for (unsigned bit = 0; bit < 6; ++bit)
+                if (common >> bit & 1u) edges.push_back({std::min(a, b), std::max(a, b), bit});
+        }
+    if (edges.empty()) return 0;
+    auto exact = [&](uint32_t v) { return exactWorldPosition(origin, spacing, out.indexPositions[v]); };
+    auto written = [&](uint32_t v) {
+        const dvec3 w = exact(v);
+        return glm::vec3(float(w.x), float(w.y), float(w.z));
+    };
+    struct Near
+    {
+        glm::vec3 a, b;
+        int side; // of the vertex to the edge's line, exactly (as double holds it)
+    };
+    // Vertex p's face, the two axes across it, and the float repair's reach
+    // at the face; the edges of that face whose line p passes within the
+    // reach, beside the edge (not beyond its ends), off the line; true when
+    // p is written on or across one of them.
+    auto nearEdges = [&](uint32_t p, unsigned& bit, int& i, int& j, SmallVector<Near, 8>& near) {
+        bit = 0;
+        while (!(faces[p] >> bit & 1u)) ++bit;
+        const int axis = int(bit / 2);
+        i = (axis + 1) % 3;
+        j = (axis + 2) % 3;
+        Coord lo = cell, hi = cell + Coord(1);
+        lo[axis] = hi[axis] = cell[axis] + int(bit % 2);
+        double extent = 0.0;
+        for (int x = 0; x < 3; ++x)
+            extent = std::max({extent, std::abs(origin[x] + spacing[x] * lo[x]), std::abs(origin[x] + spacing[x] * hi[x])});
+        const double reach = floatShortAt(extent);
+        near.clear();
+        const dvec3 ep = exact(p);
+        bool flipped = false;
+        for (const auto& e : edges) {
+            if (e[2] != bit || e[0] == p || e[1] == p) continue;
+            const dvec3 ea = exact(e[0]), eb = exact(e[1]);
+            // (Most edges are far: their box grown by the reach misses p.)
+            if (ep[i] < std::min(ea[i], eb[i]) - reach || ep[i] > std::max(ea[i], eb[i]) + reach ||
+                ep[j] < std::min(ea[j], eb[j]) - reach || ep[j] > std::max(ea[j], eb[j]) + reach)
+                continue;
+            const double abi = eb[i] - ea[i], abj = eb[j] - ea[j], len2 = abi * abi + abj * abj;
+            const double api = ep[i] - ea[i], apj = ep[j] - ea[j];
+            const double cross = abi * apj - abj * api, along = abi * api + abj * apj;
+            if (!(len2 > 0.0) || along <= 0.0 || along >= len2 || std::abs(cross) >= reach * std::sqrt(len2) ||
+                std::abs(cross) <= 1e-12 * len2)
+                continue;
+            near.push_back({written(e[0]), written(e[1]), cross > 0 ? 1 : -1});
+            flipped = flipped || int(orient2d(near.back().a, near.back().b, written(p), i, j)) != near.back().side;
+        }
+        return flipped;
+    };
+    // The candidates written on or across such a line, in name order (the
+    // two cells of the face take them alike).
+    SmallVector<Near, 8> near;
+    SmallVector<uint32_t, 8> flipped;
+    unsigned bit = 0;
+    int i = 0, j = 0;
+    for (uint32_t v = 0; v < uint32_t(nv); ++v) {
+        const CutVertexId& id = out.vertexIds[v];
+        if (id.dim == 2 && faces[v] != 0 && !id.isIsoEdgeVertex() && nearEdges(v, bit, i, j, near)) flipped.push_back(v);
+    }
+    if (flipped.empty()) return 0;
+    std::sort(flipped.begin(), flipped.end(), [&](uint32_t a, uint32_t b) { return out.vertexIds[a] < out.vertexIds[b]; });
+    size_t moved = 0;
+    for (uint32_t p : flipped) {
+        if (!nearEdges(p, bit, i, j, near)) continue; // (an earlier move can mend it)
+        // The first of the eight float neighbours of its point in the face
+        // (the face's coordinate kept) on the exact side of every such edge.
+        const glm::vec3 wp = written(p);
+        for (int k = 0; k < 9; ++k) {
+            if (k == 4) continue; // (0, 0)
+            const int step[2] = {k / 3 - 1, k % 3 - 1};
+            glm::vec3 target = wp;
+            dvec3 q = out.indexPositions[p];
+            bool ok = true;
+            for (int d = 0; d < 2 && ok; ++d) {
+                if (step[d] == 0) continue;
+                const int ax = d == 0 ? i : j;
+                constexpr float kInf = std::numeric_limits<float>::infinity();
+                target[ax] = std::nextafter(wp[ax], step[d] > 0 ? kInf : -kInf);
+                q[ax] = indexWritingAs(target[ax], ax, origin, spacing);
+                ok = q[ax] > double(cell[ax]) && q[ax] < double(cell[ax] + 1); // inside the face (NaN: none)
+            }
+            for (size_t n = 0; n < near.size() && ok; ++n) ok = int(orient2d(near[n].a, near[n].b, target, i, j)) == near[n].side;
+            if (!ok) continue;
+            out.indexPositions[p] = q;
+            ++moved;
+            break;
+        }
+    }
+    return moved;
 }
 
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,

@@ -3,8 +3,8 @@
 // are rounded to float world mm, as fusedMesh() writes them. Each rule is a
 // function of a cell's geometry (or of a vertex's name) and the grid's
 // transform alone, so live, undone and from-scratch cuts mend alike. The
-// kernel (RemeshKernel.cpp) runs snapToGridVertices, liftOffCellFaces and
-// repairFloatFolds on every cell it makes; the snap rounding rules
+// kernel (RemeshKernel.cpp) runs snapToGridVertices, liftOffCellFaces,
+// keepFaceSidesOnceWritten and repairFloatFolds on every cell it makes; the snap rounding rules
 // (joinsAlongGridEdge, joinsRoundCubeEdge) are asked by fusedMesh() and the
 // local check. Internal to cutter/; no GL.
 #pragma once
@@ -66,6 +66,24 @@ size_t snapToGridVertices(const openvdb::Vec3d& origin, const openvdb::Vec3d& sp
 /// vertices moved.
 size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
                         CutCellGeometry& out);
+
+/// A vertex inside one of the cell's faces (not the isosurface's own) that
+/// lies within kFloatStepsShort float steps of the line of an edge of the
+/// face's section (an edge of the cell's triangles in that face, beside it,
+/// not beyond its ends) and is written on the line or across it (its float
+/// point's side, exactly, differs from its exact side) is written one float
+/// step over instead: the first of the eight float neighbours of its point in
+/// the face (the face's coordinate kept) that is on the exact side of every
+/// such edge; left where none is. Rounded across, the triangles at it and at
+/// the edge cross once written (two prisms of a blade pivoting on a corner
+/// meet in the face: 2 mm head at -300, kerf 0.5, random strokes seed 9037,
+/// a prism's corner line 1.25e-5 mm beside the other's edge at z = 1061 mm,
+/// where a float step is 1.2e-4 mm). The face's section is the same in both
+/// of its cells (each edge of it has a triangle on either side), and the
+/// vertices are taken in name order, so both cells move the same vertices
+/// the same way. Run before repairFloatFolds; returns the vertices moved.
+size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                                CutCellGeometry& out);
 
 /// Float folds (DESIGN invariant 7 once written): a triangle of `out` whose
 /// float world position (origin + spacing * index, rounded to float, as

@@ -2710,6 +2710,7 @@ void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, b
     mKernel->remesh(cell, quads, prism, out);
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
+    keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
     repairFloatFolds(cell, mOrigin, mSpacing, out);
 }
 
@@ -2718,6 +2719,7 @@ void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, b
     mKernel->finishCell(cell, quads, prism, out);
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
+    keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
     repairFloatFolds(cell, mOrigin, mSpacing, out);
 }
 

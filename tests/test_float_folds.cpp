@@ -23,6 +23,7 @@ namespace {
 using mtcut::cutter::CutCellGeometry;
 using mtcut::cutter::CutVertexId;
 using mtcut::cutter::gridVertexId;
+using mtcut::cutter::remesh_detail::keepFaceSidesOnceWritten;
 using mtcut::cutter::remesh_detail::liftOffCellFaces;
 using mtcut::cutter::remesh_detail::repairFloatFolds;
 using mtcut::cutter::remesh_detail::snapToGridVertices;
@@ -808,6 +809,75 @@ TEST(FloatFolds, APrivateVertexRoundedIntoItsCellsFaceIsPutAFloatStepInside)
     EXPECT_EQ(float(origin2.z + spacing2.z * h.indexPositions[V].z), std::nextafter(low, high));
     EXPECT_EQ(float(origin2.z + spacing2.z * h.indexPositions[U].z), std::nextafter(high, low));
     EXPECT_EQ(h.indexPositions[T].z, 160.0 + 1e-6 / spacing2.z);
+}
+
+// Two prisms of a blade that pivots on a corner meet in a cell face: a
+// vertex of one's section of the face lies 1.25e-5 mm beside an edge of the
+// other's, and rounded to float (a step is 1.2e-4 mm at z = 1061 mm) it
+// lands on that edge, so the triangles at it and at the edge cross once
+// written (2 mm head at -300, kerf 0.5, random strokes seed 9037). Both
+// cells of the face put it a float step over, to the side it is on.
+TEST(FloatFolds, AFaceVertexRoundedAcrossAnEdgeOfTheFaceIsPutBackInBothCells)
+{
+    const openvdb::Vec3d origin(0.0, 0.0, 1000.0), spacing(1.0);
+    const Coord below(0, 0, 60), above(0, 1, 60); // the face y = 1 between them
+    // A tet face in y = 1; the edge A B on the line z = 1000 + x + 60.
+    auto face = [](uint64_t p0, uint64_t p1) { return faceVertex({0, 1, 60}, {1, 1, 60}, {1, 1, 61}, p0, p1); };
+    const CutVertexId a = face(0x1000000002, 0x1000000008), bId = face(0x1000000002, 0x1000000003);
+    const CutVertexId p = face(0x1000000022, 0x1000000023), c = face(0x1000000022, 0x1000000028);
+    const CutVertexId iso = edgeVertex({1, 1, 60}, {1, 1, 61}, 1); // the isosurface's: never moved
+    const dvec3 atA(0.25, 1.0, 60.25), atB(0.75, 1.0, 60.75);
+    const dvec3 atP(0.5, 1.0, 60.5 - 1.25e-5); // below the line; written on it
+    const dvec3 atC(0.9, 1.0, 60.1), atIso(1.0, 1.0, 60.5);
+    auto cellOf = [&](const Coord& cell) {
+        Builder b;
+        const uint32_t A = b.add(a, atA), B = b.add(bId, atB), P = b.add(p, atP), C = b.add(c, atC);
+        const uint32_t I = b.add(iso, atIso);
+        const uint32_t X = b.add(innerVertex(cell, 0, 9), {0.5, cell.y() + 0.5, 60.5});
+        // A B and P C lie in the face: edges of the face's section, which
+        // both cells' triangles use (each the other way round).
+        if (cell == below) {
+            b.tri(A, B, X);
+            b.tri(P, C, X);
+            b.tri(C, I, X);
+        } else {
+            b.tri(B, A, X);
+            b.tri(C, P, X);
+            b.tri(I, C, X);
+        }
+        return b.g;
+    };
+    auto writtenOf = [&](const dvec3& x) {
+        return glm::vec3(float(origin.x() + x.x), float(origin.y() + x.y), float(origin.z() + x.z));
+    };
+    // In the face (z, x): exactly below the line, written on it.
+    using mtcut::cutter::orient2d;
+    using mtcut::cutter::Sign;
+    const glm::vec3 wA = writtenOf(atA), wB = writtenOf(atB);
+    ASSERT_EQ(orient2d(wA, wB, writtenOf(atP), 2, 0), Sign::Zero);
+    const Sign exactSide = orient2d(glm::vec3(atA), glm::vec3(atB), glm::vec3(0.5f, 1.0f, 60.4f), 2, 0);
+    ASSERT_NE(exactSide, Sign::Zero);
+    CutCellGeometry lo = cellOf(below), hi = cellOf(above);
+    EXPECT_EQ(keepFaceSidesOnceWritten(below, origin, spacing, lo), 1u);
+    EXPECT_EQ(keepFaceSidesOnceWritten(above, origin, spacing, hi), 1u);
+    const uint32_t P = 2;
+    EXPECT_EQ(lo.indexPositions[P], hi.indexPositions[P]) << "both cells of the face move it alike";
+    const glm::vec3 wP = writtenOf(lo.indexPositions[P]);
+    EXPECT_EQ(orient2d(wA, wB, wP, 2, 0), exactSide);
+    EXPECT_EQ(wP.y, 1.0f) << "it stays in the face";
+    EXPECT_LE(std::abs(double(wP.z) - double(writtenOf(atP).z)), 1.3e-4) << "a float step at most";
+    EXPECT_LE(std::abs(double(wP.x) - double(writtenOf(atP).x)), 1e-7);
+    for (uint32_t v : {0u, 1u, 3u, 4u, 5u}) EXPECT_EQ(lo.indexPositions[v], cellOf(below).indexPositions[v]) << v;
+    EXPECT_EQ(keepFaceSidesOnceWritten(below, origin, spacing, lo), 0u) << "nothing left";
+    // Left alone: the same vertex 3e-4 mm below the line (written below
+    // it), and one exactly on the line (on it, written on it).
+    for (double off : {3e-4, 0.0}) {
+        CutCellGeometry g = cellOf(below);
+        g.indexPositions[P].z = 60.5 - off;
+        const dvec3 before = g.indexPositions[P];
+        EXPECT_EQ(keepFaceSidesOnceWritten(below, origin, spacing, g), 0u) << off;
+        EXPECT_EQ(g.indexPositions[P], before) << off;
+    }
 }
 
 TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)

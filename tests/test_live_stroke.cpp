@@ -32,9 +32,9 @@ bool sameMesh(const Mesh& a, const Mesh& b)
 /// `live` cut whole.
 struct StrokeCut
 {
-    StrokeCut(const std::string& path, double kerf, uint32_t seed, size_t live)
-        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false})),
-          mask(frameOf(vol), kerf), remesher(vol, 400.0f, uncut)
+    StrokeCut(const std::string& path, double kerf, uint32_t seed, size_t live, float iso = 400.0f)
+        : iso(iso), vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false})),
+          mask(frameOf(vol), kerf), remesher(vol, iso, uncut)
     {
         const auto strokes = makeRandomStrokes(mask.frame(), seed, int(live) + 1, 150 + 50 * int(seed % 5),
                                                0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
@@ -48,13 +48,14 @@ struct StrokeCut
     /// The cut of the same mask from scratch equals the live one, and is clean.
     void expectSameAsFromScratch()
     {
-        CutRemesher scratch(vol, 400.0f, uncut);
+        CutRemesher scratch(vol, iso, uncut);
         scratch.update(mask);
         const Mesh fused = remesher.fusedMesh();
         EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the live cut differs from a from-scratch cut";
         const MeshCheck check = checkMesh(fused);
         EXPECT_TRUE(check.ok()) << check.report();
     }
+    float iso;
     vdb::Volume vol;
     Mesh uncut;
     CutMask mask;
@@ -198,10 +199,10 @@ TEST(LiveStroke, PatienceBelowOneIsRefused)
 /// from-scratch cut of the same mask. `strokeQuads`, when given, pins the
 /// stroke's whole length (the stroke the test was written for).
 void expectEveryUpdateAccepted(const std::string& path, uint32_t seed, size_t stroke, size_t quads = 0,
-                               size_t strokeQuads = 0)
+                               size_t strokeQuads = 0, float iso = 400.0f)
 {
     SCOPED_TRACE("seed " + std::to_string(seed) + " stroke " + std::to_string(stroke));
-    StrokeCut cut(path, 0.5, seed, stroke);
+    StrokeCut cut(path, 0.5, seed, stroke, iso);
     if (strokeQuads != 0) {
         ASSERT_EQ(cut.quads.size(), strokeQuads);
     }
@@ -244,13 +245,15 @@ TEST(LiveStroke, ASliverOfIsosurfaceRoundACubeEdgeDoesNotStopTheStroke)
 // and the face's diagonal), its apex 6.1e-5 mm below the face, rounded flat
 // into it and overlapping itself; the float repair could not move the apex
 // without laying a triangle into the face. When a cell's own triangles
-// cross, it now may (FloatFolds.ATentOverAFaceTriangle...). (The stroke
-// still stops at its 202nd quad, another cell: two vertices of one face at
-// one float position with no edge between them.)
+// cross, it now may (FloatFolds.ATentOverAFaceTriangle...). At its 202nd
+// quad it then stopped in another cell (two vertices of one face at one
+// float position with no edge between them) until a face vertex rounded
+// across an edge of the face was put back (FloatFolds.AFaceVertexRounded...):
+// the whole stroke now runs.
 TEST(LiveStroke, ATentRoundedIntoACellFaceIsFlattenedThere)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    expectEveryUpdateAccepted(dir, 9202, 0, 201);
+    expectEveryUpdateAccepted(dir, 9202, 0);
 }
 
 // Tooth, kerf 0.5, seed 9124, stroke 0: from its 6th quad on, quad 4's
@@ -298,4 +301,23 @@ TEST(LiveStroke, AVertexRoundedIntoItsCellsFaceDoesNotStopTheStroke)
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
     expectEveryUpdateAccepted(path, 9127, 0, 30, 245);
     expectEveryUpdateAccepted(path, 9065, 2, 30, 101);
+}
+
+// The 2 mm head at -300 (the skin), kerf 0.5, seed 9037, stroke 0: the
+// blade pivots on its base corner, and the path filter splits the turn into
+// two triangles, so three prisms meet round that corner. In face y = 278 mm
+// of cells (82, 71, 30) and (82, 72, 30) the corner line of one prism passes
+// 1.25e-5 mm beside the edge of another's section, and rounded to float (a
+// step is 1.2e-4 mm at z = 1061 mm) it landed on that edge: the triangles
+// crossed, and the stroke stopped with 61 of its 101 quads (7 updates
+// deferred before). Both cells now write that vertex a float step over
+// (FloatFolds.AFaceVertexRoundedAcrossAnEdgeOfTheFaceIsPutBackInBothCells).
+// The tooth's seed 9033 (stroke 0 stopped at its 27th quad of 211: three
+// blade lines within 2.7e-5 mm of each other in face z = 49) likewise.
+TEST(LiveStroke, AFaceVertexRoundedAcrossAnEdgeOfTheFaceDoesNotStopTheStroke)
+{
+    MTCUT_REQUIRE_DATA(skin, "vhm_head_2mm.nhdr");
+    expectEveryUpdateAccepted(skin, 9037, 0, 0, 101, -300.0f);
+    MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
+    expectEveryUpdateAccepted(tooth, 9033, 0, 40, 211);
 }
