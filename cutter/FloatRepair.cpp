@@ -137,6 +137,17 @@ double indexWritingAs(float target, int axis, const openvdb::Vec3d& origin, cons
     return writes(x) == target ? x : std::numeric_limits<double>::quiet_NaN();
 }
 
+/// The largest world coordinate (mm, absolute) of the grid box [lo, hi]: a
+/// cell's, or a face's (lo and hi equal on its axis), as the float repair's
+/// reach is judged there.
+double boxExtent(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, const Coord& lo, const Coord& hi)
+{
+    double e = 0.0;
+    for (int a = 0; a < 3; ++a)
+        e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
+    return e;
+}
+
 } // namespace
 
 size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
@@ -267,10 +278,7 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
         j = (axis + 2) % 3;
         Coord lo = cell, hi = cell + Coord(1);
         lo[axis] = hi[axis] = cell[axis] + int(bit % 2);
-        double extent = 0.0;
-        for (int x = 0; x < 3; ++x)
-            extent = std::max({extent, std::abs(origin[x] + spacing[x] * lo[x]), std::abs(origin[x] + spacing[x] * hi[x])});
-        const double reach = floatShortAt(extent);
+        const double reach = floatShortAt(boxExtent(origin, spacing, lo, hi));
         near.clear();
         const dvec3 ep = exact(p);
         bool flipped = false;
@@ -371,12 +379,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     // face, as the cell on its other side judges it (a cell's own extent
     // differs across a face whose coordinate is its larger one; tooth seed
     // 1002 at z = 98 mm).
-    auto extentOf = [&](const Coord& lo, const Coord& hi) {
-        double e = 0.0;
-        for (int a = 0; a < 3; ++a)
-            e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
-        return e;
-    };
+    auto extentOf = [&](const Coord& lo, const Coord& hi) { return boxExtent(origin, spacing, lo, hi); };
     const double shortEdge = floatShortAt(extentOf(cell, cell + Coord(1)));
     auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
     // face: bit 2 * axis + side (cellFaces).
