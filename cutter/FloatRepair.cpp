@@ -39,6 +39,25 @@ bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const 
     return glm::length(dvec3(otherAt) - dvec3(isoAt)) < floatShortAt(extent);
 }
 
+bool pinchInFaceCandidate(const CutVertexId& a, const CutVertexId& b)
+{
+    return a.dim == 2 && b.dim == 2 && a.tagCount == 0 && b.tagCount == 0 && a.feature == b.feature && a < b;
+}
+
+bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const glm::vec3& keepAt,
+                      const glm::vec3& otherAt, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
+{
+    if (!pinchInFaceCandidate(keep, other)) return false;
+    double extent = 0.0;
+    for (const uint64_t id : keep.feature) {
+        const Coord g = gridVertexCoord(id);
+        const dvec3 w = exactWorldPosition(origin, spacing, dvec3(g.x(), g.y(), g.z()));
+        extent = std::max({extent, std::abs(w.x), std::abs(w.y), std::abs(w.z)});
+    }
+    return glm::length(dvec3(otherAt) - dvec3(keepAt)) <
+           kFloatStepsPinch * extent * double(std::numeric_limits<float>::epsilon());
+}
+
 bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b)
 {
     if (a.dim != 2 || b.dim != 2 || a.tagCount != 0 || b.tagCount != 0 || a.planeCount == 0 ||

@@ -5,7 +5,7 @@
 // transform alone, so live, undone and from-scratch cuts mend alike. The
 // kernel (RemeshKernel.cpp) runs snapToGridVertices, liftOffCellFaces,
 // keepFaceSidesOnceWritten and repairFloatFolds on every cell it makes; the snap rounding rules
-// (joinsAlongGridEdge, joinsRoundCubeEdge) are asked by fusedMesh() and the
+// (joinsAlongGridEdge, joinsPinchInFace, joinsRoundCubeEdge) are asked by fusedMesh() and the
 // local check. Internal to cutter/; no GL.
 #pragma once
 
@@ -29,6 +29,10 @@ using openvdb::Coord;
 /// strokes; 8 does too, moving more vertices further); snapToGridVertices
 /// and joinsAlongGridEdge take the same reach.
 constexpr double kFloatStepsShort = 2.0;
+/// The reach of joinsPinchInFace: a pinch the repair leaves is a few of its
+/// own steps long (2.4 in the one seen); it is only asked of edges that are
+/// refused otherwise.
+constexpr double kFloatStepsPinch = 4.0;
 double floatShortAt(double extent);
 
 /// Sub-float clusters at a grid vertex: a new vertex of `out` (not a plain
@@ -149,6 +153,29 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
 /// edge the rest of the pipeline refuses (used four times) is asked.
 bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const glm::vec3& isoAt, const glm::vec3& otherAt,
                         const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
+
+/// Snap rounding's third rule (fusedMesh and the local check alike): an
+/// edge between two vertices of one tet face (`keep`, the lower name, and
+/// `other`; both inside the face, untagged), used twice each way, joins its
+/// ends into `keep`'s position when they lie within kFloatStepsPinch float
+/// steps (at the face's largest world coordinate) of each other as written.
+/// Such an edge is a pinch the float repair makes of a sub-float notch: a
+/// prism's corner line (two of its sides' line) meets the isosurface a
+/// float step below a cell face, beside where it crosses the face; the
+/// notch's four vertices, 3e-4 mm apart, round into the face or collapse
+/// (the face rule, repairFloatFolds) in both cells of the face, so each
+/// cell's iso and cap triangles meet in the face along the iso line's
+/// segment between the two sides, once each way in each cell (1 mm head at
+/// 400, kerf 0.5, random strokes seed 9355: 3.4e-4 mm, 2.4 float steps at
+/// z = 1209 mm). Joined, the four triangles on the edge collapse and the
+/// two parts of solid meet at one point, a pinch, which fusedMesh splits
+/// with kerf > 0. Only an edge the rest of the pipeline refuses is asked.
+bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const glm::vec3& keepAt,
+                      const glm::vec3& otherAt, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
+
+/// The cheap half of joinsPinchInFace, by name alone: two untagged vertices
+/// of the same tet face, `a` the lower name.
+bool pinchInFaceCandidate(const CutVertexId& a, const CutVertexId& b);
 
 /// True when a and b lie in two cell faces that meet at a cube edge (their
 /// tet faces share its two grid vertices), on the same planes, untagged:

@@ -240,6 +240,7 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         const CutVertexId *keepId, *otherId;
     };
     std::vector<RoundEdge> round;
+    std::vector<Along> inFace; // edges inside a tet face (joinsPinchInFace): iso = the lower name
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
@@ -274,6 +275,12 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
                 if (a.dim == 2 && b.dim == 2 && a < b && remesh_detail::facesMeetAtCubeEdge(a, b))
                     round.push_back(RoundEdge{index[geom.indices[i + size_t(j)]],
                                               index[geom.indices[i + size_t(j + 1) % 3]], &a, &b});
+                if (a.dim == 2 && b.dim == 2) {
+                    const uint32_t ia = index[geom.indices[i + size_t(j)]],
+                                   ib = index[geom.indices[i + size_t(j + 1) % 3]];
+                    if (remesh_detail::pinchInFaceCandidate(a, b)) inFace.push_back(Along{ia, ib, 0, &a, &b});
+                    else if (remesh_detail::pinchInFaceCandidate(b, a)) inFace.push_back(Along{ib, ia, 1, &b, &a});
+                }
                 // An edge along a grid edge from its iso vertex (joinsAlongGridEdge).
                 if (a.dim != 1 || b.dim != 1 || a.feature[0] != b.feature[0] || a.feature[1] != b.feature[1] ||
                     a.isIsoEdgeVertex() == b.isIsoEdgeVertex())
@@ -321,21 +328,39 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     // An edge from an iso vertex along its grid edge, used twice each way
     // and shorter than two float steps: its ends are one vertex, the iso
     // vertex (remesh_detail::joinsAlongGridEdge; the local check's snapRound).
-    std::sort(along.begin(), along.end(), [](const Along& x, const Along& y) {
+    auto byEdge = [](const Along& x, const Along& y) {
         return std::tie(x.iso, x.other, x.dir) < std::tie(y.iso, y.other, y.dir);
-    });
-    for (size_t i = 0, j = 0; i < along.size(); i = j) {
-        size_t each[2] = {0, 0};
-        for (j = i; j < along.size() && along[j].iso == along[i].iso && along[j].other == along[i].other; ++j)
-            ++each[along[j].dir];
-        const Along& e = along[i];
-        if (each[0] != 2 || each[1] != 2 ||
-            !remesh_detail::joinsAlongGridEdge(*e.isoId, *e.otherId, m.positions[e.iso], m.positions[e.other],
+    };
+    // Runs of one edge in a sorted list, with its uses each way.
+    auto usedTwiceEachWay = [](const std::vector<Along>& edges, auto&& visit) {
+        for (size_t i = 0, j = 0; i < edges.size(); i = j) {
+            size_t each[2] = {0, 0};
+            for (j = i; j < edges.size() && edges[j].iso == edges[i].iso && edges[j].other == edges[i].other; ++j)
+                ++each[edges[j].dir];
+            if (each[0] == 2 && each[1] == 2) visit(edges[i]);
+        }
+    };
+    std::sort(along.begin(), along.end(), byEdge);
+    usedTwiceEachWay(along, [&](const Along& e) {
+        if (!remesh_detail::joinsAlongGridEdge(*e.isoId, *e.otherId, m.positions[e.iso], m.positions[e.other],
                                                mVolume->origin(), mVolume->spacing()))
-            continue;
+            return;
         const uint32_t ra = find(e.iso), rb = find(e.other);
         if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
-    }
+    });
+    // An edge inside a tet face used twice each way and shorter than
+    // kFloatStepsPinch float steps: its ends are one vertex, at the lower
+    // name's position (remesh_detail::joinsPinchInFace; the local check's
+    // snapRound).
+    std::sort(inFace.begin(), inFace.end(), byEdge);
+    usedTwiceEachWay(inFace, [&](const Along& e) {
+        if (!remesh_detail::joinsPinchInFace(*e.isoId, *e.otherId, m.positions[e.iso], m.positions[e.other],
+                                             mVolume->origin(), mVolume->spacing()))
+            return;
+        m.positions[e.other] = m.positions[e.iso];
+        const uint32_t ra = find(e.iso), rb = find(e.other);
+        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+    });
     // Two vertices of faces round a cube edge, both rounded to within two
     // float steps of it and of each other: one vertex, the lower name's position
     // (remesh_detail::joinsRoundCubeEdge; the local check's snapRound).

@@ -508,7 +508,9 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
 /// Snap rounding, as fusedMesh() does it: an edge from a marching-tetrahedra
 /// vertex along its grid edge used twice each way and shorter than two float
 /// steps (remesh_detail::joinsAlongGridEdge) has its ends joined into the
-/// iso vertex, two vertices of faces round a cube edge both rounded to
+/// iso vertex, an edge inside a tet face used twice each way and shorter
+/// than kFloatStepsPinch float steps (joinsPinchInFace) has its ends joined
+/// at the lower name's position, two vertices of faces round a cube edge both rounded to
 /// within two float steps of it and of each other (joinsRoundCubeEdge) are
 /// one, at the lower name's position, names joined by an edge at one float
 /// position are one vertex
@@ -549,6 +551,30 @@ void snapRound(const vdb::Volume& volume, LocalRegion& reg)
                                                volume.spacing()))
             continue;
         rep[find(other)] = find(iso);
+    }
+    // Edges inside a tet face used twice each way (joinsPinchInFace): one
+    // vertex, at the lower name's position.
+    std::vector<std::array<uint32_t, 3>> inFace; // (lower name, other, direction)
+    for (const Tri& tr : tris)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
+            if (ids[a].dim != 2 || ids[b].dim != 2) continue;
+            if (remesh_detail::pinchInFaceCandidate(ids[a], ids[b])) inFace.push_back({a, b, 0});
+            else if (remesh_detail::pinchInFaceCandidate(ids[b], ids[a])) inFace.push_back({b, a, 1});
+        }
+    std::sort(inFace.begin(), inFace.end());
+    for (size_t i = 0, j = 0; i < inFace.size(); i = j) {
+        size_t each[2] = {0, 0};
+        for (j = i; j < inFace.size() && inFace[j][0] == inFace[i][0] && inFace[j][1] == inFace[i][1]; ++j)
+            ++each[inFace[j][2]];
+        const uint32_t keep = inFace[i][0], other = inFace[i][1];
+        if (each[0] != 2 || each[1] != 2 || !known[keep] || !known[other] ||
+            !remesh_detail::joinsPinchInFace(ids[keep], ids[other], world[keep], world[other], volume.origin(),
+                                             volume.spacing()))
+            continue;
+        world[other] = world[keep];
+        const uint32_t ra = find(keep), rb = find(other);
+        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
     }
     // Two vertices of faces round a cube edge (joinsRoundCubeEdge): one, at
     // the lower name's position.

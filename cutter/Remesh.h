@@ -64,7 +64,9 @@
 // Snap rounding (fusedMesh): new vertices joined by an edge that round to
 // the same float position are one vertex of the written mesh, and so are
 // the ends of an edge from an isosurface vertex along its grid edge that
-// four triangles use, a float step long (remesh_detail::joinsAlongGridEdge);
+// four triangles use, a float step long (remesh_detail::joinsAlongGridEdge),
+// and of an edge inside a tet face that four triangles use, a few float
+// steps long (remesh_detail::joinsPinchInFace);
 // the triangles that collapse are dropped, and so are the pairs it folds
 // back onto each other (remesh_detail::markCancellingPairs); the local
 // check judges the mesh after that step.

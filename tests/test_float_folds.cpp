@@ -684,6 +684,37 @@ TEST(FloatFolds, OnlyAnIsoVertexAndABladeVertexOfItsGridEdgeAFloatStepApartJoinA
     EXPECT_FALSE(joinsAlongGridEdge(iso, blade, y, y + glm::vec3(1e-6f, 0, 0), openvdb::Vec3d(0.0), spacing));
 }
 
+// Snap rounding's rule for an edge inside a tet face used four times (1 mm
+// head at 400, kerf 0.5, seed 9355: a prism's corner line meets the
+// isosurface a float step below face z = 1209 mm; the notch's vertices
+// round into the face or collapse in both cells, whose iso and cap
+// triangles then meet along the iso line's segment between the two sides,
+// 3.4e-4 mm long): only two untagged vertices of one tet face, the lower
+// name first, within four float steps at the face's largest coordinate.
+TEST(FloatFolds, OnlyTwoVerticesOfATetFaceAFewFloatStepsApartJoinAtAPinch)
+{
+    using mtcut::cutter::remesh_detail::joinsPinchInFace;
+    const openvdb::Vec3d origin(1000.0), spacing(1.0);
+    const Coord f0(1, 1, 1), f1(2, 1, 1), f2(1, 2, 1);
+    CutVertexId a = faceVertex(f0, f1, f2, 1, 200), b = faceVertex(f0, f1, f2, 1, 201);
+    if (b < a) std::swap(a, b);
+    // Floats at 1001.5 are 6.1e-5 mm apart; the reach, 4 epsilon x 1002 mm
+    // (the face's largest coordinate), is 4.8e-4 mm.
+    const glm::vec3 x(1001.5f, 1001.25f, 1001.0f);
+    EXPECT_TRUE(joinsPinchInFace(a, b, x, x + glm::vec3(3.4e-4f, 0, 0), origin, spacing));
+    EXPECT_FALSE(joinsPinchInFace(a, b, x, x + glm::vec3(6e-4f, 0, 0), origin, spacing)) << "beyond the reach";
+    EXPECT_FALSE(joinsPinchInFace(b, a, x, x + glm::vec3(1e-4f, 0, 0), origin, spacing)) << "the lower name first";
+    EXPECT_FALSE(joinsPinchInFace(a, faceVertex(f0, f1, Coord(2, 2, 1), 1, 201), x, x, origin, spacing))
+        << "another tet face";
+    EXPECT_FALSE(joinsPinchInFace(a, edgeVertex(f0, f1, 201), x, x, origin, spacing)) << "a vertex of its edge";
+    CutVertexId tagged = b;
+    tagged.tags[tagged.tagCount++] = 201u << 1;
+    EXPECT_FALSE(joinsPinchInFace(a, tagged, x, x, origin, spacing)) << "a side or pinch copy";
+    // Near the origin a float step is smaller, and so is the reach.
+    const glm::vec3 y(1.5f, 1.25f, 1.0f);
+    EXPECT_FALSE(joinsPinchInFace(a, b, y, y + glm::vec3(1e-6f, 0, 0), openvdb::Vec3d(0.0), spacing));
+}
+
 // Snap rounding's rule for two vertices of faces round a cube edge (1 mm
 // head at 400, kerf 0.5, seed 9065: the isosurface's line on a kerf plane
 // crossing faces z = 1053 and x = 212 1.6e-5 mm apart beside their edge):
