@@ -39,9 +39,22 @@ bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const 
     return glm::length(dvec3(otherAt) - dvec3(isoAt)) < floatShortAt(extent);
 }
 
-bool pinchInFaceCandidate(const CutVertexId& a, const CutVertexId& b)
+float snapLookSq(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
 {
-    return a.dim == 2 && b.dim == 2 && a.tagCount == 0 && b.tagCount == 0 && a.feature == b.feature && a < b;
+    const dvec3 lo = exactWorldPosition(origin, spacing, dvec3(cell.x(), cell.y(), cell.z()));
+    const dvec3 hi = exactWorldPosition(origin, spacing, dvec3(cell.x() + 1, cell.y() + 1, cell.z() + 1));
+    const dvec3 m = glm::max(glm::abs(lo), glm::abs(hi));
+    const double look = kFloatStepsLook * std::max({m.x, m.y, m.z}) * double(std::numeric_limits<float>::epsilon());
+    return float(look * look);
+}
+
+bool pinchInFaceCandidate(const CutVertexId& keep, const CutVertexId& other)
+{
+    if (other.dim != 2 || other.tagCount != 0 || keep.tagCount != 0) return false;
+    if (keep.dim == 2) return keep.feature == other.feature && keep < other;
+    // A vertex of one of the face's edges.
+    return keep.dim == 1 && std::count(other.feature.begin(), other.feature.end(), keep.feature[0]) &&
+           std::count(other.feature.begin(), other.feature.end(), keep.feature[1]);
 }
 
 bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const glm::vec3& keepAt,
@@ -49,7 +62,7 @@ bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const g
 {
     if (!pinchInFaceCandidate(keep, other)) return false;
     double extent = 0.0;
-    for (const uint64_t id : keep.feature) {
+    for (const uint64_t id : other.feature) {
         const Coord g = gridVertexCoord(id);
         const dvec3 w = exactWorldPosition(origin, spacing, dvec3(g.x(), g.y(), g.z()));
         extent = std::max({extent, std::abs(w.x), std::abs(w.y), std::abs(w.z)});

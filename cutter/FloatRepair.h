@@ -155,27 +155,43 @@ bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const 
                         const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
 /// Snap rounding's third rule (fusedMesh and the local check alike): an
-/// edge between two vertices of one tet face (`keep`, the lower name, and
-/// `other`; both inside the face, untagged), used twice each way, joins its
-/// ends into `keep`'s position when they lie within kFloatStepsPinch float
-/// steps (at the face's largest world coordinate) of each other as written.
-/// Such an edge is a pinch the float repair makes of a sub-float notch: a
-/// prism's corner line (two of its sides' line) meets the isosurface a
-/// float step below a cell face, beside where it crosses the face; the
-/// notch's four vertices, 3e-4 mm apart, round into the face or collapse
-/// (the face rule, repairFloatFolds) in both cells of the face, so each
-/// cell's iso and cap triangles meet in the face along the iso line's
-/// segment between the two sides, once each way in each cell (1 mm head at
-/// 400, kerf 0.5, random strokes seed 9355: 3.4e-4 mm, 2.4 float steps at
-/// z = 1209 mm). Joined, the four triangles on the edge collapse and the
-/// two parts of solid meet at one point, a pinch, which fusedMesh splits
-/// with kerf > 0. Only an edge the rest of the pipeline refuses is asked.
+/// edge from a vertex inside a tet face (`other`) to another vertex of the
+/// closed face (`keep`: inside it with a lower name, or on one of its
+/// edges), both untagged, used twice each way, joins its ends into `keep`
+/// (at its position) when they lie within kFloatStepsPinch float steps (at
+/// the face's largest world coordinate) of each other as written. Such an
+/// edge is a pinch the float repair leaves of a sliver thinner than float:
+/// - a prism's corner line (two of its sides' line) meets the isosurface a
+///   float step below a cell face, beside where it crosses the face; the
+///   notch's four vertices, 3e-4 mm apart, round into the face or collapse
+///   (the face rule, repairFloatFolds) in both cells of the face, so each
+///   cell's iso and cap triangles meet in the face along the iso line's
+///   segment between the two sides, once each way in each cell (1 mm head
+///   at 400, kerf 0.5, random strokes seed 9355: 3.4e-4 mm, 2.4 float
+///   steps at z = 1209 mm);
+/// - an offset plane crosses a tet face inside a cell 8e-6 mm beside the
+///   isosurface's vertex on the face's diagonal, and the sliver of solid
+///   between them is pinched there from both sides (tooth at 400, kerf 0.5,
+///   seed 9273, all four triangles in one cell).
+/// Joined, the four triangles on the edge collapse and the two parts of
+/// solid meet at one point, a pinch, which fusedMesh splits with kerf > 0
+/// (at a marching-tetrahedra vertex, when every cell round its grid edge
+/// is cut). Only an edge the rest of the pipeline refuses is asked.
 bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const glm::vec3& keepAt,
                       const glm::vec3& otherAt, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
-/// The cheap half of joinsPinchInFace, by name alone: two untagged vertices
-/// of the same tet face, `a` the lower name.
-bool pinchInFaceCandidate(const CutVertexId& a, const CutVertexId& b);
+/// The cheap half of joinsPinchInFace, by name alone.
+bool pinchInFaceCandidate(const CutVertexId& keep, const CutVertexId& other);
+
+/// Snap rounding's rules join only the ends of an edge a few float steps
+/// long (within kFloatStepsShort or kFloatStepsPinch steps at the largest
+/// world coordinate of its grid edge or face, which the cell's bounds; a
+/// root a few steps from a name joined into it), so fusedMesh and the local
+/// check look only at the edges of a cell's triangles shorter than this:
+/// kFloatStepsLook float steps at the cell's largest world coordinate,
+/// squared (float world mm).
+constexpr double kFloatStepsLook = 16.0;
+float snapLookSq(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
 /// True when a and b lie in two cell faces that meet at a cube edge (their
 /// tet faces share its two grid vertices), on the same planes, untagged:

@@ -240,7 +240,7 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         const CutVertexId *keepId, *otherId;
     };
     std::vector<RoundEdge> round;
-    std::vector<Along> inFace; // edges inside a tet face (joinsPinchInFace): iso = the lower name
+    std::vector<Along> inFace; // edges inside a closed tet face (joinsPinchInFace): iso = the one kept
     for (const auto& [cell, geom] : mCells) {
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
@@ -267,6 +267,7 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
             index[v] = it->second;
         }
         const size_t firstOfCell = newVoxels.size();
+        const float lookSq = remesh_detail::snapLookSq(cell, mVolume->origin(), mVolume->spacing());
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             for (int j = 0; j < 3; ++j) {
                 newIndices.push_back(index[geom.indices[i + size_t(j)]]);
@@ -275,11 +276,14 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
                 if (a.dim == 2 && b.dim == 2 && a < b && remesh_detail::facesMeetAtCubeEdge(a, b))
                     round.push_back(RoundEdge{index[geom.indices[i + size_t(j)]],
                                               index[geom.indices[i + size_t(j + 1) % 3]], &a, &b});
-                if (a.dim == 2 && b.dim == 2) {
+                if (a.dim == 2 || b.dim == 2) {
                     const uint32_t ia = index[geom.indices[i + size_t(j)]],
                                    ib = index[geom.indices[i + size_t(j + 1) % 3]];
-                    if (remesh_detail::pinchInFaceCandidate(a, b)) inFace.push_back(Along{ia, ib, 0, &a, &b});
-                    else if (remesh_detail::pinchInFaceCandidate(b, a)) inFace.push_back(Along{ib, ia, 1, &b, &a});
+                    const glm::vec3 d = m.positions[ia] - m.positions[ib];
+                    if (glm::dot(d, d) < lookSq) { // (remesh_detail::snapLookSq)
+                        if (remesh_detail::pinchInFaceCandidate(a, b)) inFace.push_back(Along{ia, ib, 0, &a, &b});
+                        else if (remesh_detail::pinchInFaceCandidate(b, a)) inFace.push_back(Along{ib, ia, 1, &b, &a});
+                    }
                 }
                 // An edge along a grid edge from its iso vertex (joinsAlongGridEdge).
                 if (a.dim != 1 || b.dim != 1 || a.feature[0] != b.feature[0] || a.feature[1] != b.feature[1] ||
@@ -348,19 +352,6 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         const uint32_t ra = find(e.iso), rb = find(e.other);
         if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
     });
-    // An edge inside a tet face used twice each way and shorter than
-    // kFloatStepsPinch float steps: its ends are one vertex, at the lower
-    // name's position (remesh_detail::joinsPinchInFace; the local check's
-    // snapRound).
-    std::sort(inFace.begin(), inFace.end(), byEdge);
-    usedTwiceEachWay(inFace, [&](const Along& e) {
-        if (!remesh_detail::joinsPinchInFace(*e.isoId, *e.otherId, m.positions[e.iso], m.positions[e.other],
-                                             mVolume->origin(), mVolume->spacing()))
-            return;
-        m.positions[e.other] = m.positions[e.iso];
-        const uint32_t ra = find(e.iso), rb = find(e.other);
-        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
-    });
     // Two vertices of faces round a cube edge, both rounded to within two
     // float steps of it and of each other: one vertex, the lower name's position
     // (remesh_detail::joinsRoundCubeEdge; the local check's snapRound).
@@ -376,6 +367,26 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     for (uint32_t t : mSnapTriangles)
         if (!isCutCell(mUncut.triangleVoxels[t])) uniteZeroLength(&mUncut.indices[3 * size_t(t)]);
     for (size_t i = 0; i < newIndices.size(); i += 3) uniteZeroLength(&newIndices[i]);
+    // An edge from a vertex inside a tet face to another of the closed face,
+    // used twice each way once the rules above have joined their names, and
+    // shorter than kFloatStepsPinch float steps: its ends are one vertex,
+    // the kept one's (inside with a lower name, or on an edge of the face:
+    // an uncut one stays the group's root, as the lower index)
+    // (remesh_detail::joinsPinchInFace; the local check's snapRound).
+    for (Along& e : inFace) {
+        e.iso = find(e.iso);
+        e.other = find(e.other);
+    }
+    std::sort(inFace.begin(), inFace.end(), byEdge);
+    usedTwiceEachWay(inFace, [&](const Along& e) {
+        if (e.iso == e.other ||
+            !remesh_detail::joinsPinchInFace(*e.isoId, *e.otherId, m.positions[e.iso], m.positions[e.other],
+                                             mVolume->origin(), mVolume->spacing()))
+            return;
+        m.positions[e.other] = m.positions[e.iso];
+        const uint32_t ra = find(e.iso), rb = find(e.other);
+        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+    });
     // Uncut triangles (outside cut cells) that change: those holding a
     // vertex that is not the lowest of its group: the candidates of
     // mSnapTriangles, and the uncut triangles next to the cut cells around

@@ -508,14 +508,14 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
 /// Snap rounding, as fusedMesh() does it: an edge from a marching-tetrahedra
 /// vertex along its grid edge used twice each way and shorter than two float
 /// steps (remesh_detail::joinsAlongGridEdge) has its ends joined into the
-/// iso vertex, an edge inside a tet face used twice each way and shorter
-/// than kFloatStepsPinch float steps (joinsPinchInFace) has its ends joined
-/// at the lower name's position, two vertices of faces round a cube edge both rounded to
+/// iso vertex, two vertices of faces round a cube edge both rounded to
 /// within two float steps of it and of each other (joinsRoundCubeEdge) are
 /// one, at the lower name's position, names joined by an edge at one float
-/// position are one vertex
-/// (the lowest name; the iso vertex, as fusedMesh keeps the uncut one), and
-/// the triangles that collapse are dropped.
+/// position are one vertex (the lowest name; the iso vertex, as fusedMesh
+/// keeps the uncut one), then an edge from a vertex inside a tet face to
+/// another of the closed face used twice each way and shorter than
+/// kFloatStepsPinch float steps (joinsPinchInFace) has its ends joined into
+/// the latter, and the triangles that collapse are dropped.
 void snapRound(const vdb::Volume& volume, LocalRegion& reg)
 {
     const std::vector<CutVertexId>& ids = reg.ids;
@@ -530,76 +530,98 @@ void snapRound(const vdb::Volume& volume, LocalRegion& reg)
         while (rep[x] != r) x = std::exchange(rep[x], r);
         return r;
     };
+    // Only the edges a few float steps long can be joined
+    // (remesh_detail::snapLookSq): all the uses of each, in triangle order.
+    std::vector<std::array<uint32_t, 2>> shortEdges;
+    {
+        Coord cell;
+        float lookSq = -1.0f;
+        for (const Tri& tr : tris) {
+            if (lookSq < 0.0f || tr.cell != cell) {
+                cell = tr.cell;
+                lookSq = remesh_detail::snapLookSq(cell, volume.origin(), volume.spacing());
+            }
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
+                const glm::vec3 d = world[a] - world[b];
+                if (known[a] && known[b] && glm::dot(d, d) < lookSq) shortEdges.push_back({a, b});
+            }
+        }
+    }
     // Edges along a grid edge from its iso vertex: (iso, other, direction).
     std::vector<std::array<uint32_t, 3>> along;
-    for (const Tri& tr : tris)
-        for (int k = 0; k < 3; ++k) {
-            const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
-            const CutVertexId &ia = ids[a], &ib = ids[b];
-            if (ia.dim != 1 || ib.dim != 1 || ia.feature[0] != ib.feature[0] || ia.feature[1] != ib.feature[1] ||
-                ia.isIsoEdgeVertex() == ib.isIsoEdgeVertex())
-                continue;
-            along.push_back(ia.isIsoEdgeVertex() ? std::array<uint32_t, 3>{a, b, 0} : std::array<uint32_t, 3>{b, a, 1});
-        }
+    for (const auto& [a, b] : shortEdges) {
+        const CutVertexId &ia = ids[a], &ib = ids[b];
+        if (ia.dim != 1 || ib.dim != 1 || ia.feature[0] != ib.feature[0] || ia.feature[1] != ib.feature[1] ||
+            ia.isIsoEdgeVertex() == ib.isIsoEdgeVertex())
+            continue;
+        along.push_back(ia.isIsoEdgeVertex() ? std::array<uint32_t, 3>{a, b, 0} : std::array<uint32_t, 3>{b, a, 1});
+    }
     std::sort(along.begin(), along.end());
     for (size_t i = 0, j = 0; i < along.size(); i = j) {
         size_t each[2] = {0, 0};
         for (j = i; j < along.size() && along[j][0] == along[i][0] && along[j][1] == along[i][1]; ++j) ++each[along[j][2]];
         const uint32_t iso = along[i][0], other = along[i][1];
-        if (each[0] != 2 || each[1] != 2 || !known[iso] || !known[other] ||
+        if (each[0] != 2 || each[1] != 2 ||
             !remesh_detail::joinsAlongGridEdge(ids[iso], ids[other], world[iso], world[other], volume.origin(),
                                                volume.spacing()))
             continue;
         rep[find(other)] = find(iso);
     }
-    // Edges inside a tet face used twice each way (joinsPinchInFace): one
-    // vertex, at the lower name's position.
-    std::vector<std::array<uint32_t, 3>> inFace; // (lower name, other, direction)
-    for (const Tri& tr : tris)
-        for (int k = 0; k < 3; ++k) {
-            const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
-            if (ids[a].dim != 2 || ids[b].dim != 2) continue;
-            if (remesh_detail::pinchInFaceCandidate(ids[a], ids[b])) inFace.push_back({a, b, 0});
-            else if (remesh_detail::pinchInFaceCandidate(ids[b], ids[a])) inFace.push_back({b, a, 1});
-        }
+    // Two vertices of faces round a cube edge (joinsRoundCubeEdge): one, at
+    // the lower name's position.
+    for (auto [a, b] : shortEdges) {
+        if (ids[a].dim != 2 || ids[b].dim != 2) continue;
+        if (ids[b] < ids[a]) std::swap(a, b);
+        if (!remesh_detail::joinsRoundCubeEdge(ids[a], ids[b], world[a], world[b], volume.origin(), volume.spacing()))
+            continue;
+        world[b] = world[a];
+        const uint32_t ra = find(a), rb = find(b);
+        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    for (const auto& [a, b] : shortEdges) {
+        if (a == b || !(world[a] == world[b])) continue;
+        const uint32_t ra = find(a), rb = find(b);
+        if (ra == rb) continue;
+        // The group's iso vertex stays its root (fusedMesh keeps the uncut vertex).
+        const bool isoA = ids[ra].isIsoEdgeVertex(), isoB = ids[rb].isIsoEdgeVertex();
+        if (isoA != isoB) rep[isoA ? rb : ra] = isoA ? ra : rb;
+        else rep[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    // Edges from a vertex inside a tet face to another of the closed face
+    // used twice each way once the rules above have joined their names
+    // (joinsPinchInFace; tooth, seed 9273: two of the four uses end at a
+    // blade vertex of the face's diagonal at the iso vertex's float point):
+    // one vertex, the kept one's (the group's root: an iso vertex stays it,
+    // as fusedMesh keeps the uncut vertex).
+    struct InFace
+    {
+        uint32_t keep, other, dir; // roots; the use's direction
+        uint32_t keepName, otherName;
+        bool operator<(const InFace& o) const { return std::tie(keep, other, dir) < std::tie(o.keep, o.other, o.dir); }
+    };
+    std::vector<InFace> inFace;
+    for (const auto& [a, b] : shortEdges) {
+        if (ids[a].dim != 2 && ids[b].dim != 2) continue;
+        if (remesh_detail::pinchInFaceCandidate(ids[a], ids[b])) inFace.push_back({find(a), find(b), 0, a, b});
+        else if (remesh_detail::pinchInFaceCandidate(ids[b], ids[a])) inFace.push_back({find(b), find(a), 1, b, a});
+    }
     std::sort(inFace.begin(), inFace.end());
     for (size_t i = 0, j = 0; i < inFace.size(); i = j) {
         size_t each[2] = {0, 0};
-        for (j = i; j < inFace.size() && inFace[j][0] == inFace[i][0] && inFace[j][1] == inFace[i][1]; ++j)
-            ++each[inFace[j][2]];
-        const uint32_t keep = inFace[i][0], other = inFace[i][1];
-        if (each[0] != 2 || each[1] != 2 || !known[keep] || !known[other] ||
-            !remesh_detail::joinsPinchInFace(ids[keep], ids[other], world[keep], world[other], volume.origin(),
-                                             volume.spacing()))
+        for (j = i; j < inFace.size() && inFace[j].keep == inFace[i].keep && inFace[j].other == inFace[i].other; ++j)
+            ++each[inFace[j].dir];
+        const InFace& e = inFace[i];
+        if (each[0] != 2 || each[1] != 2 || e.keep == e.other ||
+            !remesh_detail::joinsPinchInFace(ids[e.keepName], ids[e.otherName], world[e.keep], world[e.other],
+                                             volume.origin(), volume.spacing()))
             continue;
-        world[other] = world[keep];
-        const uint32_t ra = find(keep), rb = find(other);
-        if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
+        world[e.other] = world[e.keep];
+        const uint32_t ra = find(e.keep), rb = find(e.other);
+        if (ra == rb) continue;
+        if (ids[rb].isIsoEdgeVertex() && !ids[ra].isIsoEdgeVertex()) rep[ra] = rb;
+        else rep[rb] = ra;
     }
-    // Two vertices of faces round a cube edge (joinsRoundCubeEdge): one, at
-    // the lower name's position.
-    for (const Tri& tr : tris)
-        for (int k = 0; k < 3; ++k) {
-            uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
-            if (ids[a].dim != 2 || ids[b].dim != 2 || !known[a] || !known[b]) continue;
-            if (ids[b] < ids[a]) std::swap(a, b);
-            if (!remesh_detail::joinsRoundCubeEdge(ids[a], ids[b], world[a], world[b], volume.origin(), volume.spacing()))
-                continue;
-            world[b] = world[a];
-            const uint32_t ra = find(a), rb = find(b);
-            if (ra != rb) rep[std::max(ra, rb)] = std::min(ra, rb);
-        }
-    for (const Tri& tr : tris)
-        for (int k = 0; k < 3; ++k) {
-            const uint32_t a = tr.v[k], b = tr.v[(k + 1) % 3];
-            if (a == b || !known[a] || !known[b] || !(world[a] == world[b])) continue;
-            const uint32_t ra = find(a), rb = find(b);
-            if (ra == rb) continue;
-            // The group's iso vertex stays its root (fusedMesh keeps the uncut vertex).
-            const bool isoA = ids[ra].isIsoEdgeVertex(), isoB = ids[rb].isIsoEdgeVertex();
-            if (isoA != isoB) rep[isoA ? rb : ra] = isoA ? ra : rb;
-            else rep[std::max(ra, rb)] = std::min(ra, rb);
-        }
     reg.joined.clear();
     for (uint32_t v = 0; v < uint32_t(rep.size()); ++v)
         if (find(v) != v) reg.joined.push_back({find(v), v});

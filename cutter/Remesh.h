@@ -65,7 +65,8 @@
 // the same float position are one vertex of the written mesh, and so are
 // the ends of an edge from an isosurface vertex along its grid edge that
 // four triangles use, a float step long (remesh_detail::joinsAlongGridEdge),
-// and of an edge inside a tet face that four triangles use, a few float
+// and of an edge from a point inside a tet face to another of the closed
+// face that four triangles use, a few float
 // steps long (remesh_detail::joinsPinchInFace);
 // the triangles that collapse are dropped, and so are the pairs it folds
 // back onto each other (remesh_detail::markCancellingPairs); the local

@@ -689,8 +689,9 @@ TEST(FloatFolds, OnlyAnIsoVertexAndABladeVertexOfItsGridEdgeAFloatStepApartJoinA
 // isosurface a float step below face z = 1209 mm; the notch's vertices
 // round into the face or collapse in both cells, whose iso and cap
 // triangles then meet along the iso line's segment between the two sides,
-// 3.4e-4 mm long): only two untagged vertices of one tet face, the lower
-// name first, within four float steps at the face's largest coordinate.
+// 3.4e-4 mm long): only an untagged vertex inside a tet face and another of
+// the closed face (inside it with a lower name, or on an edge of it), kept
+// first, within four float steps at the face's largest coordinate.
 TEST(FloatFolds, OnlyTwoVerticesOfATetFaceAFewFloatStepsApartJoinAtAPinch)
 {
     using mtcut::cutter::remesh_detail::joinsPinchInFace;
@@ -706,7 +707,13 @@ TEST(FloatFolds, OnlyTwoVerticesOfATetFaceAFewFloatStepsApartJoinAtAPinch)
     EXPECT_FALSE(joinsPinchInFace(b, a, x, x + glm::vec3(1e-4f, 0, 0), origin, spacing)) << "the lower name first";
     EXPECT_FALSE(joinsPinchInFace(a, faceVertex(f0, f1, Coord(2, 2, 1), 1, 201), x, x, origin, spacing))
         << "another tet face";
-    EXPECT_FALSE(joinsPinchInFace(a, edgeVertex(f0, f1, 201), x, x, origin, spacing)) << "a vertex of its edge";
+    EXPECT_FALSE(joinsPinchInFace(a, edgeVertex(f0, f1, 201), x, x, origin, spacing)) << "the face's vertex is the other";
+    // A vertex of an edge of the face is kept (tooth, seed 9273: an offset
+    // plane 8e-6 mm beside the isosurface's vertex on a face diagonal).
+    const CutVertexId onEdge = edgeVertex(f1, f2, 1);
+    EXPECT_TRUE(joinsPinchInFace(onEdge, b, x, x + glm::vec3(1e-5f, 0, 0), origin, spacing));
+    EXPECT_FALSE(joinsPinchInFace(edgeVertex(f1, Coord(2, 2, 1), 1), b, x, x, origin, spacing))
+        << "an edge of another face";
     CutVertexId tagged = b;
     tagged.tags[tagged.tagCount++] = 201u << 1;
     EXPECT_FALSE(joinsPinchInFace(a, tagged, x, x, origin, spacing)) << "a side or pinch copy";

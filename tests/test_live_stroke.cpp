@@ -332,8 +332,14 @@ TEST(LiveStroke, AFaceVertexRoundedAcrossAnEdgeOfTheFaceDoesNotStopTheStroke)
 // way: an edge used four times, and the stroke stopped with 123 of its 139
 // quads. Snap rounding now joins its ends, leaving a pinch that fusion
 // splits (FloatFolds.OnlyTwoVerticesOfATetFaceAFewFloatStepsApartJoinAtAPinch).
-TEST(LiveStroke, APinchAlongAFaceSegmentDoesNotStopTheStroke)
+// The tooth's seed 9273 (stroke 1, stopped at its 29th quad of 211): an
+// offset face crossed a tet face of cell (39, 81, 99) 8e-6 mm beside the
+// isosurface's vertex on the cell's face diagonal, and the edge between
+// them was used twice each way in that one cell.
+TEST(LiveStroke, APinchInAFaceLeftByTheFloatRepairDoesNotStopTheStroke)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
     expectEveryUpdateAccepted(dir, 9355, 1, 0, 139);
+    MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
+    expectEveryUpdateAccepted(tooth, 9273, 1, 40, 211);
 }
