@@ -17,6 +17,15 @@ namespace mtcut::cutter::remesh_detail {
 
 namespace {
 template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
+
+/// The largest world coordinate (absolute, mm) of the grid box lo..hi.
+double boxExtent(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, const Coord& lo, const Coord& hi)
+{
+    double e = 0.0;
+    for (int a = 0; a < 3; ++a)
+        e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
+    return e;
+}
 } // namespace
 
 double floatShortAt(double extent)
@@ -41,10 +50,8 @@ bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const 
 
 float snapLookSq(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
 {
-    const dvec3 lo = exactWorldPosition(origin, spacing, dvec3(cell.x(), cell.y(), cell.z()));
-    const dvec3 hi = exactWorldPosition(origin, spacing, dvec3(cell.x() + 1, cell.y() + 1, cell.z() + 1));
-    const dvec3 m = glm::max(glm::abs(lo), glm::abs(hi));
-    const double look = kFloatStepsLook * std::max({m.x, m.y, m.z}) * double(std::numeric_limits<float>::epsilon());
+    const double look = kFloatStepsLook * boxExtent(origin, spacing, cell, cell + Coord(1)) *
+                        double(std::numeric_limits<float>::epsilon());
     return float(look * look);
 }
 
@@ -61,12 +68,10 @@ bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const g
                       const glm::vec3& otherAt, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing)
 {
     if (!pinchInFaceCandidate(keep, other)) return false;
-    double extent = 0.0;
-    for (const uint64_t id : other.feature) {
-        const Coord g = gridVertexCoord(id);
-        const dvec3 w = exactWorldPosition(origin, spacing, dvec3(g.x(), g.y(), g.z()));
-        extent = std::max({extent, std::abs(w.x), std::abs(w.y), std::abs(w.z)});
-    }
+    const Coord g0 = gridVertexCoord(other.feature[0]), g1 = gridVertexCoord(other.feature[1]),
+                g2 = gridVertexCoord(other.feature[2]);
+    const double extent = boxExtent(origin, spacing, Coord::minComponent(g0, Coord::minComponent(g1, g2)),
+                                    Coord::maxComponent(g0, Coord::maxComponent(g1, g2)));
     return glm::length(dvec3(otherAt) - dvec3(keepAt)) <
            kFloatStepsPinch * extent * double(std::numeric_limits<float>::epsilon());
 }
@@ -172,14 +177,6 @@ double indexWritingAs(float target, int axis, const openvdb::Vec3d& origin, cons
 /// The largest world coordinate (mm, absolute) of the grid box [lo, hi]: a
 /// cell's, or a face's (lo and hi equal on its axis), as the float repair's
 /// reach is judged there.
-double boxExtent(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, const Coord& lo, const Coord& hi)
-{
-    double e = 0.0;
-    for (int a = 0; a < 3; ++a)
-        e = std::max({e, std::abs(origin[a] + spacing[a] * lo[a]), std::abs(origin[a] + spacing[a] * hi[a])});
-    return e;
-}
-
 } // namespace
 
 size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,

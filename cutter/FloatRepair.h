@@ -154,13 +154,14 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
 bool joinsAlongGridEdge(const CutVertexId& iso, const CutVertexId& other, const glm::vec3& isoAt, const glm::vec3& otherAt,
                         const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
-/// Snap rounding's third rule (fusedMesh and the local check alike): an
-/// edge from a vertex inside a tet face (`other`) to another vertex of the
-/// closed face (`keep`: inside it with a lower name, or on one of its
-/// edges), both untagged, used twice each way, joins its ends into `keep`
-/// (at its position) when they lie within kFloatStepsPinch float steps (at
-/// the face's largest world coordinate) of each other as written. Such an
-/// edge is a pinch the float repair leaves of a sliver thinner than float:
+/// Snap rounding's last rule (fusedMesh and the local check alike, after
+/// the others, over the names they joined): an edge from a vertex inside a
+/// tet face (`other`) to another vertex of the closed face (`keep`: inside
+/// it with a lower name, or on one of its edges), both untagged, used twice
+/// each way, joins its ends into `keep` (at its position) when they lie
+/// within kFloatStepsPinch float steps (at the face's largest world
+/// coordinate) of each other as written. Such an edge is a pinch the float
+/// repair leaves of a sliver thinner than float:
 /// - a prism's corner line (two of its sides' line) meets the isosurface a
 ///   float step below a cell face, beside where it crosses the face; the
 ///   notch's four vertices, 3e-4 mm apart, round into the face or collapse
