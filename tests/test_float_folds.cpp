@@ -719,7 +719,8 @@ TEST(FloatFolds, OnlyTwoVerticesOfATetFaceAFewFloatStepsApartJoinAtAPinch)
     EXPECT_FALSE(joinsPinchInFace(a, tagged, x, x, origin, spacing)) << "a side or pinch copy";
     // Near the origin a float step is smaller, and so is the reach.
     const glm::vec3 y(1.5f, 1.25f, 1.0f);
-    EXPECT_FALSE(joinsPinchInFace(a, b, y, y + glm::vec3(1e-6f, 0, 0), openvdb::Vec3d(0.0), spacing));
+    EXPECT_FALSE(joinsPinchInFace(a, b, y, y + glm::vec3(2e-6f, 0, 0), openvdb::Vec3d(0.0), spacing));
+    EXPECT_TRUE(joinsPinchInFace(a, b, y, y + glm::vec3(4e-7f, 0, 0), openvdb::Vec3d(0.0), spacing));
 }
 
 // Snap rounding's rule for two vertices of faces round a cube edge (1 mm
