@@ -18,7 +18,9 @@ namespace mtcut::cutter::remesh_detail {
 namespace {
 template <class T, size_t N> using SmallVector = boost::container::small_vector<T, N>;
 
-/// The largest world coordinate (absolute, mm) of the grid box lo..hi.
+/// The largest world coordinate (mm, absolute) of the grid box [lo, hi]: a
+/// cell's, or a face's (lo and hi equal on its axis), as the float repair's
+/// reach is judged there.
 double boxExtent(const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, const Coord& lo, const Coord& hi)
 {
     double e = 0.0;
@@ -174,9 +176,6 @@ double indexWritingAs(float target, int axis, const openvdb::Vec3d& origin, cons
     return writes(x) == target ? x : std::numeric_limits<double>::quiet_NaN();
 }
 
-/// The largest world coordinate (mm, absolute) of the grid box [lo, hi]: a
-/// cell's, or a face's (lo and hi equal on its axis), as the float repair's
-/// reach is judged there.
 } // namespace
 
 size_t liftOffCellFaces(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
