@@ -409,7 +409,7 @@ void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
                   std::vector<glm::ivec3>& cells);
 
 /// Kerf > 0: consecutive quads of a stroke that bend by less than this (radians,
-/// index space) meet on a shared mitre plane in the re-mesher (Remesh.h), so
+/// between their world normals) meet on a shared mitre plane in the re-mesher (Remesh.h), so
 /// the removed region of a stroke is a smooth thick strip, not prisms with
 /// micro-notches at every joint. The mitre reaches past K_q by at most
 /// (w/2) tan(bend/2); cutRegion() covers that.

@@ -301,7 +301,7 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///   u = (w/2)(n_q + n_o)/(1 + n_q.n_o), the world bisector, on which the two
 ///   quads' offset planes meet exactly (also with anisotropic spacing).
 /// - Any other edge (rims, unjoined stick ends): the plane through it
-///   perpendicular to the quad; but a rim that continues the previous quad's
+///   perpendicular to the quad in world mm; but a rim that continues the previous quad's
 ///   rim through a corner of their shared stick, mitred or not (both its
 ///   corners within 1e-4 voxel of that plane, normals within 1.4e-4 rad),
 ///   uses that very plane object, so the two prisms meet the mitre in the
@@ -357,6 +357,15 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             previous = &it->second;
     }
     const size_t m = hull.size();
+    // The quad's world normal as an index-space direction: the sides stand
+    // on the quad at right angles in world mm, as the saw's do. (The index
+    // normal g.pi.n is that direction only when the spacing is isotropic;
+    // with 0.47 x 0.47 x 1 mm voxels it leans up to about 30 degrees, so a
+    // side through a rim edge leaned out of the region the mask voxelises,
+    // cutRegion(), by up to a tenth of a voxel at the offset planes, and the
+    // cap there crossed into a cell the mask did not cut: an open edge.)
+    const bool isotropic = frame.spacing.x == frame.spacing.y && frame.spacing.y == frame.spacing.z;
+    const dvec3 upright = isotropic ? g.pi.n : glm::normalize(q.normal / frame.spacing);
     // Pass 1: mitre joints per hull edge.
     std::vector<QuadGeom::Side> joint(m);
     std::vector<char> isJoint(m, 0);
@@ -416,7 +425,7 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
         const dvec3& wa = q.corners[size_t(hull[e])];
         const dvec3& wb = q.corners[size_t(hull[(e + 1) % m])];
         const dvec3 a = frame.toIndex(wa), b = frame.toIndex(wb);
-        const dvec3 sdir = glm::cross(g.pi.n, b - a);
+        const dvec3 sdir = glm::cross(upright, b - a);
         const double len = glm::length(sdir);
         if (!(len > 0.0)) continue;
         QuadGeom::Side side;

@@ -38,7 +38,8 @@
 //
 // Kerf w > 0 (DESIGN invariant 7 and its sketch): each quad's removed region
 // is a closed convex prism, the slab |h| <= w/2 around the quad's plane
-// bounded by planes through the hull edges perpendicular to it; consecutive
+// bounded by planes through the hull edges perpendicular to it in world mm
+// (with anisotropic voxels not in index space); consecutive
 // quads of a stroke that bend by less than kKerfMitreMaxBend share a mitre
 // plane instead of their two end planes (so the strip has no micro-notches;
 // the mask voxelises cutRegion(), which covers the mitre joints). The
