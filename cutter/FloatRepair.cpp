@@ -717,6 +717,33 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 if (faces[w] & faces[p]) return false;
             return collapseCancelling(p, q, onEdge);
         }
+        // A tetrahedron of the cell's own with a short edge (a spike of solid
+        // 2e-3 voxel thin between three prisms that pivot on its tip: the
+        // 2 mm head at 0.8 x 0.8 x 2.4 mm, kerf 0.5, seed 10054): the link
+        // condition holds, but p's one other triangle would lie on q's
+        // facing the other way, a shell of no volume. Every triangle of p
+        // moved that way goes, with its twin: the spike goes as a whole.
+        // Only along a short edge: a crossing's collapse of a long one must
+        // not remove a real piece of the solid (the local check refuses it).
+        if (!onFace && atP.size() > onEdge.size() && isShort(p, q)) {
+            bool allCancel = true;
+            for (size_t t : atP) {
+                if (!allCancel) break;
+                if (std::find(onEdge.begin(), onEdge.end(), t) != onEdge.end()) continue;
+                std::array<uint32_t, 3> moved = tris[t];
+                for (uint32_t& w : moved)
+                    if (w == p) w = q;
+                bool twin = false;
+                for (size_t u : atQ) {
+                    const auto& o = tris[u];
+                    for (int r = 0; r < 3 && !twin; ++r)
+                        twin = o[size_t(r)] == moved[0] && o[size_t((r + 1) % 3)] == moved[2] &&
+                               o[size_t((r + 2) % 3)] == moved[1];
+                }
+                allCancel = twin;
+            }
+            if (allCancel) return collapseCancelling(p, q, onEdge);
+        }
         for (size_t t : atP) {
             if (onFace) break;
             if (std::find(onEdge.begin(), onEdge.end(), t) != onEdge.end()) continue;

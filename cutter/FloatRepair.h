@@ -125,7 +125,11 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   keeps the surface a 2-manifold (the ends share no neighbour but the two apexes), folds
 ///   nothing else over (every remaining triangle at the moved vertex keeps
 ///   its exact orientation in float) and puts no triangle into a cell face
-///   (the next cell may hold the same one); repeated while it mends.
+///   (the next cell may hold the same one); but where a short edge's
+///   collapse would lay every other triangle of the moving end on one of the
+///   other end's facing the opposite way (a tetrahedron of the cell's own, a
+///   spike of solid thinner than a float step), those pairs go too, and the
+///   tetrahedron with them; repeated while it mends.
 /// Copies of one point (side or pinch tags differ) are never joined.
 /// With `crossings` (a cut with a width, once its local check has failed:
 /// CutRemesher::update), then also, in rounds, an edge of a triangle that

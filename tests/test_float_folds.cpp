@@ -208,6 +208,43 @@ TEST(FloatFolds, ACentreThatRoundsOntoAnEdgeOfItsFanIsCollapsedInEveryAxis)
     }
 }
 
+// A tetrahedron of the cell's own with an edge far below a float step (a
+// spike of solid between three prisms pivoting on its tip: the 2 mm head at
+// 0.8 x 0.8 x 2.4 mm, kerf 0.5, seed 10054, 2e-3 voxel thin). Collapsing
+// that edge keeps the link condition, but the two faces off it then lie on
+// each other facing opposite ways, a shell of no volume that the local
+// check refused as a self-contact. The whole tetrahedron goes; the rest of
+// the cell stays as it was.
+TEST(FloatFolds, ATetrahedronWithAnEdgeBelowAFloatStepGoesAsAWhole)
+{
+    const Coord cell(0, 0, 0);
+    CutCellGeometry g = twoInnerVertices(0.25); // a square of plane z = 0.5, nothing to mend
+    Builder b;
+    b.g = g;
+    const size_t squareTris = g.indices.size() / 3;
+    const std::array<dvec3, 4> at{dvec3(0.6, 0.6, 0.2), dvec3(0.6 + 1e-7, 0.6, 0.2), dvec3(0.6, 0.61, 0.2),
+                                  dvec3(0.3, 0.3, 0.3)};
+    std::array<uint32_t, 4> v{};
+    for (int i = 0; i < 4; ++i) v[size_t(i)] = b.add(innerVertex(cell, 1, 200 + uint64_t(i)), at[size_t(i)]);
+    for (int l = 0; l < 4; ++l) { // each face facing away from the fourth vertex
+        std::array<int, 3> f{};
+        for (int i = 0, n = 0; i < 4; ++i)
+            if (i != l) f[size_t(n++)] = i;
+        const dvec3 nrm = glm::cross(at[size_t(f[1])] - at[size_t(f[0])], at[size_t(f[2])] - at[size_t(f[0])]);
+        if (glm::dot(nrm, at[size_t(l)] - at[size_t(f[0])]) > 0) std::swap(f[1], f[2]);
+        b.tri(v[size_t(f[0])], v[size_t(f[1])], v[size_t(f[2])]);
+    }
+    g = b.g;
+    const dvec3 origin(1000.0), spacing(1.0);
+    ASSERT_EQ(foldedInFloat(g, origin, spacing), 2u); // the premise: the two faces on the short edge
+    const auto before = boundary(g);
+    EXPECT_EQ(repairFloatFolds(cell, openvdb::Vec3d(1000.0), openvdb::Vec3d(1.0), g), 1u);
+    EXPECT_EQ(g.indices.size() / 3, squareTris) << "the tetrahedron is not gone";
+    for (uint32_t i : g.indices) EXPECT_LT(i, uint32_t(6)) << "a triangle of the tetrahedron stayed";
+    EXPECT_EQ(boundary(g), before);
+    EXPECT_EQ(foldedInFloat(g, origin, spacing), 0u);
+}
+
 TEST(FloatFolds, WhatFloatHoldsApartIsLeftAlone)
 {
     // Near the origin a float step is 6e-8 mm; 1e-3 voxel is thousands.

@@ -17,6 +17,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
 #include <stdexcept>
 
 using namespace mtcut;
@@ -344,6 +346,30 @@ TEST(LiveStroke, APinchInAFaceLeftByTheFloatRepairDoesNotStopTheStroke)
     expectEveryUpdateAccepted(dir, 9355, 1, 0, 139);
     MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
     expectEveryUpdateAccepted(tooth, 9273, 1, 40, 211);
+}
+
+// The 2 mm head relabelled 0.8 x 0.8 x 2.4 mm (its header's spacing only),
+// kerf 0.5, seed 10054, stroke 3: at its 26th quad a sideways step folds
+// the stroke (quad 23 stands about 90 degrees off its neighbours), and
+// quads 23-25 pivot on one point inside tet 4 of cell (55, 63, 82), leaving
+// a tetrahedron of bone 2e-3 voxel thin between their rims and the
+// isosurface. The float repair collapsed its short edge, and its other two
+// faces lay on each other facing opposite ways: a self-contact, and the
+// stroke stopped with 25 of its 335 quads. The tetrahedron now goes as a
+// whole (FloatFolds.ATetrahedronWithAnEdgeBelowAFloatStepGoesAsAWhole).
+TEST(LiveStroke, ASpikeOfBoneBetweenPivotingPrismsThinnerThanAFloatStepGoes)
+{
+    MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
+    const std::string header = ::testing::TempDir() + "mtcut_head_2mm_0.8x0.8x2.4.nhdr";
+    {
+        std::ofstream h(header);
+        h << "NRRD0004\ntype: int16\ndimension: 3\nspace: left-posterior-superior\nsizes: 192 176 122\n"
+             "space directions: (0.8,0,0) (0,0.8,0) (0,0,2.4)\nspace origin: (74,134,1000)\n"
+             "kinds: domain domain domain\nendian: little\nencoding: gzip\ndata file: "
+          << raw << "\n";
+    }
+    expectEveryUpdateAccepted(header, 10054, 3, 40, 335);
+    std::remove(header.c_str());
 }
 
 // Anisotropic voxels, as most CT has (the built-in phantom's are 0.47 x 0.47
