@@ -31,6 +31,18 @@ bool sameMesh(const Mesh& a, const Mesh& b)
     return a.positions == b.positions && a.indices == b.indices && a.triangleVoxels == b.triangleVoxels;
 }
 
+/// The cut of `mask` from scratch equals the live one (`remesher`'s), and is clean.
+void expectSameAsFromScratch(const vdb::Volume& vol, float iso, const Mesh& uncut, const CutMask& mask,
+                             const CutRemesher& remesher)
+{
+    CutRemesher scratch(vol, iso, uncut);
+    scratch.update(mask);
+    const Mesh fused = remesher.fusedMesh();
+    EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the live cut differs from a from-scratch cut";
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+}
+
 /// The volume at `path` (the tooth, the 1 mm head) at 400 with kerf w, its
 /// strokes for `seed` (test_cut_props' randomStrokes), the strokes before
 /// `live` cut whole.
@@ -51,15 +63,7 @@ struct StrokeCut
         quads = filterStroke(strokes[live], mask.frame());
     }
     /// The cut of the same mask from scratch equals the live one, and is clean.
-    void expectSameAsFromScratch()
-    {
-        CutRemesher scratch(vol, iso, uncut);
-        scratch.update(mask);
-        const Mesh fused = remesher.fusedMesh();
-        EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the live cut differs from a from-scratch cut";
-        const MeshCheck check = checkMesh(fused);
-        EXPECT_TRUE(check.ok()) << check.report();
-    }
+    void expectSameAsFromScratch() const { ::expectSameAsFromScratch(vol, iso, uncut, mask, remesher); }
     float iso;
     vdb::Volume vol;
     Mesh uncut;
@@ -411,12 +415,7 @@ TEST(LiveStroke, RandomKerfStrokesOnTheAnisotropicPhantomAreAcceptedAtEveryQuad)
             EXPECT_FALSE(live.stopped());
             ++strokes;
         }
-        CutRemesher scratch(vol, iso, uncut);
-        scratch.update(mask);
-        const Mesh fused = remesher.fusedMesh();
-        EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the live cut differs from a from-scratch cut";
-        const MeshCheck check = checkMesh(fused);
-        EXPECT_TRUE(check.ok()) << check.report();
+        expectSameAsFromScratch(vol, iso, uncut, mask, remesher);
     }
     std::printf("anisotropic phantom: %zu strokes, %zu updates, %zu not accepted\n", strokes, updates, notAccepted);
     EXPECT_EQ(strokes, 80u);
