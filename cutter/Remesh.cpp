@@ -362,8 +362,9 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     // normal g.pi.n is that direction only when the spacing is isotropic;
     // with 0.47 x 0.47 x 1 mm voxels it leans up to about 30 degrees, so a
     // side through a rim edge leaned out of the region the mask voxelises,
-    // cutRegion(), by up to a tenth of a voxel at the offset planes, and the
-    // cap there crossed into a cell the mask did not cut: an open edge.)
+    // cutRegion(): along a straight rim by about a tenth of a voxel at the
+    // offset planes, farther at a sharp corner of the quad, and the cap
+    // there crossed into a cell the mask did not cut: an open edge.)
     const bool isotropic = frame.spacing.x == frame.spacing.y && frame.spacing.y == frame.spacing.z;
     const dvec3 upright = isotropic ? g.pi.n : glm::normalize(q.normal / frame.spacing);
     // Pass 1: mitre joints per hull edge.
