@@ -125,7 +125,9 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   keeps the surface a 2-manifold (the ends share no neighbour but the two apexes), folds
 ///   nothing else over (every remaining triangle at the moved vertex keeps
 ///   its exact orientation in float) and puts no triangle into a cell face
-///   (the next cell may hold the same one); but where a short edge's
+///   (the next cell may hold the same one), nor an edge it did not have (the cell across
+///   may make the same by a collapse of its own: an edge used four times);
+///   but where a short edge's
 ///   collapse would lay every other triangle of the moving end on one of the
 ///   other end's facing the opposite way (a tetrahedron of the cell's own, a
 ///   spike of solid thinner than a float step), those pairs go too, and the

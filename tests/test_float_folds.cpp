@@ -956,6 +956,65 @@ TEST(FloatFolds, AFaceVertexRoundedAcrossAnEdgeOfTheFaceIsPutBackInBothCells)
     }
 }
 
+// An offset plane (k) nearly parallel to the isosurface crosses the face
+// diagonal (48,147,25)-(49,147,26) of cell (48,146,25) 2e-3 voxel from the
+// isosurface's vertex I there (at K), and their line passes within 3e-4
+// voxel of the diagonal: the wedge of solid between them round K and I
+// (0.45 x 0.45 x 1.25 mm voxels, the skin at -300, kerf 0.5, random strokes
+// seed 11033, the cell's triangles as the kernel made them). The short edge
+// from X, a vertex of an inner tet face, to K is the shortest; collapsing
+// X onto K joined K and I, both on the face's diagonal, by an edge, and
+// the cell across the face did the same with a vertex of its own: the
+// edge used twice each way, which the local check refused. Such a collapse
+// is not made; the repair mends the cell without an edge in a cell face
+// that it did not have.
+TEST(FloatFolds, ACollapseMakesNoNewEdgeInACellFace)
+{
+    const Coord cell(48, 146, 25);
+    const openvdb::Vec3d origin(74.0, 134.0, 1000.0), spacing(0.45, 0.45, 1.25);
+    const uint64_t k = mtcut::cutter::remesh_detail::planeIdOf(2, 16, 9); // quad 16's offset plane
+    const Coord o(48, 147, 25), d(49, 147, 26); // the diagonal
+    Builder b;
+    const uint32_t E = b.add(edgeVertex(o, {48, 147, 26}, 1), {48.0, 147.0, 25.428571428571});
+    const uint32_t Xf = b.add(faceVertex(o, {48, 146, 26}, {48, 147, 26}, 1, k), {48.0, 146.985004719118, 25.220779679203});
+    const uint32_t Ke = b.add(edgeVertex(o, {48, 147, 26}, k), {48.0, 147.0, 25.219484326986});
+    const uint32_t I = b.add(edgeVertex(o, d, 1), {48.206896551724, 147.0, 25.206896551724});
+    const uint32_t K = b.add(edgeVertex(o, d, k), {48.205355939267, 147.0, 25.205355939267});
+    const uint32_t Xy = b.add(faceVertex(o, {49, 147, 25}, d, 1, k), {48.206955503928, 147.0, 25.205245890004});
+    const uint32_t X7 = b.add(faceVertex({49, 146, 25}, o, d, 1, k), {48.205594355428, 146.999765442903, 25.205359798331});
+    const uint32_t X = b.add(faceVertex(o, {48, 146, 26}, d, 1, k), {48.205147486250, 146.999756139910, 25.205391346340});
+    b.tri(E, Xf, I); // the isosurface
+    b.tri(Xf, X, I);
+    b.tri(X7, I, X);
+    b.tri(Xy, I, X7);
+    b.tri(Xf, Ke, X); // the offset plane
+    b.tri(Ke, K, X);
+    b.tri(X, K, X7);
+    b.tri(K, Xy, X7);
+    CutCellGeometry g = b.g;
+    const auto edgesBefore = directedEdges(g);
+    const auto before = boundary(g);
+    auto inOneFace = [&](const CutVertexId& v, const CutVertexId& w) { // both on face y = 147, or x = 48
+        auto on = [&](const CutVertexId& id, int axis, int at) {
+            for (int f = 0; f <= id.dim; ++f)
+                if (mtcut::cutter::gridVertexCoord(id.feature[size_t(f)])[axis] != at) return false;
+            return true;
+        };
+        return (on(v, 1, 147) && on(w, 1, 147)) || (on(v, 0, 48) && on(w, 0, 48));
+    };
+    EXPECT_GE(repairFloatFolds(cell, origin, spacing, g), 1u);
+    const dvec3 o3(origin.x(), origin.y(), origin.z()), s3(spacing.x(), spacing.y(), spacing.z());
+    EXPECT_EQ(foldedInFloat(g, o3, s3), 0u);
+    EXPECT_EQ(boundary(g), before);
+    for (const auto& [edge, n] : directedEdges(g)) {
+        if (!inOneFace(edge.first, edge.second)) continue;
+        EXPECT_TRUE(edgesBefore.count(edge)) << "a new edge in a cell face";
+    }
+    // The premise: the edge the collapse onto K would make lies in face y = 147.
+    EXPECT_TRUE(inOneFace(b.g.vertexIds[K], b.g.vertexIds[I]));
+    EXPECT_FALSE(edgesBefore.count({b.g.vertexIds[K], b.g.vertexIds[I]}));
+}
+
 TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
 {
     using mtcut::cutter::remesh_detail::linkFans;

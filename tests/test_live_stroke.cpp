@@ -19,6 +19,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 using namespace mtcut;
@@ -352,6 +353,28 @@ TEST(LiveStroke, APinchInAFaceLeftByTheFloatRepairDoesNotStopTheStroke)
     expectEveryUpdateAccepted(tooth, 9273, 1, 40, 211);
 }
 
+/// A NRRD header in the test's temporary folder for the 2 mm head's data
+/// (`raw`) relabelled with voxels of sx x sy x sz mm (its spacing only):
+/// anisotropic CT from the cubic-voxel data. Removed when this goes.
+struct RelabelledHead2mm
+{
+    RelabelledHead2mm(const std::string& raw, double sx, double sy, double sz)
+    {
+        std::ostringstream name;
+        name << ::testing::TempDir() << "mtcut_head_2mm_" << sx << "x" << sy << "x" << sz << ".nhdr";
+        path = name.str();
+        std::ofstream h(path);
+        h << "NRRD0004\ntype: int16\ndimension: 3\nspace: left-posterior-superior\nsizes: 192 176 122\n"
+          << "space directions: (" << sx << ",0,0) (0," << sy << ",0) (0,0," << sz << ")\n"
+          << "space origin: (74,134,1000)\nkinds: domain domain domain\nendian: little\nencoding: gzip\n"
+          << "data file: " << raw << "\n";
+    }
+    ~RelabelledHead2mm() { std::remove(path.c_str()); }
+    RelabelledHead2mm(const RelabelledHead2mm&) = delete;
+    RelabelledHead2mm& operator=(const RelabelledHead2mm&) = delete;
+    std::string path;
+};
+
 // The 2 mm head relabelled 0.8 x 0.8 x 2.4 mm (its header's spacing only),
 // kerf 0.5, seed 10054, stroke 3: at its 26th quad a sideways step folds
 // the stroke (quad 23 stands about 90 degrees off its neighbours), and
@@ -364,16 +387,27 @@ TEST(LiveStroke, APinchInAFaceLeftByTheFloatRepairDoesNotStopTheStroke)
 TEST(LiveStroke, ASpikeOfBoneBetweenPivotingPrismsThinnerThanAFloatStepGoes)
 {
     MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
-    const std::string header = ::testing::TempDir() + "mtcut_head_2mm_0.8x0.8x2.4.nhdr";
-    {
-        std::ofstream h(header);
-        h << "NRRD0004\ntype: int16\ndimension: 3\nspace: left-posterior-superior\nsizes: 192 176 122\n"
-             "space directions: (0.8,0,0) (0,0.8,0) (0,0,2.4)\nspace origin: (74,134,1000)\n"
-             "kinds: domain domain domain\nendian: little\nencoding: gzip\ndata file: "
-          << raw << "\n";
-    }
-    expectEveryUpdateAccepted(header, 10054, 3, 40, 335);
-    std::remove(header.c_str());
+    const RelabelledHead2mm head(raw, 0.8, 0.8, 2.4);
+    expectEveryUpdateAccepted(head.path, 10054, 3, 40, 335);
+}
+
+// The 2 mm head relabelled 0.45 x 0.45 x 1.25 mm (a clinical head CT's
+// voxels), the skin at -300, kerf 0.5, seed 11033, stroke 1: at its 17th
+// quad an offset face nearly parallel to the skin crossed the face diagonal
+// (48, 147, 25)-(49, 147, 26) 2e-3 voxel from the isosurface's vertex
+// there, and in each of the two cells of that face the float repair
+// collapsed a short edge from a vertex of its own inner tet face onto the
+// plane's vertex on the diagonal, which joined the two diagonal vertices by
+// an edge in both cells: used twice each way, and the stroke stopped with
+// 16 of its 304 quads (seed 11039, stroke 0, with 57 of 335, likewise). A
+// collapse no longer makes an edge in a cell face that the cell did not
+// have (FloatFolds.ACollapseMakesNoNewEdgeInACellFace).
+TEST(LiveStroke, ACollapseOnBothSidesOfAFaceDoesNotJoinTwoVerticesOfItsDiagonal)
+{
+    MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
+    const RelabelledHead2mm head(raw, 0.45, 0.45, 1.25);
+    expectEveryUpdateAccepted(head.path, 11033, 1, 40, 304, -300.0f);
+    expectEveryUpdateAccepted(head.path, 11039, 0, 80, 335, -300.0f);
 }
 
 // Anisotropic voxels, as most CT has (the built-in phantom's are 0.47 x 0.47
