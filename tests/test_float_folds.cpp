@@ -994,13 +994,17 @@ TEST(FloatFolds, ACollapseMakesNoNewEdgeInACellFace)
     CutCellGeometry g = b.g;
     const auto edgesBefore = directedEdges(g);
     const auto before = boundary(g);
-    auto inOneFace = [&](const CutVertexId& v, const CutVertexId& w) { // both on face y = 147, or x = 48
+    auto inOneFace = [&](const CutVertexId& v, const CutVertexId& w) { // both on one of the cell's six faces
         auto on = [&](const CutVertexId& id, int axis, int at) {
+            if (id.dim == 3) return false;
             for (int f = 0; f <= id.dim; ++f)
                 if (mtcut::cutter::gridVertexCoord(id.feature[size_t(f)])[axis] != at) return false;
             return true;
         };
-        return (on(v, 1, 147) && on(w, 1, 147)) || (on(v, 0, 48) && on(w, 0, 48));
+        for (int axis = 0; axis < 3; ++axis)
+            for (int at : {cell[axis], cell[axis] + 1})
+                if (on(v, axis, at) && on(w, axis, at)) return true;
+        return false;
     };
     EXPECT_GE(repairFloatFolds(cell, origin, spacing, g), 1u);
     const dvec3 o3(origin.x(), origin.y(), origin.z()), s3(spacing.x(), spacing.y(), spacing.z());
