@@ -730,14 +730,18 @@ void voxelizeQuad(const Quad& quad, double kerfMm, const IndexFrame& frame,
 
 namespace {
 
-/// `quad` with its convex hull offset outward by `margin` mm in its plane.
-Quad grownQuad(const Quad& quad, double margin)
+/// `quad` with its convex hull offset outward by `margin` mm in its plane;
+/// in `strips`, for each edge at a corner whose reach is clamped
+/// (kKerfMitreMinCornerGap), the edge offset out by `margin`, not past its
+/// ends (each edge once).
+Quad grownQuad(const Quad& quad, double margin, std::vector<Quad>& strips)
 {
     const glm::dvec3 n = quad.normal;
     const std::vector<int> hull = convexHullOrder(quad.corners.data(), quad.cornerCount, n);
     if (hull.size() < 3 || hull.size() > 4) return quad;
     const size_t h = hull.size();
     glm::dvec3 out[4];
+    std::vector<char> stripOf(h, 0); // edge k: corner k -> k + 1
     for (size_t k = 0; k < h; ++k) {
         const glm::dvec3& prev = quad.corners[size_t(hull[(k + h - 1) % h])];
         const glm::dvec3& v = quad.corners[size_t(hull[k])];
@@ -745,21 +749,63 @@ Quad grownQuad(const Quad& quad, double margin)
         // Outward in-plane normals of the edges prev->v and v->next (CCW around n).
         const glm::dvec3 u1 = glm::normalize(glm::cross(v - prev, n));
         const glm::dvec3 u2 = glm::normalize(glm::cross(next - v, n));
-        const double d = std::max(1.0 + glm::dot(u1, u2), kKerfMitreMinCornerGap);
+        const double gap = 1.0 + glm::dot(u1, u2);
+        const double d = std::max(gap, kKerfMitreMinCornerGap);
         out[k] = v + margin * (u1 + u2) / d;
+        if (!(gap >= kKerfMitreMinCornerGap)) stripOf[(k + h - 1) % h] = stripOf[k] = 1;
+    }
+    for (size_t k = 0; k < h; ++k) {
+        if (!stripOf[k]) continue;
+        const glm::dvec3& a = quad.corners[size_t(hull[k])];
+        const glm::dvec3& b = quad.corners[size_t(hull[(k + 1) % h])];
+        const glm::dvec3 u = glm::cross(b - a, n);
+        const double len = glm::length(u);
+        if (!(len > 0.0)) continue;
+        const glm::dvec3 c[4] = {a, b, b + margin * u / len, a + margin * u / len};
+        strips.push_back(makeQuad(c, 4, quad.stick));
     }
     return makeQuad(out, uint32_t(h), quad.stick);
 }
 
 } // namespace
 
-QuadRegion cutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
+CutRegion::CutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
 {
-    if (!(kerfMm > 0.0) || quad.degenerate) return QuadRegion(quad, kerfMm, frame);
+    if (!(kerfMm > 0.0) || quad.degenerate) {
+        mParts.emplace_back(quad, kerfMm, frame);
+        return;
+    }
     const double lo = std::min({frame.spacing.x, frame.spacing.y, frame.spacing.z});
     const double hi = std::max({frame.spacing.x, frame.spacing.y, frame.spacing.z});
     const double margin = 1.01 * 0.5 * kerfMm * std::tan(0.5 * kKerfMitreMaxBend) * hi / lo;
-    return QuadRegion(grownQuad(quad, margin), kerfMm, frame);
+    std::vector<Quad> strips;
+    mParts.emplace_back(grownQuad(quad, margin, strips), kerfMm, frame);
+    for (const Quad& s : strips)
+        if (!s.degenerate) mParts.emplace_back(s, kerfMm, frame);
+}
+
+bool CutRegion::touchesCell(const glm::ivec3& cell) const
+{
+    for (const QuadRegion& r : mParts)
+        if (r.touchesCell(cell)) return true;
+    return false;
+}
+
+void CutRegion::appendCells(std::vector<glm::ivec3>& cells) const
+{
+    const size_t first = cells.size();
+    for (const QuadRegion& r : mParts) r.appendCells(cells);
+    if (mParts.size() == 1) return;
+    auto less = [](const glm::ivec3& a, const glm::ivec3& b) {
+        return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+    };
+    std::sort(cells.begin() + std::ptrdiff_t(first), cells.end(), less);
+    cells.erase(std::unique(cells.begin() + std::ptrdiff_t(first), cells.end()), cells.end());
+}
+
+CutRegion cutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame)
+{
+    return CutRegion(quad, kerfMm, frame);
 }
 
 void voxelizeCut(const Quad& quad, double kerfMm, const IndexFrame& frame, std::vector<glm::ivec3>& cells)

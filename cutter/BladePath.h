@@ -418,16 +418,35 @@ constexpr double kKerfMitreMaxBend = 0.35;
 /// each corner's reach clamped where 1 - cos(corner angle) is below this (a
 /// corner of 2.6 degrees or less: a blade pivoting about its tip makes
 /// triangles that sharp); a mitre at such a corner reaches past it by
-/// (w/2) tan(bend/2) / sin(angle), so the re-mesher mitres that joint only
-/// while the reach stays within the clamped growth (nearly coplanar quads)
-/// and gives it two plain end planes otherwise (tooSharpForMitre, Remesh.cpp).
+/// (w/2) tan(bend/2) / sin(angle), so where that reach leaves the clamped
+/// growth the re-mesher caps the mitre at the corner, at right angles to
+/// the stick (tooSharpForMitre, Remesh.cpp), and cutRegion() adds the strip
+/// along each edge of a clamped corner, the edge offset out by the growth
+/// (not past its ends), which holds what the capped mitre reaches past it.
 constexpr double kKerfMitreMinCornerGap = 1e-3;
 
 /// The region whose cells a quad cuts (what CutMask, the pose stream and the
 /// re-mesher voxelise): K_q itself for kerf 0; for kerf w > 0, K_q with its
 /// hull grown in its plane by (w/2) tan(kKerfMitreMaxBend/2) (times the
-/// spacing anisotropy), so the mitre joints are inside cut cells too.
-QuadRegion cutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame);
+/// spacing anisotropy), with the strips of its sharp corners' edges
+/// (kKerfMitreMinCornerGap), so the mitre joints are inside cut cells too.
+class CutRegion
+{
+public:
+    CutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame);
+    /// Does the closed box [c, c+1] (index space) touch the region?
+    bool touchesCell(const glm::ivec3& cell) const;
+    /// Appends every cell a cut can reach that touches the region, each
+    /// once: QuadRegion::appendCells's order when it is one part (no sharp
+    /// corner), else ascending (x, y, z).
+    void appendCells(std::vector<glm::ivec3>& cells) const;
+    /// The grown hull, then the strips.
+    const std::vector<QuadRegion>& parts() const { return mParts; }
+
+private:
+    std::vector<QuadRegion> mParts;
+};
+CutRegion cutRegion(const Quad& quad, double kerfMm, const IndexFrame& frame);
 
 /// Appends the cells cut by `quad` with kerf (cutRegion(...).appendCells).
 void voxelizeCut(const Quad& quad, double kerfMm, const IndexFrame& frame, std::vector<glm::ivec3>& cells);

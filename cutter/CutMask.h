@@ -41,7 +41,7 @@ constexpr double kMaxKerfMm = 20.0;
 /// (i,j,k) spans index [i,i+1]x[j,j+1]x[k,k+1]; only cells inside the volume
 /// (0 <= c < dims - 1) are ever cut. A cell is cut by quad q when its closed
 /// box touches the region cutRegion(q, kerf) (K_q; for kerf > 0 grown to
-/// cover the re-mesher's mitre joints, see BladePath.h).
+/// cover the re-mesher's mitre joints, capped ones included, see BladePath.h).
 ///
 /// Storage: grid() is an Int32Grid (background 0) whose ACTIVE voxels are
 /// exactly the cut cells, valued with the id of the first stroke that cut them

@@ -109,7 +109,7 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   fold or face check might be judged otherwise by the next cell; should
 ///   the link be, the seam opens and the local check refuses the update:
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an
-///   unmitred joint that tooSharpForMitre now mitres; none of test_cut_props'
+///   unmitred joint, now mitred (makePrismGeom); none of test_cut_props'
 ///   strokes does it); a triangle it moves into another cell face is listed
 ///   in out.intoFace (the cell across may make its twin: markCancellingPairs);
 ///   then the two ends of a spike of a face's section (a vertex inside the

@@ -114,11 +114,13 @@ bool sharesEdge(const Quad& other, const std::vector<int>& otherHull, const dvec
 /// hull by margin = (w/2) tan(kKerfMitreMaxBend/2) (or more) with the corner
 /// clamped where 1 - cos(a) < kKerfMitreMinCornerGap: the clamped corner is
 /// margin (1 - cos a) / kKerfMitreMinCornerGap off the stick's line, and the
-/// reach is covered while delta stays within half of that. So a sharp corner
-/// (a blade pivoting about its tip) still takes a mitre when the quads are
-/// nearly coplanar: without it the two prisms' end planes leave a notch w/2
-/// deep and (w/2) bend wide at the stick, sub-micron for such quads, whose
-/// walls cross once written in float (seed 1023 on the 2 mm head).
+/// reach is covered while delta stays within half of that. Past that the
+/// prism gets a cap at the corner (makePrismGeom), and the joint keeps its
+/// mitre all the same: without one, the two prisms' end planes leave a
+/// notch w/2 deep and (w/2) bend wide at the stick, sub-micron for nearly
+/// coplanar quads, whose walls cross once written in float (seed 1023 on
+/// the 2 mm head; 11001, 11006, 11049 on it relabelled to 0.45 x 0.45 x
+/// 1.25 mm voxels).
 bool tooSharpForMitre(const Quad& q, const std::vector<int>& hull, const dvec3& corner, double tanHalfBend)
 {
     const size_t m = hull.size();
@@ -295,11 +297,14 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///
 /// - Offsets: the quad's plane shifted by +-w/2 (world).
 /// - A hull edge shared with the previous or next quad of the stroke, bending
-///   by less than kKerfMitreMaxBend, with no corner of either quad at it too
-///   sharp for that bend (tooSharpForMitre): the mitre, one plane object for both
+///   by less than kKerfMitreMaxBend: the mitre, one plane object for both
 ///   quads (the lower quad's data first) through the stick and
 ///   u = (w/2)(n_q + n_o)/(1 + n_q.n_o), the world bisector, on which the two
-///   quads' offset planes meet exactly (also with anisotropic spacing).
+///   quads' offset planes meet exactly (also with anisotropic spacing). At a
+///   corner of the stick too sharp for that bend (tooSharpForMitre), the
+///   mitre would reach along the rim past what cutRegion() covers: a cap
+///   there, the plane through the corner at right angles to the stick
+///   (world), again one plane object for both quads (kCapKinds).
 /// - Any other edge (rims, unjoined stick ends): the plane through it
 ///   perpendicular to the quad in world mm; but a rim that continues the previous quad's
 ///   rim through a corner of their shared stick, mitred or not (both its
@@ -370,6 +375,7 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     // Pass 1: mitre joints per hull edge.
     std::vector<QuadGeom::Side> joint(m);
     std::vector<char> isJoint(m, 0);
+    std::vector<QuadGeom::Side> caps; // sharp corners of a mitred joint
     dvec3 prevA(0.0), prevB(0.0); // world corners of the joint with the previous quad
     bool joinedPrevious = false;
     for (size_t e = 0; e < m; ++e) {
@@ -394,9 +400,9 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             // Both quads' corners at the joint (the decision is the same from
             // either side): a sharp one would put the mitre outside the mask.
             const double tanHalfBend = std::sqrt(std::max(0.0, 1.0 - c) / (1.0 + c));
-            if (tooSharpForMitre(q, hull, wa, tanHalfBend) || tooSharpForMitre(q, hull, wb, tanHalfBend) ||
-                tooSharpForMitre(o, oHull, wa, tanHalfBend) || tooSharpForMitre(o, oHull, wb, tanHalfBend))
-                break;
+            // A corner of this quad at the joint too sharp for the mitre
+            // gets a cap (below); the partner caps its own.
+            const bool sharpA = tooSharpForMitre(q, hull, wa, tanHalfBend), sharpB = tooSharpForMitre(q, hull, wb, tanHalfBend);
             dvec3 w0 = wa, w1 = wb;
             if (lexLess(w1, w0)) std::swap(w0, w1);
             const dvec3 p0 = frame.toIndex(w0), p1 = frame.toIndex(w1);
@@ -414,6 +420,35 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             side.orient = own > 0 ? 1.0 : -1.0;
             joint[e] = side;
             isJoint[e] = 1;
+            // The mitre reaches past the stick by (w/2) tan(bend/2), and at a
+            // corner of angle a along the rim by that over sin a, out of
+            // the cells the mask cut round a sharp corner (cutRegion clamps
+            // its growth there). A cap through the corner at right angles
+            // to the stick (world) stops it there: the quad lies within its
+            // angle a < 90 degrees at the corner and the offset planes are
+            // parallel to the stick, so the cap takes none of the prism but
+            // what the mitre added beyond the corner. Without the mitre, the two
+            // prisms' own end planes both hold the stick and leave a notch
+            // of solid between them on the outer side of the bend, thinner
+            // than a float step near the stick, whose walls then cross grid
+            // edges a float step apart and touch once written (0.45 x 0.45 x
+            // 1.25 mm voxels, the skin, random strokes seeds 11001, 11006,
+            // 11049: bends of 2-5 degrees at a pivot).
+            for (int k = 0; k < 2; ++k) {
+                if (!(k == 0 ? sharpA : sharpB)) continue;
+                const dvec3& X = k == 0 ? wa : wb;
+                const dvec3& Y = k == 0 ? wb : wa;
+                const dvec3 nw = glm::normalize(X - Y);
+                const dvec3 xi = frame.toIndex(X);
+                QuadGeom::Side cap;
+                cap.plane.n = glm::normalize(nw * frame.spacing);
+                cap.plane.d = glm::dot(cap.plane.n, xi);
+                // One plane object for both quads, as the mitre: named by
+                // the lower quad and the corner's place on the stick.
+                cap.id = planeIdOf(ref.stroke, lower ? ref.quad : uint32_t(oq), kCapKinds[X == w0 ? 0 : 1]);
+                cap.orient = cap.plane.h(frame.toIndex(Y)) > 0 ? 1.0 : -1.0;
+                caps.push_back(cap);
+            }
             break;
         }
     }
@@ -454,6 +489,7 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
         side.orient = side.plane.h(centre) >= 0 ? 1.0 : -1.0;
         g.sides.push_back(side);
     }
+    for (const auto& cap : caps) g.sides.push_back(cap);
     entry.serial = ++cache.serial;
     const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
     PrismCache::Geom& memo = cache.geoms[key];
@@ -860,11 +896,11 @@ bool isBladePlaneId(uint64_t planeId)
     // planeIdOf: (stroke << 36) | (quad << 4) | kind, strokes from 1;
     // tet-local planes have kBoundaryLabel set. Kind 0 is the quad's plane,
     // 1..4 the sides, kJunctionKind the junction or mitre, kPlusKind and
-    // kMinusKind the offset planes. With w = 0 sides and junctions bound the
+    // kMinusKind the offset planes, kCapKinds (5, 6) the caps at a mitred
+    // joint's sharp corners. With w = 0 sides and junctions bound the
     // quad but carry no surface, so no triangle has all three vertices on one.
     if (planeId < (uint64_t(1) << 36) || (planeId & kBoundaryLabel) != 0) return false;
-    const uint64_t kind = planeId & 15u;
-    return kind <= 4 || kind == uint64_t(kJunctionKind) || kind == uint64_t(kPlusKind) || kind == uint64_t(kMinusKind);
+    return (planeId & 15u) <= uint64_t(kMinusKind);
 }
 
 uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexId& c)
@@ -971,7 +1007,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     }
     // A cell's quad list: the mask's; for a cell just outside the box, the
     // quads of its cut neighbours inside the box that touch it, sorted.
-    std::map<std::pair<uint32_t, uint32_t>, QuadRegion> regions;
+    std::map<std::pair<uint32_t, uint32_t>, CutRegion> regions;
     std::vector<QuadRef> outsideList;
     auto listOf = [&](const Coord& c) -> const std::vector<QuadRef>* {
         if (inBox(c)) return mask.quadsAt(c);

@@ -42,7 +42,9 @@
 // (with anisotropic voxels not in index space); consecutive
 // quads of a stroke that bend by less than kKerfMitreMaxBend share a mitre
 // plane instead of their two end planes (so the strip has no micro-notches;
-// the mask voxelises cutRegion(), which covers the mitre joints). The
+// the mask voxelises cutRegion(), which covers the mitre joints, and a
+// corner of the joint too sharp for the mitre's reach gets a cap, the plane
+// through it at right angles to the stick). The
 // surface is (iso pieces outside every closed prism) + (prism face pieces
 // inside the solid and outside every other closed prism; of two coincident
 // faces facing the same way, the lower quad's), through the same arrangement,

@@ -31,6 +31,11 @@ constexpr uint64_t kBoundaryLabel = uint64_t(1) << 63; ///< | mask of tet-local 
 constexpr uint64_t kIso = 1; ///< the isosurface in a vertex name (CutVertexId::planes, sorted first)
 constexpr int kJunctionKind = 7;
 constexpr int kPlusKind = 8, kMinusKind = 9; ///< kerf > 0: the prism's offset planes
+/// Kerf > 0: the caps at the sharp corners of a mitred joint (makePrismGeom,
+/// Remesh.cpp), named by the joint's lower quad: the stick's
+/// lexicographically first corner, then its second. Every kind up to
+/// kMinusKind is a blade plane (isBladePlaneId).
+constexpr int kCapKinds[2] = {5, 6};
 /// Kerf > 0: the tag (CutVertexId::tags) of the k-th copy (k >= 1) of a
 /// vertex inside a tet where the removed region's boundary pinches; k = 1
 /// also for the cap's copy of a marching-tetrahedra vertex exactly on a

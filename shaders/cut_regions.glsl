@@ -718,9 +718,7 @@ float blockValue(ivec3 cell, ivec3 g)
 bool isBladePlaneId(uint64_t p)
 {
     if (p < (1ul << 36) || (p & kBoundaryLabel) != 0ul) return false;
-    const uint64_t kind = p & 15ul;
-    return kind <= 4ul || kind == uint64_t(kJunctionKind) || kind == uint64_t(kPlusKind) ||
-           kind == uint64_t(kMinusKind);
+    return (p & 15ul) <= uint64_t(kMinusKind); // quad, sides, caps, junctions, offsets
 }
 
 bool vOnPlane(int v, uint64_t p)

@@ -260,7 +260,7 @@ TEST(Voxelize, LongThinQuadsListExactlyTheTouchedCells)
         const dvec3 c[4] = {base, base + length * dir, base + length * dir + sweep * move, base + sweep * move};
         const Quad q = makeQuad(c, i % 5 == 0 ? 3 : 4, 0);
         const double kerf = (i % 3 == 0) ? 0.0 : (i % 3 == 1 ? 0.3 : 1.5);
-        const QuadRegion region = cutRegion(q, kerf, f);
+        const CutRegion region = cutRegion(q, kerf, f);
         std::vector<ivec3> got;
         region.appendCells(got);
         std::vector<ivec3> all;

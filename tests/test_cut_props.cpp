@@ -1628,9 +1628,9 @@ TEST(CutPropsDefects, PointsOnAMitreLineAreNamedApart)
 // notch w/2 deep and (w/2) * bend wide at the stick, 1e-5 mm or less: seed
 // 1023 wrote 7 intersecting pairs (the notch's walls crossed in float),
 // seeds 1019 and 1028 were refused (a sliver region without outer loop; a
-// seam the float repair closed in one cell and not the other). A sharp corner
-// now takes the mitre while its reach past the corner stays within the
-// clamped growth (tooSharpForMitre): all three are clean.
+// seam the float repair closed in one cell and not the other). Such a joint
+// now takes the mitre, capped at a corner where its reach past the corner
+// leaves the clamped growth (tooSharpForMitre): all three are clean.
 TEST(CutPropsDefects, NearlyCoplanarSharpJointsAreMitredWithKerf)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");

@@ -410,6 +410,25 @@ TEST(LiveStroke, ACollapseOnBothSidesOfAFaceDoesNotJoinTwoVerticesOfItsDiagonal)
     expectEveryUpdateAccepted(head.path, 11039, 0, 80, 335, -300.0f);
 }
 
+// The same clinical voxels and skin, kerf 0.5, seed 11001, stroke 1: the
+// blade pivots on its tip, and consecutive quads bend by 2-5 degrees at a
+// stick whose corner at the tip is sharper than the mitre's reach allows
+// (tooSharpForMitre). Each prism then ended on its own end plane through
+// the stick, which left a notch of skin between them on the outer side of
+// the bend, thinner than a float step near the stick; its walls crossed
+// grid edges a float step apart and touched once written, in cell (67, 51,
+// 82), and the stroke stopped with 47 of its 183 quads (seed 11006, stroke
+// 0, with 31 of 196; seed 11049, stroke 1, with 10 of 352). Such a joint is
+// now mitred and the mitre capped at the sharp corner (makePrismGeom).
+TEST(LiveStroke, AJointWithASharpCornerIsMitredAndCappedNotNotched)
+{
+    MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
+    const RelabelledHead2mm head(raw, 0.45, 0.45, 1.25);
+    expectEveryUpdateAccepted(head.path, 11001, 1, 55, 183, -300.0f);
+    expectEveryUpdateAccepted(head.path, 11006, 0, 40, 196, -300.0f);
+    expectEveryUpdateAccepted(head.path, 11049, 1, 20, 352, -300.0f);
+}
+
 // Anisotropic voxels, as most CT has (the built-in phantom's are 0.47 x 0.47
 // x 1 mm; at 128 x 128 x 64 here, 1.875 x 1.875 x 4): random strokes at kerf
 // 0.5 and 1.5, updated after every quad, are all accepted. A prism's rim

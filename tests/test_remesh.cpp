@@ -1271,7 +1271,7 @@ TEST(Remesh, KerfPrismsStandUprightInWorldAndLieInTheirCutCells)
     frame.origin = dvec3(-10.25, 3.5, -40.0);
     frame.spacing = dvec3(0.5, 0.5, 2.0);
     frame.dims = glm::ivec3(120, 120, 40);
-    size_t prisms = 0, rims = 0, corners = 0, outside = 0;
+    size_t prisms = 0, rims = 0, caps = 0, corners = 0, outside = 0;
     for (double kerf : {0.5, 2.0}) {
         for (uint32_t seed = 1; seed <= 20; ++seed) {
             CutMask mask(frame, kerf);
@@ -1291,7 +1291,8 @@ TEST(Remesh, KerfPrismsStandUprightInWorldAndLieInTheirCutCells)
                     const dvec3 upright = glm::normalize(quad.normal / frame.spacing);
                     for (const auto& side : g.sides) {
                         const uint64_t kind = side.id & 15;
-                        if (kind < 1 || kind > 4) continue; // offsets (8, 9), mitres (7)
+                        caps += kind == uint64_t(remesh_detail::kCapKinds[0]) || kind == uint64_t(remesh_detail::kCapKinds[1]);
+                        if (kind < 1 || kind > 4) continue; // offsets (8, 9), mitres (7), caps (5, 6)
                         ++rims;
                         // A rim continuing the previous quad's (within 1e-4 voxel and
                         // 1.4e-4 rad, makePrismGeom) is that quad's plane, upright on it.
@@ -1334,12 +1335,123 @@ TEST(Remesh, KerfPrismsStandUprightInWorldAndLieInTheirCutCells)
                 }
         }
     }
-    std::printf("%zu prisms, %zu rim sides upright, %zu corners, %zu outside their cut cells\n", prisms, rims, corners,
-                outside);
+    std::printf("%zu prisms, %zu rim sides upright, %zu caps, %zu corners, %zu outside their cut cells\n", prisms, rims,
+                caps, corners, outside);
     EXPECT_GT(prisms, 1000u);
     EXPECT_GT(rims, prisms);
+    EXPECT_GT(caps, 0u); // pivots on a sharp corner (AMitreIsCappedAtASharpCornerOfItsJoint)
     EXPECT_GT(corners, 4 * prisms);
     EXPECT_EQ(outside, 0u);
+}
+
+// A blade pivoting on its tip makes triangles with a sharp corner there;
+// two of them bending 4 degrees at their common stick, whose corners at the
+// tip are half a degree: the mitre would reach delta / sin(0.5 degree) past
+// the tip along the rim, beyond the clamped growth of cutRegion() there
+// (tooSharpForMitre). The joint is mitred all the same (no notch between two
+// end planes), and the mitre capped at the tip: one plane object for both
+// prisms (kCapKinds, named by the lower quad), through the tip at right
+// angles to the stick, holding the rest of each prism on its side. Every
+// corner of both prisms lies in a cell the mask cut for that quad (without
+// cutRegion's strips along the stick, the corner at the tip does not).
+TEST(Remesh, AMitreIsCappedAtASharpCornerOfItsJoint)
+{
+    IndexFrame frame;
+    frame.origin = dvec3(0.0);
+    frame.spacing = dvec3(1.0);
+    frame.dims = glm::ivec3(50, 50, 30);
+    const double deg = std::acos(-1.0) / 180.0, len = 25.0;
+    for (double kerf : {0.5, 2.0}) {
+        SCOPED_TRACE("kerf " + std::to_string(kerf));
+        // The stick runs along y at x = tip.x; the mitre reaches past it
+        // towards +x by (w/2) tan(2 degrees), 0.017 w, where the hull grown
+        // round the clamped corner reaches about 0.009 w at the tip: the
+        // grid plane x = 20 between the two, so the cells cut at the tip
+        // must include the strip along the stick (cutRegion).
+        const double tipAngle = 0.5 * deg; // the corners at the tip
+        const dvec3 tip(20.0 - 0.013 * kerf, 10.2, 15.1);
+        const dvec3 y0 = tip + len * dvec3(-std::sin(tipAngle), std::cos(tipAngle), 0);
+        const dvec3 y1 = tip + len * dvec3(0, 1, 0);
+        const dvec3 y2 = y1 + len * std::sin(tipAngle) * dvec3(std::cos(4 * deg), 0, std::sin(4 * deg));
+        const dvec3 c1[3] = {tip, y0, y1}, c2[3] = {tip, y1, y2};
+        CutMask mask(frame, kerf);
+        mask.beginStroke();
+        mask.addQuad(makeQuad(c1, 3, 0));
+        mask.addQuad(makeQuad(c2, 3, 1));
+        ASSERT_EQ(mask.quadCount(1), 2u);
+        const uint64_t junction = remesh_detail::planeIdOf(1, 0, remesh_detail::kJunctionKind);
+        std::vector<remesh_detail::QuadGeom> prisms;
+        for (uint32_t qi = 0; qi < 2; ++qi) {
+            const uint64_t id = remesh_detail::planeIdOf(1, qi, 0);
+            remesh_detail::QuadGeom g;
+            for (const auto& q : remesh_detail::kernelQuadsOf(mask, mask.cellsOf(QuadRef{1, qi}).front()))
+                if (q.id == id) g = q;
+            ASSERT_EQ(g.id, id);
+            prisms.push_back(g);
+        }
+        const remesh_detail::QuadGeom::Side* caps[2] = {nullptr, nullptr};
+        for (int k = 0; k < 2; ++k) {
+            bool mitred = false;
+            for (const auto& side : prisms[size_t(k)].sides) {
+                mitred = mitred || side.id == junction;
+                const int kind = int(side.id & 15);
+                if (kind == remesh_detail::kCapKinds[0] || kind == remesh_detail::kCapKinds[1]) {
+                    EXPECT_EQ(caps[k], nullptr) << "one sharp corner, one cap";
+                    caps[k] = &side;
+                }
+            }
+            EXPECT_TRUE(mitred) << "quad " << k << " has no mitre";
+            ASSERT_NE(caps[k], nullptr) << "quad " << k << " has no cap";
+        }
+        // One plane object, named by quad 0, the tip its stick's first corner (x).
+        EXPECT_EQ(caps[0]->id, remesh_detail::planeIdOf(1, 0, remesh_detail::kCapKinds[0]));
+        EXPECT_EQ(caps[0]->id, caps[1]->id);
+        EXPECT_EQ(caps[0]->plane.n, caps[1]->plane.n);
+        EXPECT_EQ(caps[0]->plane.d, caps[1]->plane.d);
+        EXPECT_EQ(caps[0]->orient, caps[1]->orient);
+        // Through the tip, at right angles to the stick in world mm, the stick on its inner side.
+        const auto& cap = *caps[0];
+        EXPECT_NEAR(cap.plane.h(frame.toIndex(tip)), 0.0, 1e-12);
+        const dvec3 worldN = glm::normalize(cap.plane.n / frame.spacing);
+        EXPECT_NEAR(std::abs(glm::dot(worldN, glm::normalize(y1 - tip))), 1.0, 1e-12);
+        EXPECT_GT(cap.orient * cap.plane.h(frame.toIndex(y1)), 0.0);
+        // The rest of each prism is on its inner side: every corner of each
+        // quad, and its corners moved by half the kerf off its plane.
+        for (int k = 0; k < 2; ++k) {
+            const Quad& q = mask.quad(QuadRef{1, uint32_t(k)});
+            for (uint32_t i = 0; i < q.cornerCount; ++i)
+                for (double s : {-0.5, 0.5}) {
+                    const dvec3 x = frame.toIndex(q.corners[i] + s * kerf * q.normal);
+                    EXPECT_GE(cap.orient * cap.plane.h(x), -1e-9) << "quad " << k << " corner " << i;
+                }
+        }
+        // Every corner of each capped prism lies in a cell the mask cut for it.
+        size_t corners = 0;
+        for (uint32_t qi = 0; qi < 2; ++qi) {
+            const auto& sd = prisms[qi].sides;
+            for (size_t a = 0; a < sd.size(); ++a)
+                for (size_t b = a + 1; b < sd.size(); ++b)
+                    for (size_t c = b + 1; c < sd.size(); ++c) {
+                        const dvec3 &na = sd[a].plane.n, &nb = sd[b].plane.n, &nc = sd[c].plane.n;
+                        const double det = glm::dot(na, glm::cross(nb, nc));
+                        if (std::abs(det) < 1e-9) continue;
+                        const dvec3 x = (sd[a].plane.d * glm::cross(nb, nc) + sd[b].plane.d * glm::cross(nc, na) +
+                                         sd[c].plane.d * glm::cross(na, nb)) / det;
+                        bool in = true;
+                        for (const auto& s : sd) in = in && s.orient * s.plane.h(x) >= -1e-9;
+                        if (!in) continue;
+                        ++corners;
+                        const Coord cell(int(std::floor(x.x)), int(std::floor(x.y)), int(std::floor(x.z)));
+                        const std::vector<QuadRef>* list = mask.quadsAt(cell);
+                        const bool listed = list && std::find_if(list->begin(), list->end(), [&](const QuadRef& r) {
+                                                        return r.quad == qi;
+                                                    }) != list->end();
+                        EXPECT_TRUE(listed) << "quad " << qi << ": corner (" << x.x << ", " << x.y << ", " << x.z
+                                            << ") in cell " << cell << ", which the mask did not cut for it";
+                    }
+        }
+        EXPECT_GE(corners, 12u);
+    }
 }
 
 // The kernel names a point once per tet: a later naming with the same
