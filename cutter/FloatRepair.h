@@ -105,9 +105,11 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   face's largest world coordinate, which both cells share) to another
 ///   vertex of the closed face becomes that one (of two inside the face,
 ///   the greater name becomes the lesser), pairs taken in name order, in
-///   both cells alike; only the link condition is asked (a
-///   fold or face check might be judged otherwise by the next cell; should
-///   the link be, the seam opens and the local check refuses the update:
+///   both cells alike; only the link condition is asked, and a common
+///   neighbour in the face that fails it keeps the two apart only where
+///   both its edges to them are the cell's boundary, as the cell across
+///   sees them (a fold or face check might be judged otherwise by the next
+///   cell; should the link be, the seam opens and the local check refuses the update:
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an
 ///   unmitred joint, now mitred (makePrismGeom); none of test_cut_props'
 ///   strokes does it); a triangle it moves into another cell face is listed

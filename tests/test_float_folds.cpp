@@ -1019,6 +1019,62 @@ TEST(FloatFolds, ACollapseMakesNoNewEdgeInACellFace)
     EXPECT_FALSE(edgesBefore.count({b.g.vertexIds[K], b.g.vertexIds[I]}));
 }
 
+// A stroke folding back and forth: three end planes (quads 41, 42 and 43)
+// cross the tet face (84,32,88)-(85,32,88)-(85,32,89), in cell face y = 32,
+// within 2e-5 voxel of each other, and two of them the cell's edge below it
+// 4.5e-6 voxel apart (0.45 x 0.45 x 1.25 mm voxels, the skin at -300, kerf
+// 0.5, random strokes seed 11042, stroke 0 at quad 43; cell (84, 31, 88)'s
+// triangles there as the kernel made them). B and A, the ends of a short
+// edge inside the face, have the cell edge's vertex E as a common
+// neighbour, so the link condition fails; but the edge B-E is used both
+// ways in this cell (by a triangle of its own lying in the face), so the
+// cell across (84, 32, 88) has no such edge, saw no triangle A-B-E of the
+// face's section, and merged B into A. This cell kept them apart, and the
+// seam opened (an edge used twice one way). It now merges them too: the
+// two triangles at E that then coincide facing opposite ways go, with the
+// vertex inside the tet, and the triangle in the face is left.
+TEST(FloatFolds, AFaceRuleCollapseThroughATriangleInTheFaceIsMadeAsAcrossTheFace)
+{
+    using mtcut::cutter::remesh_detail::planeIdOf;
+    const Coord cell(84, 31, 88);
+    const openvdb::Vec3d origin(74.0, 134.0, 1000.0), spacing(0.45, 0.45, 1.25);
+    const Coord a(84, 32, 88), b(85, 32, 88), c(85, 32, 89); // the tet face in cell face y = 32
+    const uint64_t end41 = planeIdOf(1, 41, 4), end42 = planeIdOf(1, 42, 3), end43 = planeIdOf(1, 43, 2);
+    Builder bld;
+    const uint32_t E = bld.add(edgeVertex(a, b, end41), {84.581296901340, 32.0, 88.0});
+    const uint32_t F = bld.add(edgeVertex(a, b, end43), {84.581292364396, 32.0, 88.0});
+    const uint32_t A = bld.add(faceVertex(a, b, c, end41, end42), {84.584712885236, 32.0, 88.001898492464});
+    const uint32_t B = bld.add(faceVertex(a, b, c, end42, end43), {84.584696763393, 32.0, 88.001907217763});
+    CutVertexId inner;
+    inner.dim = 3;
+    inner.feature = {gridVertexId(cell.x(), cell.y(), cell.z()), 1, 0};
+    inner.planeCount = 6;
+    inner.planes = {planeIdOf(1, 41, 1), end41, planeIdOf(1, 42, 1), end42, planeIdOf(1, 43, 1), end43, 0, 0};
+    const uint32_t T = bld.add(inner, {84.584584610685, 31.998363065031, 88.001807599273});
+    bld.tri(E, A, T);
+    bld.tri(A, B, T);
+    bld.tri(B, E, T);
+    bld.tri(B, F, E); // in the face
+    ASSERT_LT(bld.g.vertexIds[A], bld.g.vertexIds[B]);
+    CutCellGeometry g = bld.g;
+    EXPECT_GE(repairFloatFolds(cell, origin, spacing, g), 1u);
+    ASSERT_EQ(g.indices.size(), 3u) << "the triangle in the face alone";
+    std::vector<CutVertexId> left;
+    for (uint32_t v : g.indices) left.push_back(g.vertexIds[v]);
+    std::rotate(left.begin(), std::min_element(left.begin(), left.end()), left.end());
+    const std::vector<CutVertexId> want = {bld.g.vertexIds[E], bld.g.vertexIds[A], bld.g.vertexIds[F]};
+    std::vector<CutVertexId> wantRotated = want;
+    std::rotate(wantRotated.begin(), std::min_element(wantRotated.begin(), wantRotated.end()), wantRotated.end());
+    EXPECT_TRUE(left == wantRotated) << "B became A, facing as (B, F, E) did";
+    // The boundary: E -> A -> B -> F -> E before; E -> A -> F -> E now,
+    // what the cell across meets once it has merged B into A too.
+    const auto after = boundary(g);
+    EXPECT_EQ(after.size(), 3u);
+    EXPECT_TRUE(after.count({bld.g.vertexIds[E], bld.g.vertexIds[A]}));
+    EXPECT_TRUE(after.count({bld.g.vertexIds[A], bld.g.vertexIds[F]}));
+    EXPECT_TRUE(after.count({bld.g.vertexIds[F], bld.g.vertexIds[E]}));
+}
+
 TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
 {
     using mtcut::cutter::remesh_detail::linkFans;

@@ -429,6 +429,21 @@ TEST(LiveStroke, AJointWithASharpCornerIsMitredAndCappedNotNotched)
     expectEveryUpdateAccepted(head.path, 11049, 1, 20, 352, -300.0f);
 }
 
+// The same clinical voxels and skin, kerf 0.5, seed 11042, stroke 0: the
+// stroke folds back and forth, and at its 44th quad three end planes cross
+// face y = 32 of cell (84, 31, 88) within 2e-5 voxel of each other. The
+// float repair's face rule merged two of their points in the cell above
+// the face and not in this one, where a triangle of its own lies in the
+// face; the seam opened and the stroke stopped with 43 of its 254 quads.
+// Both cells now merge them
+// (FloatFolds.AFaceRuleCollapseThroughATriangleInTheFaceIsMadeAsAcrossTheFace).
+TEST(LiveStroke, AFaceRuleMergeIsMadeOnBothSidesOfTheFaceOfAFoldingStroke)
+{
+    MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
+    const RelabelledHead2mm head(raw, 0.45, 0.45, 1.25);
+    expectEveryUpdateAccepted(head.path, 11042, 0, 50, 254, -300.0f);
+}
+
 // Anisotropic voxels, as most CT has (the built-in phantom's are 0.47 x 0.47
 // x 1 mm; at 128 x 128 x 64 here, 1.875 x 1.875 x 4): random strokes at kerf
 // 0.5 and 1.5, updated after every quad, are all accepted. A prism's rim
