@@ -1257,6 +1257,36 @@ TEST(Remesh, KernelQuadsGivesEveryCellTheQuadsKernelQuadsOfGives)
     }
 }
 
+/// The corners of a kerf prism (index space): every three of its planes
+/// that meet at one point (|det| >= minDet) inside all of them.
+std::vector<dvec3> prismCorners(const remesh_detail::QuadGeom& g, double minDet)
+{
+    std::vector<dvec3> corners;
+    const auto& sd = g.sides;
+    for (size_t a = 0; a < sd.size(); ++a)
+        for (size_t b = a + 1; b < sd.size(); ++b)
+            for (size_t c = b + 1; c < sd.size(); ++c) {
+                const dvec3 &na = sd[a].plane.n, &nb = sd[b].plane.n, &nc = sd[c].plane.n;
+                const double det = glm::dot(na, glm::cross(nb, nc));
+                if (std::abs(det) < minDet) continue;
+                const dvec3 x = (sd[a].plane.d * glm::cross(nb, nc) + sd[b].plane.d * glm::cross(nc, na) +
+                                 sd[c].plane.d * glm::cross(na, nb)) / det;
+                bool in = true;
+                for (const auto& s : sd) in = in && s.orient * s.plane.h(x) >= -1e-9;
+                if (in) corners.push_back(x);
+            }
+    return corners;
+}
+
+/// Did the mask cut `cell` for quad `ref`?
+bool cutFor(const CutMask& mask, const Coord& cell, const QuadRef& ref)
+{
+    const std::vector<QuadRef>* list = mask.quadsAt(cell);
+    return list && std::find_if(list->begin(), list->end(), [&](const QuadRef& r) {
+                       return r.stroke == ref.stroke && r.quad == ref.quad;
+                   }) != list->end();
+}
+
 // Kerf > 0 on anisotropic voxels (0.5 x 0.5 x 2 mm, as CT): each quad's
 // prism stands on the quad at right angles in world mm (its rim sides hold
 // the world normal), and every corner of it lies in a cell the mask cut for
@@ -1300,38 +1330,20 @@ TEST(Remesh, KerfPrismsStandUprightInWorldAndLieInTheirCutCells)
                         EXPECT_LT(std::abs(glm::dot(side.plane.n, upright)), own ? 1e-12 : 1.5e-4)
                             << "seed " << seed << " quad " << qi;
                     }
-                    // The prism's corners: every three of its planes that meet
-                    // at one point inside all of them.
-                    const auto& sd = g.sides;
-                    for (size_t a = 0; a < sd.size(); ++a)
-                        for (size_t b = a + 1; b < sd.size(); ++b)
-                            for (size_t c = b + 1; c < sd.size(); ++c) {
-                                const dvec3 &na = sd[a].plane.n, &nb = sd[b].plane.n, &nc = sd[c].plane.n;
-                                const double det = glm::dot(na, glm::cross(nb, nc));
-                                if (std::abs(det) < 1e-6) continue;
-                                const dvec3 x = (sd[a].plane.d * glm::cross(nb, nc) + sd[b].plane.d * glm::cross(nc, na) +
-                                                 sd[c].plane.d * glm::cross(na, nb)) / det;
-                                bool in = true;
-                                for (const auto& s : sd) in = in && s.orient * s.plane.h(x) >= -1e-9;
-                                if (!in) continue;
-                                // A corner on a grid plane (within rounding) lies in two cells: not judged.
-                                bool onGrid = false;
-                                for (int k = 0; k < 3; ++k) onGrid = onGrid || std::abs(x[k] - std::round(x[k])) < 1e-7;
-                                if (onGrid) continue;
-                                ++corners;
-                                const Coord cell(int(std::floor(x.x)), int(std::floor(x.y)), int(std::floor(x.z)));
-                                const std::vector<QuadRef>* list = mask.quadsAt(cell);
-                                const bool listed = list && std::find_if(list->begin(), list->end(), [&](const QuadRef& r) {
-                                                                return r.stroke == st && r.quad == qi;
-                                                            }) != list->end();
-                                const bool inFrame = cell.x() >= -1 && cell.y() >= -1 && cell.z() >= -1 &&
-                                                     cell.x() < frame.dims.x && cell.y() < frame.dims.y &&
-                                                     cell.z() < frame.dims.z;
-                                if (inFrame && !listed && outside++ < 5)
-                                    ADD_FAILURE() << "kerf " << kerf << " seed " << seed << " quad " << qi << ": corner ("
-                                                  << x.x << ", " << x.y << ", " << x.z << ") in cell " << cell
-                                                  << ", which the mask did not cut for it";
-                            }
+                    for (const dvec3& x : prismCorners(g, 1e-6)) {
+                        // A corner on a grid plane (within rounding) lies in two cells: not judged.
+                        bool onGrid = false;
+                        for (int k = 0; k < 3; ++k) onGrid = onGrid || std::abs(x[k] - std::round(x[k])) < 1e-7;
+                        if (onGrid) continue;
+                        ++corners;
+                        const Coord cell(int(std::floor(x.x)), int(std::floor(x.y)), int(std::floor(x.z)));
+                        const bool inFrame = cell.x() >= -1 && cell.y() >= -1 && cell.z() >= -1 &&
+                                             cell.x() < frame.dims.x && cell.y() < frame.dims.y && cell.z() < frame.dims.z;
+                        if (inFrame && !cutFor(mask, cell, ref) && outside++ < 5)
+                            ADD_FAILURE() << "kerf " << kerf << " seed " << seed << " quad " << qi << ": corner (" << x.x
+                                          << ", " << x.y << ", " << x.z << ") in cell " << cell
+                                          << ", which the mask did not cut for it";
+                    }
                 }
         }
     }
@@ -1427,29 +1439,14 @@ TEST(Remesh, AMitreIsCappedAtASharpCornerOfItsJoint)
         }
         // Every corner of each capped prism lies in a cell the mask cut for it.
         size_t corners = 0;
-        for (uint32_t qi = 0; qi < 2; ++qi) {
-            const auto& sd = prisms[qi].sides;
-            for (size_t a = 0; a < sd.size(); ++a)
-                for (size_t b = a + 1; b < sd.size(); ++b)
-                    for (size_t c = b + 1; c < sd.size(); ++c) {
-                        const dvec3 &na = sd[a].plane.n, &nb = sd[b].plane.n, &nc = sd[c].plane.n;
-                        const double det = glm::dot(na, glm::cross(nb, nc));
-                        if (std::abs(det) < 1e-9) continue;
-                        const dvec3 x = (sd[a].plane.d * glm::cross(nb, nc) + sd[b].plane.d * glm::cross(nc, na) +
-                                         sd[c].plane.d * glm::cross(na, nb)) / det;
-                        bool in = true;
-                        for (const auto& s : sd) in = in && s.orient * s.plane.h(x) >= -1e-9;
-                        if (!in) continue;
-                        ++corners;
-                        const Coord cell(int(std::floor(x.x)), int(std::floor(x.y)), int(std::floor(x.z)));
-                        const std::vector<QuadRef>* list = mask.quadsAt(cell);
-                        const bool listed = list && std::find_if(list->begin(), list->end(), [&](const QuadRef& r) {
-                                                        return r.quad == qi;
-                                                    }) != list->end();
-                        EXPECT_TRUE(listed) << "quad " << qi << ": corner (" << x.x << ", " << x.y << ", " << x.z
-                                            << ") in cell " << cell << ", which the mask did not cut for it";
-                    }
-        }
+        for (uint32_t qi = 0; qi < 2; ++qi)
+            for (const dvec3& x : prismCorners(prisms[qi], 1e-9)) {
+                ++corners;
+                const Coord cell(int(std::floor(x.x)), int(std::floor(x.y)), int(std::floor(x.z)));
+                EXPECT_TRUE(cutFor(mask, cell, QuadRef{1, qi})) << "quad " << qi << ": corner (" << x.x << ", " << x.y
+                                                                << ", " << x.z << ") in cell " << cell
+                                                                << ", which the mask did not cut for it";
+            }
         EXPECT_GE(corners, 12u);
     }
 }
