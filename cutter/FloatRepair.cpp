@@ -762,8 +762,9 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             for (uint32_t& w : moved)
                 if (w == p) w = q;
             if (folded(moved, normal[t])) return false;
+            if (intoFaceOk) continue;
             // A triangle in a cell face: the next cell may have it too.
-            if (!intoFaceOk && (faces[moved[0]] & faces[moved[1]] & faces[moved[2]])) return false;
+            if (faces[moved[0]] & faces[moved[1]] & faces[moved[2]]) return false;
             // A new edge in a cell face: the cell across may make it too,
             // by the same collapse of its own, and the edge is then used
             // twice each way (0.45 x 0.45 x 1.25 mm voxels, skin at -300,
@@ -773,8 +774,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             // the face collapsed a vertex of its own inner tet face onto the
             // plane's vertex there, joining the two along the diagonal).
             for (uint32_t w : moved)
-                if (!intoFaceOk && w != q && (faces[q] & faces[w]) && !std::binary_search(nq.begin(), nq.end(), w))
-                    return false;
+                if (w != q && (faces[q] & faces[w]) && !std::binary_search(nq.begin(), nq.end(), w)) return false;
         }
         for (size_t t : onEdge) alive[t] = 0;
         for (size_t t : atP) {
