@@ -353,25 +353,24 @@ TEST(LiveStroke, APinchInAFaceLeftByTheFloatRepairDoesNotStopTheStroke)
     expectEveryUpdateAccepted(tooth, 9273, 1, 40, 211);
 }
 
-/// A NRRD header in the test's temporary folder for the 2 mm head's data
-/// (`raw`) relabelled with voxels of sx x sy x sz mm (its spacing only):
-/// anisotropic CT from the cubic-voxel data. Removed when this goes.
+/// A NRRD header in a fresh temporary folder of its own (so tests run in
+/// parallel never share it) for the 2 mm head's data (`raw`) relabelled with
+/// voxels of sx x sy x sz mm (its spacing only): anisotropic CT from the
+/// cubic-voxel data. Removed, with its folder, when this goes.
 struct RelabelledHead2mm
 {
     RelabelledHead2mm(const std::string& raw, double sx, double sy, double sz)
+        : path(dir.file("head_2mm.nhdr"))
     {
-        std::ostringstream name;
-        name << ::testing::TempDir() << "mtcut_head_2mm_" << sx << "x" << sy << "x" << sz << ".nhdr";
-        path = name.str();
         std::ofstream h(path);
         h << "NRRD0004\ntype: int16\ndimension: 3\nspace: left-posterior-superior\nsizes: 192 176 122\n"
           << "space directions: (" << sx << ",0,0) (0," << sy << ",0) (0,0," << sz << ")\n"
           << "space origin: (74,134,1000)\nkinds: domain domain domain\nendian: little\nencoding: gzip\n"
           << "data file: " << raw << "\n";
     }
-    ~RelabelledHead2mm() { std::remove(path.c_str()); }
     RelabelledHead2mm(const RelabelledHead2mm&) = delete;
     RelabelledHead2mm& operator=(const RelabelledHead2mm&) = delete;
+    test::TempDir dir;
     std::string path;
 };
 
