@@ -706,6 +706,34 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         const std::vector<uint32_t> np = neighbours(atP, p), nq = neighbours(atQ, q);
         std::vector<uint32_t> common;
         std::set_intersection(np.begin(), np.end(), nq.begin(), nq.end(), std::back_inserter(common));
+        // The face rule makes no new edge along a cube edge (q and another
+        // vertex w of p's triangles on one, two faces in common) longer than
+        // a short edge: four cells share that edge, and the two across the
+        // cube edge's other face may make it too, by the same rule there
+        // (0.8 x 0.8 x 2.4 mm voxels, skin at -300, kerf 0.5, random
+        // strokes seed 10023: an offset plane crosses grid edge
+        // (92, 145, 21)-(92, 145, 22) 2.3e-3 mm from the isosurface's vertex
+        // there, and the line where they meet passes the edge a float step
+        // away; each of the four cells round it merged that line's point in
+        // one of its two faces there into the plane's vertex, which joined
+        // the plane's vertex to the iso vertex along the edge in all four:
+        // used twice each way). Asked where p-w is an edge of the face's
+        // section (used once in the cell), which the cell across has alike,
+        // so both keep p and q apart. A short one stays allowed: two blade
+        // planes' vertices on the cube edge a float step apart or less,
+        // which snap rounding joins once written (0.45 x 0.45 x 1.25 mm
+        // voxels, seeds 11021 and 11042: at one float point).
+        if (onFace)
+            for (size_t t : atP)
+                for (uint32_t w : tris[t]) {
+                    const unsigned both = faces[q] & faces[w];
+                    if (w == p || w == q || (both & (both - 1)) == 0 || std::binary_search(nq.begin(), nq.end(), w) ||
+                        isShortInFace(q, w, faces[p]))
+                        continue;
+                    size_t uses = 0; // of the edge p-w, either way
+                    for (size_t u : atP) uses += std::count(tris[u].begin(), tris[u].end(), w);
+                    if (uses == 1) return false;
+                }
         if (common != apexes) { // the link condition
             if (!onFace) return false;
             // A common neighbour in the face closes a triangle of the face's

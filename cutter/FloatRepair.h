@@ -113,7 +113,10 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an
 ///   unmitred joint, now mitred (makePrismGeom); none of test_cut_props'
 ///   strokes does it); a triangle it moves into another cell face is listed
-///   in out.intoFace (the cell across may make its twin: markCancellingPairs);
+///   in out.intoFace (the cell across may make its twin: markCancellingPairs),
+///   and it makes no edge along a cube edge, longer than a short edge, from
+///   an edge of the face's section (the four cells round the cube edge
+///   could each make it, in one of their two faces there);
 ///   then the two ends of a spike of a face's section (a vertex inside the
 ///   face joined along it to exactly two vertices inside it, not the
 ///   isosurface's own, that share no edge and round to one float point) become one, the lesser

@@ -1075,6 +1075,48 @@ TEST(FloatFolds, AFaceRuleCollapseThroughATriangleInTheFaceIsMadeAsAcrossTheFace
     EXPECT_TRUE(after.count({bld.g.vertexIds[F], bld.g.vertexIds[E]}));
 }
 
+// An offset plane crosses grid edge E = (92,145,21)-(92,145,22) 2.3e-3 mm
+// from the isosurface's vertex I there (its own vertex P), and the line
+// where the two meet crosses cell face x = 92 at F, a float step and a half
+// from P (0.8 x 0.8 x 2.4 mm voxels, the skin at -300, kerf 0.5, random
+// strokes seed 10023, stroke 3 at quad 17; cell (91, 144, 21)'s tet at E as
+// the kernel made it). The face rule merged F into P, which turned the
+// isosurface's triangle I-X-F into I-X-P: an edge along E, which the cell
+// did not have. Each of the four cells round E did the same in one of its
+// two faces there, and the edge was used twice each way. The face rule now
+// makes no new edge along a cube edge, so F stays (both cells of the face
+// decide alike: the face's section I-F-P is theirs alike).
+TEST(FloatFolds, TheFaceRuleMakesNoNewEdgeAlongACubeEdge)
+{
+    using mtcut::cutter::remesh_detail::planeIdOf;
+    const Coord cell(91, 144, 21);
+    const openvdb::Vec3d origin(74.0, 134.0, 1000.0), spacing(0.8, 0.8, 2.4);
+    const uint64_t k = planeIdOf(4, 17, 9);
+    const Coord e0(92, 145, 21), e1(92, 145, 22), f(92, 144, 22), in(91, 145, 22);
+    Builder b;
+    const uint32_t I = b.add(edgeVertex(e0, e1, 1), {92.0, 145.0, 21.380952380952});
+    const uint32_t P = b.add(edgeVertex(e0, e1, k), {92.0, 145.0, 21.379988316722});
+    const uint32_t F = b.add(faceVertex(e0, f, e1, 1, k), {92.0, 144.999788487326, 21.379925033678});
+    const uint32_t X = b.add(faceVertex(e0, f, in, 1, k), {91.723393456807, 144.959696520123, 21.316910023070});
+    const uint32_t J = b.add(edgeVertex(e0, in, 1), {91.272727272727, 145.0, 21.727272727273});
+    const uint32_t Q = b.add(edgeVertex(e0, in, k), {91.679185569370, 145.0, 21.320814430630});
+    b.tri(I, X, F); // the isosurface
+    b.tri(I, J, X);
+    b.tri(Q, P, X); // the offset plane
+    b.tri(P, F, X);
+    CutCellGeometry g = b.g;
+    const auto before = directedEdges(g);
+    repairFloatFolds(cell, origin, spacing, g);
+    const auto after = directedEdges(g);
+    EXPECT_FALSE(after.count({b.g.vertexIds[I], b.g.vertexIds[P]}) || after.count({b.g.vertexIds[P], b.g.vertexIds[I]}))
+        << "an edge along the cube edge";
+    for (const auto& [edge, n] : after) EXPECT_TRUE(before.count(edge)) << "a new edge";
+    // The premise: F and P are a face rule pair (short by the face's reach).
+    const double step = 1052.8 * double(std::numeric_limits<float>::epsilon());
+    const dvec3 s3(spacing.x(), spacing.y(), spacing.z());
+    EXPECT_LT(glm::length(s3 * (b.g.indexPositions[F] - b.g.indexPositions[P])), 2.0 * step);
+}
+
 TEST(LinkFans, CountsDisjointClosedCyclesAndNothingElse)
 {
     using mtcut::cutter::remesh_detail::linkFans;

@@ -390,6 +390,22 @@ TEST(LiveStroke, ASpikeOfBoneBetweenPivotingPrismsThinnerThanAFloatStepGoes)
     expectEveryUpdateAccepted(head.path, 10054, 3, 40, 335);
 }
 
+// The same 0.8 x 0.8 x 2.4 mm voxels, the skin at -300, kerf 0.5, seed
+// 10023, stroke 3: at its 18th quad an offset plane crossed grid edge
+// (92, 145, 21)-(92, 145, 22) 2.3e-3 mm from the isosurface's vertex, and
+// the line where the two meet passed the edge a float step away. In each
+// of the four cells round the edge the float repair's face rule merged that
+// line's point in a face into the plane's vertex, joining it to the iso
+// vertex along the edge: used twice each way, and the stroke stopped with
+// 17 of its 296 quads. The face rule makes no new edge along a cube edge now
+// (FloatFolds.TheFaceRuleMakesNoNewEdgeAlongACubeEdge).
+TEST(LiveStroke, AFaceRuleMergeDoesNotJoinTwoVerticesOfACubeEdge)
+{
+    MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
+    const RelabelledHead2mm head(raw, 0.8, 0.8, 2.4);
+    expectEveryUpdateAccepted(head.path, 10023, 3, 40, 296, -300.0f);
+}
+
 // The 2 mm head relabelled 0.45 x 0.45 x 1.25 mm (a clinical head CT's
 // voxels), the skin at -300, kerf 0.5, seed 11033, stroke 1: at its 17th
 // quad an offset face nearly parallel to the skin crossed the face diagonal
