@@ -55,7 +55,7 @@ enum class Mode { Live, Quad, Stroke };
 
 struct Totals
 {
-    size_t seeds = 0, strokes = 0, stopped = 0, deferred = 0, refused = 0, defects = 0, dirtySeeds = 0;
+    size_t seeds = 0, strokes = 0, stopped = 0, stepped = 0, deferred = 0, refused = 0, defects = 0, dirtySeeds = 0;
 };
 
 [[noreturn]] void usage(const char* why)
@@ -137,7 +137,7 @@ int main(int argc, char** argv)
         CutRemesher remesher(vol, iso, uncut);
         const auto all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
                                            20.0 + 10.0 * (s32 % 4));
-        size_t stopped = 0, deferred = 0, refused = 0;
+        size_t stopped = 0, deferred = 0, refused = 0, stepped = 0;
         std::string notes;
         for (size_t s = 0; s < all.size(); ++s) {
             const std::vector<Quad> quads = filterStroke(all[s], frame);
@@ -148,8 +148,12 @@ int main(int argc, char** argv)
                 for (size_t q = 0; q < quads.size() && live.add(quads[q]); ++q) {
                     r = q + 1 < quads.size() ? live.update() : live.finish();
                     deferred += r.outcome == LiveStroke::Outcome::Deferred;
+                    if (r.steppedRound)
+                        notes += " | stroke " + std::to_string(s) + " stepped round at quad " + std::to_string(q) + " of " +
+                                 std::to_string(quads.size()) + ": " + r.refusal;
                     if (r.outcome == LiveStroke::Outcome::Stopped) break;
                 }
+                stepped += live.steppedRound();
                 if (live.stopped()) {
                     ++stopped;
                     notes += " | stroke " + std::to_string(s) + " stopped, " + std::to_string(live.acceptedQuads()) + " of " +
@@ -183,15 +187,16 @@ int main(int argc, char** argv)
         total.stopped += stopped;
         total.deferred += deferred;
         total.refused += refused;
+        total.stepped += stepped;
         total.defects += check.defects();
         total.dirtySeeds += check.defects() != 0;
-        std::printf("seed=%ld stopped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f%s\n", seed, stopped, deferred, refused,
-                    check.defects(), bench::msSince(ts), notes.c_str());
+        std::printf("seed=%ld stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f%s\n", seed, stopped,
+                    stepped, deferred, refused, check.defects(), bench::msSince(ts), notes.c_str());
         std::fflush(stdout);
     }
-    std::printf("summary seeds=%zu strokes=%zu stopped=%zu deferred=%zu refused=%zu defects=%zu seeds_with_defects=%zu "
-                "s=%.1f\n",
-                total.seeds, total.strokes, total.stopped, total.deferred, total.refused, total.defects, total.dirtySeeds,
-                bench::msSince(t0) / 1e3);
+    std::printf("summary seeds=%zu strokes=%zu stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu "
+                "seeds_with_defects=%zu s=%.1f\n",
+                total.seeds, total.strokes, total.stopped, total.stepped, total.deferred, total.refused, total.defects,
+                total.dirtySeeds, bench::msSince(t0) / 1e3);
     return total.defects != 0 ? 1 : 0;
 }

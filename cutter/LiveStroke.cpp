@@ -2,12 +2,24 @@
 
 #include "vdb/Error.h"
 
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 
 namespace mtcut::cutter {
 
-LiveStroke::LiveStroke(CutMask& mask, CutRemesher& remesher, int patience)
-    : mMask(mask), mRemesher(remesher), mPatience(patience)
+bool LiveStroke::belowAFloatStep(const std::string& refusal)
+{
+    return refusal.rfind("remesh: the surface crosses or touches itself", 0) == 0 ||
+           refusal.rfind("remesh: open or inconsistent surface (", 0) == 0;
+}
+
+LiveStroke::LiveStroke(CutMask& mask, CutRemesher& remesher, int patience, bool stepRound)
+    : mMask(mask), mRemesher(remesher), mPatience(patience), mStepRound(stepRound)
 {
     if (patience < 1) throw std::invalid_argument("LiveStroke: patience must be at least 1");
 }
@@ -15,11 +27,37 @@ LiveStroke::LiveStroke(CutMask& mask, CutRemesher& remesher, int patience)
 bool LiveStroke::add(const Quad& quad)
 {
     if (mStopped) return false;
-    if (mQuads == 0) mMask.beginStroke();
-    mMask.addQuad(quad);
+    if (mMaskQuads == 0) mMask.beginStroke();
+    mMaskQuads += addMoved(quad);
     ++mQuads;
     mPending = true;
     return true;
+}
+
+uint32_t LiveStroke::addMoved(const Quad& quad, bool split)
+{
+    std::array<glm::dvec3, 4> c = quad.corners;
+    uint32_t moved = 0;
+    for (uint32_t i = 0; i < quad.cornerCount; ++i)
+        for (const auto& [from, to] : mMoved)
+            if (c[i] == from) {
+                c[i] = to;
+                ++moved;
+                break;
+            }
+    if (moved == 0) {
+        mMask.addQuad(quad);
+        return 1;
+    }
+    if (split && quad.cornerCount == 4 && moved < 4) {
+        // Corners {base0, tip0, tip1, base1}: the path filter's split (rule 3c).
+        const glm::dvec3 t0[3] = {c[0], c[1], c[2]}, t1[3] = {c[0], c[2], c[3]};
+        mMask.addQuad(makeQuad(t0, 3, quad.stick));
+        mMask.addQuad(makeQuad(t1, 3, quad.stick));
+        return 2;
+    }
+    mMask.addQuad(makeQuad(c.data(), quad.cornerCount, quad.stick));
+    return 1;
 }
 
 LiveStroke::Result LiveStroke::update() { return run(false); }
@@ -28,9 +66,123 @@ LiveStroke::Result LiveStroke::finish() { return run(true); }
 
 void LiveStroke::cutBack()
 {
-    if (mAccepted == 0) mMask.undoStroke();
-    else mMask.undoToQuad(mAccepted);
+    maskBackTo(mMaskAccepted);
     mQuads = mAccepted;
+}
+
+void LiveStroke::maskBackTo(uint32_t maskQuads)
+{
+    if (mMaskQuads == maskQuads) return;
+    if (maskQuads == 0) mMask.undoStroke();
+    else mMask.undoToQuad(maskQuads);
+    mMaskQuads = maskQuads;
+}
+
+bool LiveStroke::stepRound()
+{
+    const uint32_t stroke = mMask.strokeCount();
+    if (mMaskQuads > mMaskAccepted && stroke != 0)
+        for (uint32_t back = 0; back <= 1 && back <= mMaskAccepted; ++back)
+            if (stepRound(stroke, back)) return true;
+    cutBack();
+    return false;
+}
+
+bool LiveStroke::stepRound(uint32_t stroke, uint32_t back)
+{
+    // The quads from the `back`-th accepted one before the waiting ones on,
+    // as the mask holds them, and the quad before. With back = 1 the stick
+    // the waiting ones start on moves too: it may be what is in the way
+    // (0.45 x 0.45 x 1.25 mm voxels, 400 HU, kerf 0, random strokes seed
+    // 11118: it crosses face x = 122 of cell (121, 65, 82) within a float
+    // step, and the three planes through it, two quads' and their joint's,
+    // meet the face there however the waiting quad turns).
+    const uint32_t keep = mMaskAccepted - back;
+    std::vector<Quad> moving;
+    for (uint32_t q = keep; q < mMaskQuads; ++q) moving.push_back(mMask.quad({stroke, q}));
+    Quad before;
+    if (keep > 0) before = mMask.quad({stroke, keep - 1});
+    const Quad first = moving.front();
+    // The first one's corners on the quad before (their stick) stay; the others move.
+    std::vector<glm::dvec3> fixed, free;
+    for (uint32_t i = 0; i < first.cornerCount; ++i) {
+        bool shared = false;
+        for (uint32_t k = 0; keep > 0 && k < before.cornerCount && !shared; ++k) shared = first.corners[i] == before.corners[k];
+        (shared ? fixed : free).push_back(first.corners[i]);
+    }
+    const bool debug = std::getenv("MTCUT_REMESH_DEBUG") != nullptr; // (Remesh.h)
+    if (free.empty() || (!fixed.empty() && fixed.size() != 2) || first.degenerate) {
+        if (debug)
+            std::fprintf(stderr, "live stroke: cannot step round from quad %u (%zu corners on the quad before)\n", keep,
+                         fixed.size());
+        return false;
+    }
+    const glm::dvec3 sp = mMask.frame().spacing;
+    const double voxel = std::min({sp.x, sp.y, sp.z});
+    glm::dvec3 axis(0.0);
+    double reach = 0.0; // the free corners' largest distance from the axis
+    if (!fixed.empty()) {
+        axis = fixed[1] - fixed[0];
+        const double len = glm::length(axis);
+        if (!(len > 0.0)) return false;
+        axis /= len;
+        for (const glm::dvec3& p : free) {
+            const glm::dvec3 r = p - fixed[0];
+            reach = std::max(reach, glm::length(r - glm::dot(r, axis) * axis));
+        }
+        if (!(reach > 0.0)) return false;
+    }
+    const auto movedBefore = mMoved;
+    // The mask from `keep` on: the quads moved, or as they were.
+    auto put = [&](bool moved) {
+        maskBackTo(keep);
+        if (mMaskQuads == 0) mMask.beginStroke();
+        for (size_t i = 0; i < moving.size(); ++i) {
+            if (!moved) {
+                mMask.addQuad(moving[i]);
+                ++mMaskQuads;
+            } else {
+                mMaskQuads += addMoved(moving[i], i > 0); // the first turns whole: planar
+            }
+        }
+    };
+    auto restore = [&] {
+        mMoved = movedBefore;
+        put(false);
+    };
+    for (const double step : kStepRoundVoxels) {
+        const double by = step * voxel;
+        auto move = [&](const glm::dvec3& p) {
+            if (fixed.empty()) return p + by * first.normal;
+            // Turned about the shared edge so that the farthest corner moves by `by` (Rodrigues).
+            const double angle = by / reach, cs = std::cos(angle), sn = std::sin(angle);
+            const glm::dvec3 r = p - fixed[0];
+            return fixed[0] + r * cs + glm::cross(axis, r) * sn + axis * (glm::dot(axis, r) * (1.0 - cs));
+        };
+        mMoved = movedBefore;
+        for (const glm::dvec3& p : free) mMoved.push_back({p, move(p)});
+        put(true);
+        try {
+            mRemesher.update(mMask);
+        } catch (const InputError&) {
+            restore(); // as before the call
+            throw;
+        } catch (const Cancelled&) {
+            restore();
+            throw;
+        } catch (const std::runtime_error& e) {
+            if (debug)
+                std::fprintf(stderr, "live stroke: stepping round from quad %u by %g voxel refused: %s\n", keep, step,
+                             e.what());
+            continue; // refused: the re-mesher is as before the call
+        } catch (...) {
+            restore();
+            throw;
+        }
+        return true;
+    }
+    restore();
+    return false;
 }
 
 LiveStroke::Result LiveStroke::run(bool last)
@@ -54,6 +206,7 @@ LiveStroke::Result LiveStroke::run(bool last)
     }
     if (refusal.empty()) {
         mAccepted = mQuads;
+        mMaskAccepted = mMaskQuads;
         mRefusedInARow = 0;
         r.outcome = Outcome::Accepted;
         return r;
@@ -65,9 +218,24 @@ LiveStroke::Result LiveStroke::run(bool last)
         return r;
     }
     r.refusal = mFirstRefusal; // of the update the stroke is cut back to: the quads it added first
+    bool stepped = false;
+    try {
+        if (mStepRound && belowAFloatStep(mFirstRefusal) && belowAFloatStep(refusal)) stepped = stepRound();
+        else cutBack();
+    } catch (...) {
+        mPending = true; // the mask and the re-mesher are as before the call: try again later
+        throw;
+    }
     mRefusedInARow = 0;
-    // The re-mesher is as at the last accepted update: the mask follows it.
-    cutBack();
+    if (stepped) {
+        mAccepted = mQuads;
+        mMaskAccepted = mMaskQuads;
+        ++mSteppedRound;
+        r.outcome = Outcome::Accepted;
+        r.steppedRound = true;
+        return r;
+    }
+    // Cut back (stepRound): the re-mesher is as at the last accepted update, and the mask follows it.
     mRemesher.update(mMask);
     mStopped = true;
     r.outcome = Outcome::Stopped;

@@ -15,8 +15,10 @@
 #include "vdb/Phantom.h"
 #include "vdb/VolumeIO.h"
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -79,7 +81,8 @@ struct StrokeCut
 // refused (the blade's end in cell (37, 36, 49), where a fold plane of the
 // iso surface meets the slit on a tet face); with the third they go through.
 // Updated after every quad, the stroke is deferred once and then accepted
-// whole. Without patience (1) it stops at its first quad.
+// whole. Without patience (1), and not stepping round, it stops at its
+// first quad.
 TEST(LiveStroke, ARefusalOfTheBladesMomentaryEndIsRetriedAtTheNextUpdate)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
@@ -88,7 +91,7 @@ TEST(LiveStroke, ARefusalOfTheBladesMomentaryEndIsRetriedAtTheNextUpdate)
         StrokeCut cut(path, 0.0, 8046, 1);
         ASSERT_GT(cut.quads.size(), 10u);
         const uint32_t strokesBefore = cut.mask.strokeCount();
-        LiveStroke live(cut.mask, cut.remesher, patience);
+        LiveStroke live(cut.mask, cut.remesher, patience, false);
         size_t deferred = 0, accepted = 0;
         for (size_t q = 0; q < cut.quads.size(); ++q) {
             if (!live.add(cut.quads[q])) break;
@@ -122,14 +125,14 @@ TEST(LiveStroke, ARefusalOfTheBladesMomentaryEndIsRetriedAtTheNextUpdate)
 
 // Tooth, kerf 0.5, seed 8004, stroke 0: a refusal that stays (two blade
 // planes meet a cube edge a float step apart in a cell the later quads do not
-// change; the whole stroke is refused too). The stroke stops after
-// kPatience refused updates, cut back to its last accepted update, and
-// takes no more quads.
+// change; the whole stroke is refused too). Not stepping round it, the
+// stroke stops after kPatience refused updates, cut back to its last
+// accepted update, and takes no more quads.
 TEST(LiveStroke, ARefusalThatStaysStopsTheStrokeAtItsLastAcceptedUpdate)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
     StrokeCut cut(path, 0.5, 8004, 0);
-    LiveStroke live(cut.mask, cut.remesher);
+    LiveStroke live(cut.mask, cut.remesher, LiveStroke::kPatience, false);
     size_t firstRefused = SIZE_MAX, updates = 0;
     LiveStroke::Result last;
     for (size_t q = 0; q < cut.quads.size() && live.add(cut.quads[q]); ++q) {
@@ -151,16 +154,16 @@ TEST(LiveStroke, ARefusalThatStaysStopsTheStrokeAtItsLastAcceptedUpdate)
     cut.expectSameAsFromScratch();
 }
 
-// A refusal at the stroke's last update stops it there, however patient;
-// a stroke with nothing accepted leaves the mask; and an update with
-// nothing new re-meshes nothing.
+// Not stepping round, a refusal at the stroke's last update stops it there,
+// however patient; a stroke with nothing accepted leaves the mask; and an
+// update with nothing new re-meshes nothing.
 TEST(LiveStroke, TheLastUpdateDoesNotDeferAndAnEmptyUpdateDoesNothing)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
     StrokeCut cut(path, 0.0, 8046, 1);
     const uint32_t strokesBefore = cut.mask.strokeCount();
     {
-        LiveStroke live(cut.mask, cut.remesher);
+        LiveStroke live(cut.mask, cut.remesher, LiveStroke::kPatience, false);
         EXPECT_EQ(live.update().outcome, LiveStroke::Outcome::Unchanged);
         EXPECT_EQ(live.finish().outcome, LiveStroke::Outcome::Unchanged);
         EXPECT_FALSE(live.inMask());
@@ -181,7 +184,7 @@ TEST(LiveStroke, TheLastUpdateDoesNotDeferAndAnEmptyUpdateDoesNothing)
     cut.remesher.update(cut.mask);
     {
         // Patience 1 and a refused first update: nothing of the stroke stays.
-        LiveStroke live(cut.mask, cut.remesher, 1);
+        LiveStroke live(cut.mask, cut.remesher, 1, false);
         ASSERT_TRUE(live.add(cut.quads[0]));
         ASSERT_TRUE(live.add(cut.quads[1]));
         EXPECT_EQ(live.update().outcome, LiveStroke::Outcome::Stopped);
@@ -504,4 +507,84 @@ TEST(LiveStroke, RandomKerfStrokesOnTheAnisotropicPhantomAreAcceptedAtEveryQuad)
     EXPECT_EQ(strokes, 80u);
     EXPECT_GT(updates, 5000u);
     EXPECT_EQ(notAccepted, 0u);
+}
+
+namespace {
+
+/// Seed `seed`'s stroke `stroke` on `path` cut live (kerf, iso), a refusal
+/// in it that stays (it stops when not stepping round): stepping round it,
+/// the stroke goes through whole, its blade moved by no more than
+/// kStepRoundMostVoxels, and the cut is what a from-scratch cut
+/// of the mask gives, clean.
+void expectSteppedRound(const std::string& path, double kerf, uint32_t seed, size_t stroke, float iso)
+{
+    SCOPED_TRACE("seed " + std::to_string(seed) + " stroke " + std::to_string(stroke));
+    for (bool stepRound : {false, true}) {
+        StrokeCut cut(path, kerf, seed, stroke, iso);
+        LiveStroke live(cut.mask, cut.remesher, LiveStroke::kPatience, stepRound);
+        size_t stepped = 0;
+        for (size_t q = 0; q < cut.quads.size() && live.add(cut.quads[q]); ++q) {
+            const LiveStroke::Result r = q + 1 < cut.quads.size() ? live.update() : live.finish();
+            if (r.steppedRound) {
+                ++stepped;
+                EXPECT_EQ(r.outcome, LiveStroke::Outcome::Accepted);
+                EXPECT_NE(r.refusal.find("remesh: "), std::string::npos) << r.refusal;
+            }
+        }
+        if (!stepRound) {
+            EXPECT_TRUE(live.stopped()) << "the stroke no longer stops: take another";
+            EXPECT_EQ(stepped, 0u);
+            continue;
+        }
+        EXPECT_FALSE(live.stopped());
+        EXPECT_GE(stepped, 1u);
+        EXPECT_EQ(live.steppedRound(), stepped);
+        EXPECT_EQ(live.acceptedQuads(), cut.quads.size());
+        EXPECT_EQ(live.quads(), cut.quads.size());
+        // Every corner of the stroke in the mask is one of the blade's or
+        // stepped round from one, by at most the largest step; some moved.
+        const glm::dvec3 sp = cut.mask.frame().spacing;
+        const double most = LiveStroke::kStepRoundMostVoxels * std::min({sp.x, sp.y, sp.z});
+        const uint32_t id = cut.mask.strokeCount();
+        ASSERT_GE(cut.mask.quadCount(id), cut.quads.size());
+        size_t moved = 0;
+        for (uint32_t k = 0; k < cut.mask.quadCount(id); ++k) {
+            const Quad& m = cut.mask.quad({id, k});
+            for (uint32_t i = 0; i < m.cornerCount; ++i) {
+                double nearest = 1e300;
+                for (const Quad& q : cut.quads)
+                    for (uint32_t j = 0; j < q.cornerCount; ++j)
+                        nearest = std::min(nearest, glm::length(m.corners[i] - q.corners[j]));
+                EXPECT_LE(nearest, most * (1.0 + 1e-9));
+                moved += nearest > 0.0;
+            }
+        }
+        EXPECT_GT(moved, 0u);
+        cut.expectSameAsFromScratch();
+    }
+}
+
+} // namespace
+
+// Refusals that stay, each a coincidence below a float step, and each
+// stepped round: the tooth, kerf 0.5, seed 8004, stroke 0 (two blade planes
+// meet a cube edge a float step apart); the 2 mm head at 400, kerf 0.5,
+// seed 12052, stroke 1 (five vertices of three quads' planes and the
+// isosurface within 2e-5 mm of face y = 210 mm, at its 15th quad of 79);
+// and on clinical voxels (0.45 x 0.45 x 1.25 mm) at 400, kerf 0, seed
+// 11118, stroke 0 (a stick crossing face x = 122 of cell (121, 65, 82)
+// within a float step, so turning the waiting quad about it is not
+// enough: the quad before turns, with the stick); on their skin at -300,
+// kerf 0.5, seed 13043, stroke 1 (an open edge beside the stick the waiting
+// quad turns about: it goes through only turned 1e-2 voxel the other way).
+TEST(LiveStroke, ARefusalThatStaysIsSteppedRound)
+{
+    MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
+    expectSteppedRound(tooth, 0.5, 8004, 0, 400.0f);
+    MTCUT_REQUIRE_DATA(head2, "vhm_head_2mm.nhdr");
+    expectSteppedRound(head2, 0.5, 12052, 1, 400.0f);
+    MTCUT_REQUIRE_DATA(raw, "vhm_head_2mm.raw.gz");
+    const RelabelledHead2mm head(raw, 0.45, 0.45, 1.25);
+    expectSteppedRound(head.path, 0.0, 11118, 0, 400.0f);
+    expectSteppedRound(head.path, 0.5, 13043, 1, -300.0f);
 }

@@ -158,7 +158,8 @@ std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask
 }
 
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
-                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused)
+                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
+                         std::vector<size_t>* steppedRound)
 {
     size_t count = 0;
     cutter::PathFilter filter(mask.frame());
@@ -190,6 +191,7 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
             if (!live.stopped()) r = live.finish();
             why = r.refusal;
             kept = live.acceptedQuads();
+            if (steppedRound && live.steppedRound() > 0) steppedRound->push_back(i + 1);
             if (kept < quads.size())
                 refused.push_back({i + 1, kept, quads.size(), times[kept], describeRefusal(why, mask.frame(), mask.kerf())});
         }

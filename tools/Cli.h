@@ -132,10 +132,14 @@ std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask
 /// cuts a live stroke (cutter::LiveStroke: a refusal of where the blade
 /// stops at one quad waits for the next), to its last accepted update, and
 /// the rest of it dropped; it is listed in `refused` (the first quad
-/// dropped, and the refusal of the update that added it). The path filter
-/// sees only the quads kept. Returns the quads kept. Throws what update()
-/// throws other than a refusal (InputError, Cancelled).
+/// dropped, and the refusal of the update that added it). A stroke whose
+/// live cut stepped round a refusal (LiveStroke: its blade moved by a
+/// hundredth of a voxel at most) is listed (1-based) in `steppedRound`
+/// when given. The path filter sees only the quads kept. Returns the quads
+/// kept. Throws what update() throws other than a refusal (InputError,
+/// Cancelled).
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
-                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused);
+                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
+                         std::vector<size_t>* steppedRound = nullptr);
 
 } // namespace mtcut::cli

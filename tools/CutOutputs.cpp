@@ -89,6 +89,9 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
            << ", \"message\": " << jsonString(x.message) << "}";
     }
     os << (r.refused.empty() ? "],\n" : "\n  ],\n");
+    os << "  \"stepped_round\": [";
+    for (size_t i = 0; i < r.steppedRound.size(); ++i) os << (i ? ", " : "") << r.steppedRound[i];
+    os << "],\n";
     os << "  \"fragments\": [";
     for (size_t i = 0; i < fragments.size(); ++i) {
         const FragmentRecord& f = fragments[i];

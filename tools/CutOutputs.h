@@ -57,6 +57,8 @@ struct CutOutputRequest
     double minVolumeMm3 = 0.0;
     /// Strokes cut only in part (summary's "refused"; empty: every stroke whole).
     std::vector<RefusedStroke> refused;
+    /// Strokes (1-based) whose live cut stepped round a refusal (summary's "stepped_round").
+    std::vector<size_t> steppedRound;
     /// The poses cut when no path file holds them (mtcut cut's built-in
     /// stroke): written to stroke.csv in the path file format
     /// (cutter/PATH_FORMAT.md), so the cut can be rendered (`mtcut render

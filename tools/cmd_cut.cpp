@@ -5,6 +5,7 @@
 #include "cutter/CutMask.h"
 #include "cutter/Fusion.h"
 #include "cutter/Isosurface.h"
+#include "cutter/LiveStroke.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
@@ -126,6 +127,7 @@ int runCut(const Args& args)
     size_t surfaceCells = 0; // cut cells with new geometry: the blade meets the solid there
     const bool keepGoing = args.has("keep-going");
     std::vector<RefusedStroke> refused;
+    std::vector<size_t> stepped; // strokes whose live cut stepped round a refusal
     try {
         cutter::CutRemesher remesher(vol, iso, uncut);
         bool whole = true;
@@ -143,7 +145,7 @@ int runCut(const Args& args)
         if (!whole) {
             std::fprintf(stderr, "mtcut: the re-mesher refused the cut; --keep-going: cutting stroke by stroke\n");
             mask = cutter::CutMask(frame, kerf);
-            quadCount = cutStrokeByStroke(remesher, mask, strokes, refused);
+            quadCount = cutStrokeByStroke(remesher, mask, strokes, refused, &stepped);
         }
         for (const auto& [cell, geometry] : remesher.cells()) surfaceCells += geometry.indices.empty() ? 0 : 1;
         std::vector<uint32_t> source;
@@ -198,6 +200,7 @@ int runCut(const Args& args)
     request.isovalue = iso;
     request.kerfMm = kerf;
     request.refused = refused;
+    request.steppedRound = stepped;
     request.selected = selected;
     request.minVolumeMm3 = minVolume;
     if (pathFile.empty()) request.strokesWithoutFile = strokes;
@@ -216,6 +219,10 @@ int runCut(const Args& args)
         std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
                     "rest dropped: %s\n",
                     r.stroke, r.quadsKept + 1, r.quads, r.time, r.quadsKept, r.message.c_str());
+    for (const size_t s : stepped)
+        std::printf("stepped:    stroke %zu stepped round a refusal below a float step (its blade moved by at most "
+                    "%g voxel there)\n",
+                    s, cutter::LiveStroke::kStepRoundMostVoxels);
     std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),

@@ -216,6 +216,9 @@ void CutSession::updateCut(bool mayDefer)
         if (r.outcome == cutter::LiveStroke::Outcome::Stopped)
             message(true, "cut refused, the stroke stops here: " +
                               cli::describeRefusal(r.refusal, s.mask->frame(), s.mask->kerf()));
+        if (r.steppedRound)
+            message(false, "the blade stepped round a refusal below a float step, moving by a hundredth of a voxel "
+                           "at most: " + r.refusal);
         if (r.outcome == cutter::LiveStroke::Outcome::Deferred) mLastUpdate = secondsSince(t0); // it took its time too
         if (r.outcome == cutter::LiveStroke::Outcome::Unchanged ||
             r.outcome == cutter::LiveStroke::Outcome::Deferred)
