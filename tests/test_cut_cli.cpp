@@ -7,6 +7,7 @@
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/MeshIO.h"
+#include "cutter/BladePath.h"
 #include "cutter/PathFile.h"
 #include "vdb/VolumeIO.h"
 
@@ -633,6 +634,40 @@ TEST(CutCli, KeepGoingCutsARefusedStrokeUpToWhereItIsRefused)
     EXPECT_NE(readText(a + "/summary.json").find("\"refused\": [],\n"), std::string::npos);
     for (const std::string file : {"fragment_000.stl", "fragment_001.stl"})
         EXPECT_EQ(readText(a + "/" + file), readText(b + "/" + file)) << file;
+}
+
+// The 2 mm head at 400, kerf 0.5, random strokes seed 12052 as a path file:
+// the cut of both strokes is refused below a float step (five vertices of
+// three quads' planes and the isosurface within 2e-5 mm of face y = 210 mm),
+// and the error says --keep-going steps round such a refusal; with it the
+// second stroke, cut live, steps round it and is cut whole, and stdout and
+// summary.json ("stepped_round") say so, the files clean.
+TEST(CutCli, KeepGoingStepsRoundARefusalBelowAFloatStep)
+{
+    MTCUT_REQUIRE_DATA(head, "vhm_head_2mm.nhdr");
+    openvdb::initialize();
+    TempDir dir;
+    const uint32_t seed = 12052;
+    const auto strokes = cutter::makeRandomStrokes(cutter::frameOf(vdb::readVolume(head)), seed, 2, 150 + 50 * int(seed % 5),
+                                                   0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
+    const std::string path = dir.file("strokes.csv");
+    {
+        std::ofstream f(path);
+        cutter::writePath(f, strokes);
+    }
+    const std::string out = dir.file("out");
+    const test::RunResult refused = runMtcut("cut " + head + " --iso 400 --kerf 0.5 --path " + path + " -o " + out);
+    ASSERT_EQ(refused.exitCode, 1) << refused.output;
+    EXPECT_NE(refused.output.find("crosses or touches itself"), std::string::npos) << refused.output;
+    EXPECT_NE(refused.output.find("--keep-going"), std::string::npos) << refused.output;
+    EXPECT_FALSE(fs::exists(out + "/summary.json"));
+    const test::RunResult r = runMtcut("cut " + head + " --iso 400 --kerf 0.5 --path " + path + " -o " + out + " --keep-going --check");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("stepped:    stroke 2 stepped round"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("refused:"), std::string::npos) << r.output;
+    const std::string json = readText(out + "/summary.json");
+    EXPECT_NE(json.find("\"refused\": [],\n  \"stepped_round\": [2],\n"), std::string::npos) << json;
+    EXPECT_NE(r.output.find("defects:                0 (valid)"), std::string::npos) << r.output;
 }
 
 TEST(CutCli, BadPathFileFailsNamingTheLine)

@@ -156,7 +156,11 @@ int runCut(const Args& args)
     } catch (const Cancelled&) {
         throw;
     } catch (const std::runtime_error& e) {
-        throw InputError(describeRefusal(e.what(), frame, kerf)); // a configuration the kernel refuses
+        std::string why = describeRefusal(e.what(), frame, kerf); // a configuration the kernel refuses
+        if (!keepGoing && cutter::LiveStroke::belowAFloatStep(e.what()))
+            why += "; --keep-going cuts the strokes one by one as live strokes, which step round a refusal below a "
+                   "float step like this one (moving the blade by a hundredth of a voxel at most)";
+        throw InputError(why);
     }
     const size_t uncutTriangles = uncut.triangleCount();
     uncut = cutter::Mesh(); // free it
