@@ -7,7 +7,8 @@
 // stops with its line number and a non-zero exit before the window opens; a
 // missing file is a message and the session goes on. A scripted mouse drag
 // cuts through the mouse's code path and undoes exactly. A path file loaded
-// twice cuts what it cut once.
+// twice cuts what it cut once. A path stroke the re-mesher refuses is cut up
+// to where it is refused, as `mtcut cut --keep-going` cuts it.
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 #include "cutter/MeshCheck.h"
@@ -16,6 +17,7 @@
 #include "render/Frame.h"
 #include "tests/TestStrokes.h"
 #include "tests/TestUtil.h"
+#include "tests/TestVolumes.h"
 #include "vdb/VolumeIO.h"
 
 #include <gtest/gtest.h>
@@ -32,6 +34,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <string>
@@ -305,6 +308,57 @@ TEST_F(ViewScript, ThePathLoadedTwiceCutsWhatItCutOnce)
     EXPECT_GT(files.size(), 1u);
     EXPECT_EQ(fragmentFiles("twice"), files);
     for (const std::string& f : files) EXPECT_EQ(readBytes(dir.file("twice/" + f)), readBytes(dir.file("once/" + f))) << f;
+}
+
+// A path whose second stroke the re-mesher refuses part way: the ball cut
+// at kerf 0 by a stroke in the plane y = 0.37, then by one in the same plane
+// with its blade tilted, whose quads overlap the first's (the kernel refuses
+// coplanar overlapping quads). The viewer cuts the refused stroke again as a
+// live stroke, up to where it is refused, and says so; the result is what
+// `mtcut cut --keep-going` makes of the same path, file for file. (The ball
+// is made here: no shared data needed.)
+TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
+{
+    if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
+    openvdb::initialize();
+    test::TempDir dir;
+    const std::string ball = dir.file("ball.vdb");
+    vdb::writeVolume(test::fieldVolume(openvdb::Coord(40), openvdb::Vec3d(1.0), openvdb::Vec3d(-19.5),
+                                       [](const openvdb::Vec3d& p) { return 15.0 - p.length(); }),
+                     ball);
+    const std::string path = dir.file("twice.csv");
+    std::vector<std::vector<cutter::Pose>> strokes;
+    for (const glm::dvec3 blade : {glm::dvec3(0, 0, -1), glm::normalize(glm::dvec3(0.02, 0, -1))})
+        strokes.push_back(test::straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, blade, 45, 200));
+    {
+        std::ofstream f(path);
+        cutter::writePath(f, strokes);
+    }
+    writeText(dir.file("s.txt"), "iso 0\nkerf 0\npath " + path + "\nexport " + dir.file("out") + "\nquit\n");
+    const test::RunResult r = runView(ball + " --size 320x240 --script " + dir.file("s.txt"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(error: \S*twice\.csv: stroke 2 refused at quad (\d+) of (\d+), cut to quad (\d+): remesh: coplanar overlapping quads in cell \()")))
+        << r.output;
+    const int at = std::stoi(m[1]), quads = std::stoi(m[2]), kept = std::stoi(m[3]);
+    EXPECT_EQ(kept + 1, at);
+    EXPECT_GT(kept, 0) << "the stroke is cut up to where it is refused, not dropped";
+    EXPECT_LT(kept, quads);
+    EXPECT_NE(r.output.find("twice.csv: 2 stroke(s), " ), std::string::npos) << r.output;
+
+    const test::RunResult cut = test::runMtcut("cut " + ball + " --iso 0 --kerf 0 --path " + path + " -o " +
+                                               dir.file("cut") + " --keep-going --check");
+    ASSERT_EQ(cut.exitCode, 0) << cut.output;
+    EXPECT_NE(cut.output.find("refused:    stroke 2 at quad " + std::to_string(at) + " of " + std::to_string(quads)),
+              std::string::npos) << cut.output;
+    size_t fragments = 0;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir.file("cut"))) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind("fragment_", 0) != 0) continue;
+        ++fragments;
+        EXPECT_EQ(readBytes(dir.file("out/" + name)), readBytes(e.path().string())) << name << " differs from mtcut cut's";
+    }
+    EXPECT_EQ(fragments, 2u) << "the first stroke cuts the ball in two";
 }
 
 // Ctrl+click (`pick`) selects the fragment under the cursor: the one whose

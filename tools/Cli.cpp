@@ -163,6 +163,7 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
 {
     size_t count = 0;
     cutter::PathFilter filter(mask.frame());
+    cutter::setEarlierQuads(mask, filter); // a stroke going back into the cut so far adds nothing there
     for (size_t i = 0; i < strokes.size(); ++i) {
         // As filter.pushStroke, knowing which pose made each quad.
         std::vector<cutter::Quad> quads;

@@ -125,9 +125,10 @@ struct RefusedStroke
 /// refusal ("remesh: ..."); InputError and Cancelled are thrown on.
 std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask);
 
-/// --keep-going, once the re-mesher refused the whole cut: the strokes cut
-/// one after another into `mask` (fresh: the strokes' frame and kerf, no
-/// quads) and `remesher` (holding no cut, as a refused update leaves it). A
+/// --keep-going, once the re-mesher refused the whole cut, and the viewer's
+/// path files: the strokes cut one after another into `mask` and `remesher`
+/// (holding the mask's cut, as a refused update leaves it; a stroke going
+/// back into that cut adds nothing there, PathFilter rule 2b). A
 /// stroke the re-mesher refuses is cut again quad by quad, as the viewer
 /// cuts a live stroke (cutter::LiveStroke: a refusal of where the blade
 /// stops at one quad waits for the next), to its last accepted update, and

@@ -497,26 +497,21 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
               if (!s.remesher) throw InputError("path " + pathName + ": no scan is open");
               endLiveStroke();
               const auto t0 = Clock::now();
-              size_t added = 0, quads = 0;
-              cutter::PathFilter filter(s.frame); // knows the cut: strokes going back into it add nothing there
-              cutter::setEarlierQuads(*s.mask, filter);
-              for (size_t i = 0; i < strokes.size(); ++i) {
-                  const std::vector<cutter::Quad> stroke = filter.pushStroke(strokes[i]);
-                  if (stroke.empty()) continue;
-                  s.mask->beginStroke();
-                  for (const cutter::Quad& q : stroke) s.mask->addQuad(q);
-                  try {
-                      s.remesher->update(*s.mask);
-                      ++added;
-                      quads += stroke.size();
-                      for (const cutter::Quad& q : stroke) filter.addEarlierQuad(q);
-                  } catch (const std::runtime_error& e) {
-                      s.mask->undoStroke();
-                      s.remesher->update(*s.mask);
-                      message(true, pathName + ": stroke " + std::to_string(i + 1) +
-                                        " refused: " + cli::describeRefusal(e.what(), s.mask->frame(), s.mask->kerf()));
-                  }
-              }
+              // As mtcut cut --keep-going: a stroke the re-mesher refuses is
+              // cut again as a live stroke, up to where it is refused.
+              const uint32_t before = s.mask->strokeCount();
+              std::vector<cli::RefusedStroke> refused;
+              std::vector<size_t> stepped;
+              const size_t quads = cli::cutStrokeByStroke(*s.remesher, *s.mask, strokes, refused, &stepped);
+              const size_t added = s.mask->strokeCount() - before;
+              for (const cli::RefusedStroke& r : refused)
+                  message(true, pathName + ": stroke " + std::to_string(r.stroke) + " refused at quad " +
+                                    std::to_string(r.quadsKept + 1) + " of " + std::to_string(r.quads) + ", cut to quad " +
+                                    std::to_string(r.quadsKept) + ": " + r.message);
+              for (const size_t i : stepped)
+                  message(false, pathName + ": stroke " + std::to_string(i) +
+                                     " stepped round a refusal below a float step, its blade moved by a hundredth of a "
+                                     "voxel at most");
               if (added) s.pathFile = pathName;
               mLastUpdate = secondsSince(t0);
               s.sceneDirty = s.fragmentsDirty = true;
