@@ -668,6 +668,21 @@ TEST(CutCli, KeepGoingStepsRoundARefusalBelowAFloatStep)
     const std::string json = readText(out + "/summary.json");
     EXPECT_NE(json.find("\"refused\": [],\n  \"stepped_round\": [2],\n"), std::string::npos) << json;
     EXPECT_NE(r.output.find("defects:                0 (valid)"), std::string::npos) << r.output;
+
+    // mtcut render alike: the hint without --keep-going, nothing written; the stepped stroke reported with it.
+#ifdef MTCUT_HAVE_RENDER
+    const std::string png = dir.file("cut.png");
+    const std::string render = "render " + head + " --iso 400 --kerf 0.5 --path " + path + " -o " + png + " --width 64 --height 48";
+    const test::RunResult refusedRender = runMtcut(render);
+    EXPECT_EQ(refusedRender.exitCode, 1) << refusedRender.output;
+    EXPECT_NE(refusedRender.output.find("--keep-going cuts the strokes one by one"), std::string::npos) << refusedRender.output;
+    EXPECT_FALSE(fs::exists(png));
+    const test::RunResult rendered = runMtcut(render + " --keep-going");
+    EXPECT_EQ(rendered.exitCode, 0) << rendered.output;
+    EXPECT_NE(rendered.output.find("stepped:    stroke 2 stepped round"), std::string::npos) << rendered.output;
+    EXPECT_EQ(rendered.output.find("refused:"), std::string::npos) << rendered.output;
+    EXPECT_TRUE(fs::exists(png));
+#endif
 }
 
 TEST(CutCli, BadPathFileFailsNamingTheLine)

@@ -219,6 +219,28 @@ std::string describeRefusal(const std::string& what, const cutter::IndexFrame& f
     return out;
 }
 
+void printStrokeByStroke(const std::vector<RefusedStroke>& refused, const std::vector<size_t>& steppedRound)
+{
+    for (const RefusedStroke& r : refused)
+        std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
+                    "rest dropped: %s\n",
+                    r.stroke, r.quadsKept + 1, r.quads, r.time, r.quadsKept, r.message.c_str());
+    for (const size_t s : steppedRound)
+        std::printf("stepped:    stroke %zu stepped round a refusal below a float step (its blade moved by at most "
+                    "%g voxel there)\n",
+                    s, cutter::LiveStroke::kStepRoundMostVoxels);
+}
+
+std::string describeRefusalWithHint(const std::string& what, const cutter::IndexFrame& frame, double kerf,
+                                    bool keepGoing)
+{
+    std::string why = describeRefusal(what, frame, kerf);
+    if (!keepGoing && cutter::LiveStroke::belowAFloatStep(what))
+        why += "; --keep-going cuts the strokes one by one as live strokes, which step round a refusal below a "
+               "float step like this one (moving the blade by a hundredth of a voxel at most)";
+    return why;
+}
+
 ProgressBar::ProgressBar() : mTty(::isatty(2) != 0)
 {
     gInterrupted = false;

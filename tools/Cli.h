@@ -143,4 +143,14 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
                          std::vector<size_t>* steppedRound = nullptr);
 
+/// The report lines of a cut made stroke by stroke (--keep-going): one
+/// "refused:" line per stroke cut only in part, one "stepped:" line per
+/// stroke that stepped round a refusal below a float step; on stdout.
+void printStrokeByStroke(const std::vector<RefusedStroke>& refused, const std::vector<size_t>& steppedRound);
+
+/// describeRefusal, and when the refusal is one a live stroke steps round
+/// (below a float step) and --keep-going was not given, how to get past it.
+std::string describeRefusalWithHint(const std::string& what, const cutter::IndexFrame& frame, double kerf,
+                                    bool keepGoing);
+
 } // namespace mtcut::cli

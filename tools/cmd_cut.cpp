@@ -5,7 +5,6 @@
 #include "cutter/CutMask.h"
 #include "cutter/Fusion.h"
 #include "cutter/Isosurface.h"
-#include "cutter/LiveStroke.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/PathFile.h"
 #include "cutter/Remesh.h"
@@ -156,11 +155,7 @@ int runCut(const Args& args)
     } catch (const Cancelled&) {
         throw;
     } catch (const std::runtime_error& e) {
-        std::string why = describeRefusal(e.what(), frame, kerf); // a configuration the kernel refuses
-        if (!keepGoing && cutter::LiveStroke::belowAFloatStep(e.what()))
-            why += "; --keep-going cuts the strokes one by one as live strokes, which step round a refusal below a "
-                   "float step like this one (moving the blade by a hundredth of a voxel at most)";
-        throw InputError(why);
+        throw InputError(describeRefusalWithHint(e.what(), frame, kerf, keepGoing)); // a configuration the kernel refuses
     }
     const size_t uncutTriangles = uncut.triangleCount();
     uncut = cutter::Mesh(); // free it
@@ -219,14 +214,7 @@ int runCut(const Args& args)
                 pathFile.empty() ? (onPhantom ? "built-in LeFort I (phantom's LeFort plane)" : "built-in LeFort I")
                                  : pathFile.c_str(),
                 strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "");
-    for (const RefusedStroke& r : refused)
-        std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
-                    "rest dropped: %s\n",
-                    r.stroke, r.quadsKept + 1, r.quads, r.time, r.quadsKept, r.message.c_str());
-    for (const size_t s : stepped)
-        std::printf("stepped:    stroke %zu stepped round a refusal below a float step (its blade moved by at most "
-                    "%g voxel there)\n",
-                    s, cutter::LiveStroke::kStepRoundMostVoxels);
+    printStrokeByStroke(refused, stepped);
     std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
                 uncutTriangles, fused.triangleCount(),

@@ -99,6 +99,7 @@ int runRender(const Args& args)
     render::SurfaceRenderer renderer(width, height);
     size_t cutCells = 0, fragments = 0, cutTriangles = 0;
     std::vector<RefusedStroke> refused; // --keep-going
+    std::vector<size_t> stepped;        // --keep-going: strokes that stepped round a refusal
     std::string gpuCutLine;             // --gpu-cut
     if (strokes.empty()) {
         if (args.has("gpu-cut"))
@@ -113,10 +114,10 @@ int runRender(const Args& args)
         try {
             cutter::CutRemesher remesher(vol, iso, uncut);
             if (const std::string why = refusalOf(remesher, mask); !why.empty()) {
-                if (!args.has("keep-going")) throw InputError(describeRefusal(why, frame, kerf));
+                if (!args.has("keep-going")) throw InputError(describeRefusalWithHint(why, frame, kerf, false));
                 std::fprintf(stderr, "mtcut: the re-mesher refused the cut; --keep-going: cutting stroke by stroke\n");
                 mask = cutter::CutMask(frame, kerf);
-                cutStrokeByStroke(remesher, mask, strokes, refused);
+                cutStrokeByStroke(remesher, mask, strokes, refused, &stepped);
             }
             std::vector<uint32_t> source;
             const cutter::Mesh fused = remesher.fusedMesh(&source);
@@ -218,10 +219,7 @@ int runRender(const Args& args)
         std::printf("cut:        %s, %zu cut cells, %zu cut-geometry triangles\n", pathFile.c_str(), cutCells,
                     cutTriangles);
         if (!gpuCutLine.empty()) std::printf("gpu cut:    %s\n", gpuCutLine.c_str());
-        for (const RefusedStroke& r : refused)
-            std::printf("refused:    stroke %zu at quad %zu of %zu (made by the pose at t = %g s): cut to quad %zu, the "
-                        "rest dropped: %s\n",
-                        r.stroke, r.quadsKept + 1, r.quads, r.time, r.quadsKept, r.message.c_str());
+        printStrokeByStroke(refused, stepped);
     }
     std::printf("view:       %s, eye (%.1f, %.1f, %.1f) mm, target (%.1f, %.1f, %.1f) mm\n", view.c_str(), camera.eye.x,
                 camera.eye.y, camera.eye.z, camera.target.x, camera.target.y, camera.target.z);
