@@ -67,6 +67,9 @@ public:
     static constexpr std::array<double, 4> kStepRoundVoxels = {1e-3, -1e-3, 1e-2, -1e-2};
     /// The largest of them: no corner moves further.
     static constexpr double kStepRoundMostVoxels = 1e-2;
+    static_assert(kStepRoundVoxels[2] == kStepRoundMostVoxels && -kStepRoundVoxels[3] == kStepRoundMostVoxels &&
+                      kStepRoundVoxels[0] < kStepRoundMostVoxels && -kStepRoundVoxels[1] < kStepRoundMostVoxels,
+                  "kStepRoundMostVoxels is the largest step");
 
     enum class Outcome
     {
