@@ -432,15 +432,23 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     auto crossingTriangles = [&](std::vector<size_t>& hit) {
         hit.clear();
         std::vector<uint32_t> rep(nv);
-        std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> plain;
+        bool pinches = false; // (most cells have no pinch copy: each vertex is its own)
         for (uint32_t v = 0; v < uint32_t(nv); ++v) {
-            CutVertexId id = out.vertexIds[v];
-            uint8_t n = 0;
-            for (uint8_t k = 0; k < id.tagCount; ++k)
-                if (!(id.tags[k] & kPinchTag)) id.tags[n++] = id.tags[k];
-            for (uint8_t k = n; k < id.tagCount; ++k) id.tags[k] = 0;
-            id.tagCount = n;
-            rep[v] = plain.emplace(id, v).first->second;
+            rep[v] = v;
+            const CutVertexId& id = out.vertexIds[v];
+            for (uint8_t k = 0; k < id.tagCount; ++k) pinches = pinches || (id.tags[k] & kPinchTag) != 0;
+        }
+        if (pinches) {
+            std::unordered_map<CutVertexId, uint32_t, CutVertexIdHash> plain;
+            for (uint32_t v = 0; v < uint32_t(nv); ++v) {
+                CutVertexId id = out.vertexIds[v];
+                uint8_t n = 0;
+                for (uint8_t k = 0; k < id.tagCount; ++k)
+                    if (!(id.tags[k] & kPinchTag)) id.tags[n++] = id.tags[k];
+                for (uint8_t k = n; k < id.tagCount; ++k) id.tags[k] = 0;
+                id.tagCount = n;
+                rep[v] = plain.emplace(id, v).first->second;
+            }
         }
         auto find = [&](uint32_t x) {
             while (rep[x] != x) x = rep[x] = rep[rep[x]];
@@ -457,6 +465,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             std::array<uint32_t, 3> id;
             std::array<glm::vec3, 3> p;
             glm::vec3 lo, hi;
+            TrianglePlane plane;
         };
         std::vector<Tri> live;
         for (size_t t = 0; t < nt; ++t) {
@@ -466,6 +475,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             for (int k = 0; k < 3; ++k) x.p[size_t(k)] = written[tris[t][size_t(k)]];
             x.lo = glm::min(x.p[0], glm::min(x.p[1], x.p[2]));
             x.hi = glm::max(x.p[0], glm::max(x.p[1], x.p[2]));
+            x.plane = trianglePlane(x.p);
             live.push_back(x);
         }
         for (size_t i = 0; i < live.size(); ++i)
@@ -474,7 +484,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 if (a.hi.x < b.lo.x || b.hi.x < a.lo.x || a.hi.y < b.lo.y || b.hi.y < a.lo.y || a.hi.z < b.lo.z ||
                     b.hi.z < a.lo.z)
                     continue;
-                if (trianglesCross(a.p, a.id, b.p, b.id) == Contact::None) continue;
+                if (trianglesCross(a.p, a.id, a.plane, b.p, b.id, b.plane) == Contact::None) continue;
                 hit.push_back(a.t);
                 hit.push_back(b.t);
             }

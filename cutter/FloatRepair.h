@@ -138,11 +138,15 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   spike of solid thinner than a float step), those pairs go too, and the
 ///   tetrahedron with them; repeated while it mends.
 /// Copies of one point (side or pinch tags differ) are never joined.
-/// With `crossings` (a cut with a width, once its local check has failed:
-/// CutRemesher::update), then also, in rounds, an edge of a triangle that
-/// crosses or touches another triangle of the cell once written (as the
-/// local check judges it: trianglesCross after snap rounding), shortest
-/// first, where a private end can move as above.
+/// With `crossings` (a cut with a width: CellKernel does it for every
+/// cell), then also, in rounds, an edge of a triangle that crosses or
+/// touches another triangle of the cell once written (as the local check
+/// judges it: trianglesCross after snap rounding), shortest first, where a
+/// private end can move as above. (It was done only once the local check
+/// had failed somewhere, to the cells re-meshed by that update: so a cell
+/// mended in a whole cut was left as it was when a step re-meshed it and
+/// the check passed, and the live cut of a stroke differed from the cut of
+/// the same mask from scratch; 1 mm head, kerf 3, seed 14123.)
 /// Returns the vertices removed.
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
                         CutCellGeometry& out, bool crossings = false);

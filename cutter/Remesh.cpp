@@ -1201,24 +1201,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         }
         count = jobs.size();
         std::sort(changedCells.begin(), changedCells.end());
-        try {
-            checkLocally(changedCells, prism);
-        } catch (const std::runtime_error&) {
-            // A cut with a width: sheets of the removed region's boundary
-            // closer than a float step can cross once written inside one
-            // cell. Every re-meshed cell whose own triangles cross is mended
-            // (repairFloatFolds with crossings: a function of the cell's
-            // geometry, so incremental, from-scratch and undone updates stay
-            // equal, as they would were it done in the kernel for every
-            // cell: a cell that needs it always fails the check), then the
-            // whole check runs again and decides.
-            if (!prism) throw;
-            size_t mended = 0;
-            for (CellJob& job : jobs)
-                mended += remesh_detail::repairFloatFolds(job.cell, mVolume->origin(), mVolume->spacing(), *job.out, true);
-            if (mended == 0) throw;
-            checkLocally(changedCells, prism);
-        }
+        checkLocally(changedCells, prism);
     } catch (...) {
         restore();
         throw;

@@ -2711,7 +2711,7 @@ void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, b
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
     keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out);
+    repairFloatFolds(cell, mOrigin, mSpacing, out, prism);
 }
 
 void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
@@ -2720,7 +2720,7 @@ void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, b
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
     keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out);
+    repairFloatFolds(cell, mOrigin, mSpacing, out, prism);
 }
 
 } // namespace mtcut::cutter::remesh_detail
