@@ -27,14 +27,20 @@ LiveStroke::LiveStroke(CutMask& mask, CutRemesher& remesher, int patience, bool 
 bool LiveStroke::add(const Quad& quad)
 {
     if (mStopped) return false;
-    if (mMaskQuads == 0) mMask.beginStroke();
-    mMaskQuads += addMoved(quad);
+    if (maskQuads() == 0) mMask.beginStroke();
+    addMoved(quad, mQuads);
     ++mQuads;
     mPending = true;
     return true;
 }
 
-uint32_t LiveStroke::addMoved(const Quad& quad, bool split)
+void LiveStroke::addToMask(const Quad& quad, uint32_t from)
+{
+    mMask.addQuad(quad);
+    mAddOf.push_back(from);
+}
+
+uint32_t LiveStroke::addMoved(const Quad& quad, uint32_t from, bool split)
 {
     std::array<glm::dvec3, 4> c = quad.corners;
     uint32_t moved = 0;
@@ -46,17 +52,17 @@ uint32_t LiveStroke::addMoved(const Quad& quad, bool split)
                 break;
             }
     if (moved == 0) {
-        mMask.addQuad(quad);
+        addToMask(quad, from);
         return 1;
     }
     if (split && quad.cornerCount == 4 && moved < 4) {
         // Corners {base0, tip0, tip1, base1}: the path filter's split (rule 3c).
         const glm::dvec3 t0[3] = {c[0], c[1], c[2]}, t1[3] = {c[0], c[2], c[3]};
-        mMask.addQuad(makeQuad(t0, 3, quad.stick));
-        mMask.addQuad(makeQuad(t1, 3, quad.stick));
+        addToMask(makeQuad(t0, 3, quad.stick), from);
+        addToMask(makeQuad(t1, 3, quad.stick), from);
         return 2;
     }
-    mMask.addQuad(makeQuad(c.data(), quad.cornerCount, quad.stick));
+    addToMask(makeQuad(c.data(), quad.cornerCount, quad.stick), from);
     return 1;
 }
 
@@ -67,23 +73,86 @@ LiveStroke::Result LiveStroke::finish() { return run(true); }
 void LiveStroke::cutBack()
 {
     maskBackTo(mMaskAccepted);
+    mAccepted = mMaskAccepted == 0 ? 0 : mAddOf[mMaskAccepted - 1] + 1;
     mQuads = mAccepted;
 }
 
 void LiveStroke::maskBackTo(uint32_t maskQuads)
 {
-    if (mMaskQuads == maskQuads) return;
+    if (this->maskQuads() == maskQuads) return;
     if (maskQuads == 0) mMask.undoStroke();
     else mMask.undoToQuad(maskQuads);
-    mMaskQuads = maskQuads;
+    mAddOf.resize(maskQuads);
+}
+
+std::string LiveStroke::refusalOfUpdate()
+{
+    try {
+        mRemesher.update(mMask);
+    } catch (const InputError&) {
+        throw;
+    } catch (const Cancelled&) {
+        throw;
+    } catch (const std::runtime_error& e) {
+        return e.what();
+    }
+    return {};
 }
 
 bool LiveStroke::stepRound()
 {
     const uint32_t stroke = mMask.strokeCount();
-    if (mMaskQuads > mMaskAccepted && stroke != 0)
-        for (uint32_t back = 0; back <= 1 && back <= mMaskAccepted; ++back)
-            if (stepRound(stroke, back)) return true;
+    if (maskQuads() <= mMaskAccepted || stroke == 0) {
+        cutBack();
+        return false;
+    }
+    // The waiting quads, as the mask holds them, with the add() quad each
+    // came from. Once one refusal is stepped round, another may lie further
+    // on among them (never cut while the first stood: 1 mm head, kerf 3,
+    // seed 14123, stroke 3, quads 157 and 164): so the refusals are stepped
+    // round one at a time. Each step puts the refused quad and the one after
+    // it (which rejoins the path) in the mask; the rest follow one update
+    // each while they are accepted.
+    std::vector<std::pair<Quad, uint32_t>> rest;
+    for (uint32_t q = mMaskAccepted; q < maskQuads(); ++q) rest.push_back({mMask.quad({stroke, q}), mAddOf[q]});
+    size_t at = 0; // rest[at] on: not accepted
+    auto putBack = [&] { // the mask holds every quad again, those from rest[at] on waiting
+        maskBackTo(mMaskAccepted);
+        if (maskQuads() == 0) mMask.beginStroke();
+        for (size_t i = at; i < rest.size(); ++i) addMoved(rest[i].first, rest[i].second);
+    };
+    try {
+        while (at < rest.size()) {
+            maskBackTo(mMaskAccepted);
+            if (maskQuads() == 0) mMask.beginStroke();
+            const size_t n = std::min<size_t>(2, rest.size() - at);
+            for (size_t i = at; i < at + n; ++i) addMoved(rest[i].first, rest[i].second);
+            bool stepped = false;
+            for (uint32_t back = 0; back <= 1 && back <= mMaskAccepted && !stepped; ++back)
+                stepped = stepRound(stroke, back);
+            if (!stepped) break;
+            ++mSteppedRound;
+            mMaskAccepted = maskQuads();
+            at += n;
+            mStopRefusal.clear();
+            while (at < rest.size()) {
+                addMoved(rest[at].first, rest[at].second);
+                mStopRefusal = refusalOfUpdate();
+                if (!mStopRefusal.empty()) break;
+                mMaskAccepted = maskQuads();
+                ++at;
+            }
+            if (at == rest.size()) {
+                mAccepted = mQuads;
+                return true;
+            }
+            if (!belowAFloatStep(mStopRefusal)) break; // the kernel's own: the stroke stops there
+        }
+    } catch (...) {
+        putBack(); // the re-mesher is as at mMaskAccepted
+        mAccepted = mMaskAccepted == 0 ? 0 : mAddOf[mMaskAccepted - 1] + 1;
+        throw;
+    }
     cutBack();
     return false;
 }
@@ -99,7 +168,11 @@ bool LiveStroke::stepRound(uint32_t stroke, uint32_t back)
     // meet the face there however the waiting quad turns).
     const uint32_t keep = mMaskAccepted - back;
     std::vector<Quad> moving;
-    for (uint32_t q = keep; q < mMaskQuads; ++q) moving.push_back(mMask.quad({stroke, q}));
+    std::vector<uint32_t> from; // the add() quad of each
+    for (uint32_t q = keep; q < maskQuads(); ++q) {
+        moving.push_back(mMask.quad({stroke, q}));
+        from.push_back(mAddOf[q]);
+    }
     Quad before;
     if (keep > 0) before = mMask.quad({stroke, keep - 1});
     const Quad first = moving.front();
@@ -136,14 +209,10 @@ bool LiveStroke::stepRound(uint32_t stroke, uint32_t back)
     // The mask from `keep` on: the quads moved, or as they were.
     auto put = [&](bool moved) {
         maskBackTo(keep);
-        if (mMaskQuads == 0) mMask.beginStroke();
+        if (maskQuads() == 0) mMask.beginStroke();
         for (size_t i = 0; i < moving.size(); ++i) {
-            if (!moved) {
-                mMask.addQuad(moving[i]);
-                ++mMaskQuads;
-            } else {
-                mMaskQuads += addMoved(moving[i], i > 0); // the first turns whole: planar
-            }
+            if (!moved) addToMask(moving[i], from[i]);
+            else addMoved(moving[i], from[i], i > 0); // the first turns whole: planar
         }
     };
     auto restore = [&] {
@@ -206,7 +275,7 @@ LiveStroke::Result LiveStroke::run(bool last)
     }
     if (refusal.empty()) {
         mAccepted = mQuads;
-        mMaskAccepted = mMaskQuads;
+        mMaskAccepted = maskQuads();
         mRefusedInARow = 0;
         r.outcome = Outcome::Accepted;
         return r;
@@ -218,23 +287,22 @@ LiveStroke::Result LiveStroke::run(bool last)
         return r;
     }
     r.refusal = mFirstRefusal; // of the update the stroke is cut back to: the quads it added first
-    bool stepped = false;
+    bool through = false;
+    const uint32_t steppedBefore = mSteppedRound;
     try {
-        if (mStepRound && belowAFloatStep(mFirstRefusal) && belowAFloatStep(refusal)) stepped = stepRound();
+        if (mStepRound && belowAFloatStep(mFirstRefusal) && belowAFloatStep(refusal)) through = stepRound();
         else cutBack();
     } catch (...) {
-        mPending = true; // the mask and the re-mesher are as before the call: try again later
+        mPending = true; // the mask holds every quad, the re-mesher its accepted ones: try again later
         throw;
     }
     mRefusedInARow = 0;
-    if (stepped) {
-        mAccepted = mQuads;
-        mMaskAccepted = mMaskQuads;
-        ++mSteppedRound;
+    r.steppedRound = mSteppedRound > steppedBefore;
+    if (through) {
         r.outcome = Outcome::Accepted;
-        r.steppedRound = true;
         return r;
     }
+    if (r.steppedRound && !mStopRefusal.empty()) r.refusal = mStopRefusal; // a later one, where it stops
     // Cut back (stepRound): the re-mesher is as at the last accepted update, and the mask follows it.
     mRemesher.update(mMask);
     mStopped = true;

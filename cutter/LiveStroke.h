@@ -27,7 +27,9 @@
 // not enough, the last accepted quad turns too, about the edge before it
 // (the stick between them can be what is in the way). Tried at each of
 // kStepRoundVoxels in turn (each way, then a hundredth of a voxel each
-// way); the first the re-mesher accepts stays
+// way), with the refused quad and the one after it in the mask; the first
+// the re-mesher accepts stays, and the quads that waited follow one update
+// each, a further refusal among them stepped round in its turn
 // (steppedRound() counts them; tooth, kerf 0.5, seed 8004, stroke 0 goes
 // through so). When none is accepted, or the refusal is the kernel's own
 // (coplanar overlapping quads at kerf 0: the same plane cut twice), the
@@ -85,8 +87,10 @@ public:
         /// the first refused update in the row (whose new quads the stroke
         /// is cut back before).
         std::string refusal;
-        /// Accepted once the quads not yet accepted stepped round the
-        /// refusal (`refusal`: the first of the row they stepped round).
+        /// The quads not yet accepted stepped round the refusal (`refusal`:
+        /// the first of the row they stepped round), and any later one among
+        /// them: Accepted when they all went through; Stopped at a later
+        /// refusal that could not be stepped round (`refusal`: that one).
         bool steppedRound = false;
     };
 
@@ -128,15 +132,26 @@ public:
 
 private:
     Result run(bool last);
+    /// The stroke back to its last accepted update (mMaskAccepted), the
+    /// quads after it dropped.
     void cutBack();
+    /// Adds `quad`, made from add()'s quad number `from`, to the mask.
+    void addToMask(const Quad& quad, uint32_t from);
     /// Adds `quad` to the mask with the moved corners (mMoved) in place of
     /// their originals, split into two triangles when only some of a
     /// quad's corners moved (and `split`). Returns the quads the mask took.
-    uint32_t addMoved(const Quad& quad, bool split = true);
-    /// Steps the quads not yet accepted round their refusal (see the top);
-    /// true when the re-mesher accepted them, the mask and the cut then
-    /// holding the moved quads. Otherwise the stroke is cut back to its last
-    /// accepted update (cutBack).
+    uint32_t addMoved(const Quad& quad, uint32_t from, bool split = true);
+    /// mRemesher.update(mMask): "" when accepted, else the refusal
+    /// (InputError and Cancelled are thrown on).
+    std::string refusalOfUpdate();
+    /// The stroke's quads in the mask (accepted, and waiting).
+    uint32_t maskQuads() const { return uint32_t(mAddOf.size()); }
+    /// Steps the quads not yet accepted round their refusal (see the top),
+    /// and round any further one among them, one at a time; true when the
+    /// re-mesher accepted them all, the mask and the cut then holding the
+    /// moved quads. Otherwise the stroke is cut back to its last accepted
+    /// update (cutBack), which stepping round may have moved on
+    /// (mStopRefusal: the refusal it stopped at).
     bool stepRound();
     /// stepRound from the `back`-th accepted quad before the waiting ones
     /// (0: the first waiting one turns); the mask as before when false.
@@ -153,8 +168,12 @@ private:
     bool mPending = false;   ///< quads added since the last update
     int mRefusedInARow = 0;
     std::string mFirstRefusal; ///< of the row of refused updates
-    uint32_t mAccepted = 0, mQuads = 0;         ///< add()'s quads
-    uint32_t mMaskAccepted = 0, mMaskQuads = 0; ///< the stroke's quads in the mask
+    uint32_t mAccepted = 0, mQuads = 0; ///< add()'s quads
+    uint32_t mMaskAccepted = 0;         ///< the stroke's quads in the mask that the cut holds
+    /// Per quad of the stroke in the mask: the add() quad it was made from
+    /// (stepping round splits some in two).
+    std::vector<uint32_t> mAddOf;
+    std::string mStopRefusal; ///< stepRound(): the later refusal it stopped at, if any
     uint32_t mSteppedRound = 0;
     /// Corners moved in stepping round (original, moved), for the quads to come.
     std::vector<std::pair<glm::dvec3, glm::dvec3>> mMoved;
