@@ -112,10 +112,17 @@ bool LiveStroke::stepRound()
     // seed 14123, stroke 3, quads 157 and 164): so the refusals are stepped
     // round one at a time. Each step puts the refused quad and the one after
     // it (which rejoins the path) in the mask; the rest follow one update
-    // each while they are accepted.
+    // per add() quad, waiting on a refusal as update() does, and a refusal
+    // that stays is stepped round in its turn.
     std::vector<std::pair<Quad, uint32_t>> rest;
     for (uint32_t q = mMaskAccepted; q < maskQuads(); ++q) rest.push_back({mMask.quad({stroke, q}), mAddOf[q]});
     size_t at = 0; // rest[at] on: not accepted
+    // The end of the add() quad whose mask quads start at rest[i].
+    auto groupEnd = [&](size_t i) {
+        size_t j = i + 1;
+        while (j < rest.size() && rest[j].second == rest[i].second) ++j;
+        return j;
+    };
     auto putBack = [&] { // the mask holds every quad again, those from rest[at] on waiting
         maskBackTo(mMaskAccepted);
         if (maskQuads() == 0) mMask.beginStroke();
@@ -125,22 +132,30 @@ bool LiveStroke::stepRound()
         while (at < rest.size()) {
             maskBackTo(mMaskAccepted);
             if (maskQuads() == 0) mMask.beginStroke();
-            const size_t n = std::min<size_t>(2, rest.size() - at);
-            for (size_t i = at; i < at + n; ++i) addMoved(rest[i].first, rest[i].second);
+            const size_t stepEnd = groupEnd(at) < rest.size() ? groupEnd(groupEnd(at)) : groupEnd(at);
+            for (size_t i = at; i < stepEnd; ++i) addMoved(rest[i].first, rest[i].second);
             bool stepped = false;
             for (uint32_t back = 0; back <= 1 && back <= mMaskAccepted && !stepped; ++back)
                 stepped = stepRound(stroke, back);
             if (!stepped) break;
             ++mSteppedRound;
             mMaskAccepted = maskQuads();
-            at += n;
+            at = stepEnd;
             mStopRefusal.clear();
-            while (at < rest.size()) {
-                addMoved(rest[at].first, rest[at].second);
-                mStopRefusal = refusalOfUpdate();
-                if (!mStopRefusal.empty()) break;
-                mMaskAccepted = maskQuads();
-                ++at;
+            int refused = 0; // updates in a row
+            for (size_t next = at; next < rest.size() && refused < mPatience;) {
+                const size_t end = groupEnd(next);
+                for (size_t i = next; i < end; ++i) addMoved(rest[i].first, rest[i].second);
+                next = end;
+                const std::string refusal = refusalOfUpdate();
+                if (refusal.empty()) {
+                    mMaskAccepted = maskQuads();
+                    at = next;
+                    refused = 0;
+                    mStopRefusal.clear();
+                } else if (refused++ == 0) {
+                    mStopRefusal = refusal; // of the update the stroke would be cut back to
+                }
             }
             if (at == rest.size()) {
                 mAccepted = mQuads;
