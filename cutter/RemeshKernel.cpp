@@ -2711,7 +2711,8 @@ void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, b
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
     keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out, prism);
+    repairFloatFolds(cell, mOrigin, mSpacing, out);
+    if (prism) repairFloatFolds(cell, mOrigin, mSpacing, out, true); // then its crossings, in a second pass
 }
 
 void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
@@ -2720,7 +2721,8 @@ void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, b
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
     keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out, prism);
+    repairFloatFolds(cell, mOrigin, mSpacing, out);
+    if (prism) repairFloatFolds(cell, mOrigin, mSpacing, out, true); // then its crossings, in a second pass
 }
 
 } // namespace mtcut::cutter::remesh_detail
