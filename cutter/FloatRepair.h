@@ -138,8 +138,8 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   spike of solid thinner than a float step), those pairs go too, and the
 ///   tetrahedron with them; repeated while it mends.
 /// Copies of one point (side or pinch tags differ) are never joined.
-/// With `crossings` (a cut with a width: CellKernel does it for every
-/// cell), then also, in rounds, an edge of a triangle that crosses or
+/// With `crossings` (a cut with a width: CellKernel runs it on every cell,
+/// a second pass after the first without), then also, in rounds, an edge of a triangle that crosses or
 /// touches another triangle of the cell once written (as the local check
 /// judges it: trianglesCross after snap rounding), shortest first, where a
 /// private end can move as above. (It was done only once the local check
