@@ -85,20 +85,6 @@ void LiveStroke::maskBackTo(uint32_t maskQuads)
     mAddOf.resize(maskQuads);
 }
 
-std::string LiveStroke::refusalOfUpdate()
-{
-    try {
-        mRemesher.update(mMask);
-    } catch (const InputError&) {
-        throw;
-    } catch (const Cancelled&) {
-        throw;
-    } catch (const std::runtime_error& e) {
-        return e.what();
-    }
-    return {};
-}
-
 bool LiveStroke::stepRound()
 {
     const uint32_t stroke = mMask.strokeCount();
@@ -147,7 +133,7 @@ bool LiveStroke::stepRound()
                 const size_t end = groupEnd(next);
                 for (size_t i = next; i < end; ++i) addMoved(rest[i].first, rest[i].second);
                 next = end;
-                const std::string refusal = refusalOfUpdate();
+                const std::string refusal = refusalOf(mRemesher, mMask);
                 if (refusal.empty()) {
                     mMaskAccepted = maskQuads();
                     at = next;

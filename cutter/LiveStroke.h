@@ -141,9 +141,6 @@ private:
     /// their originals, split into two triangles when only some of a
     /// quad's corners moved (and `split`). Returns the quads the mask took.
     uint32_t addMoved(const Quad& quad, uint32_t from, bool split = true);
-    /// mRemesher.update(mMask): "" when accepted, else the refusal
-    /// (InputError and Cancelled are thrown on).
-    std::string refusalOfUpdate();
     /// The stroke's quads in the mask (accepted, and waiting).
     uint32_t maskQuads() const { return uint32_t(mAddOf.size()); }
     /// Steps the quads not yet accepted round their refusal (see the top),

@@ -1233,4 +1233,18 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     return count;
 }
 
+std::string refusalOf(CutRemesher& remesher, const CutMask& mask)
+{
+    try {
+        remesher.update(mask);
+    } catch (const InputError&) {
+        throw;
+    } catch (const Cancelled&) {
+        throw;
+    } catch (const std::runtime_error& e) { // (std::logic_error is not one: it goes on)
+        return e.what();
+    }
+    return {};
+}
+
 } // namespace mtcut::cutter

@@ -349,6 +349,11 @@ private:
     void checkRegion(const std::vector<openvdb::Coord>& changed, bool kerf) const;
 };
 
+/// remesher.update(mask): "" when it went through, else the re-mesher's
+/// refusal ("remesh: ..."; the re-mesher is then as before the call); what
+/// else it throws (InputError, Cancelled, std::logic_error) goes on.
+std::string refusalOf(CutRemesher& remesher, const CutMask& mask);
+
 /// True when `planeId` (an entry of CutVertexId::planes) is a face of the
 /// blade's removed region: the quad's plane (the caps of a zero-kerf cut),
 /// or, with kerf > 0, a prism face (the offset planes at +-w/2, a side

@@ -141,22 +141,6 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
     return count;
 }
 
-/// remesher.update(mask): "" when it went through, else the re-mesher's
-/// refusal; what else it throws (InputError, Cancelled) goes on.
-std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask)
-{
-    try {
-        remesher.update(mask);
-    } catch (const InputError&) {
-        throw;
-    } catch (const Cancelled&) {
-        throw;
-    } catch (const std::runtime_error& e) {
-        return e.what();
-    }
-    return {};
-}
-
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
                          std::vector<size_t>* steppedRound)

@@ -5,6 +5,7 @@
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 #include "cutter/Mesh.h"
+#include "cutter/Remesh.h"
 #include "vdb/Progress.h"
 #include "vdb/VolumeIO.h"
 
@@ -15,10 +16,6 @@
 #include <set>
 #include <string>
 #include <vector>
-
-namespace mtcut::cutter {
-class CutRemesher;
-}
 
 namespace mtcut::cli {
 
@@ -121,9 +118,7 @@ struct RefusedStroke
     std::string message;   ///< the re-mesher's reason, with the cell in world mm
 };
 
-/// remesher.update(mask): "" when it went through, else the re-mesher's
-/// refusal ("remesh: ..."); InputError and Cancelled are thrown on.
-std::string refusalOf(cutter::CutRemesher& remesher, const cutter::CutMask& mask);
+using cutter::refusalOf; // the re-mesher's refusal of an update, or ""
 
 /// --keep-going, once the re-mesher refused the whole cut, and the viewer's
 /// path files: the strokes cut one after another into `mask` and `remesher`
