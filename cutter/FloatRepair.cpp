@@ -470,7 +470,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         std::vector<Tri> live;
         for (size_t t = 0; t < nt; ++t) {
             if (!alive[t]) continue;
-            Tri x{t, {find(tris[t][0]), find(tris[t][1]), find(tris[t][2])}, {}, {}, {}};
+            Tri x{t, {find(tris[t][0]), find(tris[t][1]), find(tris[t][2])}, {}, {}, {}, {}};
             if (x.id[0] == x.id[1] || x.id[1] == x.id[2] || x.id[0] == x.id[2]) continue; // snapped away
             for (int k = 0; k < 3; ++k) x.p[size_t(k)] = written[tris[t][size_t(k)]];
             x.lo = glm::min(x.p[0], glm::min(x.p[1], x.p[2]));

@@ -45,8 +45,8 @@ uint32_t LiveStroke::addMoved(const Quad& quad, uint32_t from, bool split)
     std::array<glm::dvec3, 4> c = quad.corners;
     uint32_t moved = 0;
     for (uint32_t i = 0; i < quad.cornerCount; ++i)
-        for (const auto& [from, to] : mMoved)
-            if (c[i] == from) {
+        for (const auto& [original, to] : mMoved)
+            if (c[i] == original) {
                 c[i] = to;
                 ++moved;
                 break;
@@ -73,7 +73,7 @@ LiveStroke::Result LiveStroke::finish() { return run(true); }
 void LiveStroke::cutBack()
 {
     maskBackTo(mMaskAccepted);
-    mAccepted = mMaskAccepted == 0 ? 0 : mAddOf[mMaskAccepted - 1] + 1;
+    mAccepted = addQuadsOf(mMaskAccepted);
     mQuads = mAccepted;
 }
 
@@ -151,7 +151,7 @@ bool LiveStroke::stepRound()
         }
     } catch (...) {
         putBack(); // the re-mesher is as at mMaskAccepted
-        mAccepted = mMaskAccepted == 0 ? 0 : mAddOf[mMaskAccepted - 1] + 1;
+        mAccepted = addQuadsOf(mMaskAccepted);
         throw;
     }
     cutBack();

@@ -143,6 +143,8 @@ private:
     uint32_t addMoved(const Quad& quad, uint32_t from, bool split = true);
     /// The stroke's quads in the mask (accepted, and waiting).
     uint32_t maskQuads() const { return uint32_t(mAddOf.size()); }
+    /// The add() quads the stroke's first `maskQuads` quads in the mask were made from.
+    uint32_t addQuadsOf(uint32_t maskQuads) const { return maskQuads == 0 ? 0 : mAddOf[maskQuads - 1] + 1; }
     /// Steps the quads not yet accepted round their refusal (see the top),
     /// and round any further one among them, one at a time; true when the
     /// re-mesher accepted them all, the mask and the cut then holding the

@@ -359,6 +359,21 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
         EXPECT_EQ(readBytes(dir.file("out/" + name)), readBytes(e.path().string())) << name << " differs from mtcut cut's";
     }
     EXPECT_EQ(fragments, 2u) << "the first stroke cuts the ball in two";
+    // Its summary.json lists the stroke cut in part as the command line's
+    // does (the cut's stroke numbers are the file's here: none is dropped).
+    auto refusedOf = [&](const std::string& summary) {
+        const std::string json = readBytes(summary);
+        std::smatch s;
+        EXPECT_TRUE(std::regex_search(json, s, std::regex(R"("refused": \[[^\]]*\],\n  "stepped_round": \[[^\]]*\])")))
+            << json;
+        return s.empty() ? std::string() : s.str();
+    };
+    const std::string listed = refusedOf(dir.file("cut/summary.json"));
+    EXPECT_NE(listed.find("{\"stroke\": 2, \"quads_kept\": " + std::to_string(kept) + ", \"quads\": " +
+                          std::to_string(quads) + ", \"refused_at_t\": "),
+              std::string::npos)
+        << listed;
+    EXPECT_EQ(refusedOf(dir.file("out/summary.json")), listed);
 }
 
 // Ctrl+click (`pick`) selects the fragment under the cursor: the one whose

@@ -143,9 +143,10 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
 
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
-                         std::vector<size_t>* steppedRound)
+                         std::vector<size_t>* steppedRound, std::vector<uint32_t>* maskStrokes)
 {
     size_t count = 0;
+    if (maskStrokes) maskStrokes->assign(strokes.size(), 0);
     cutter::PathFilter filter(mask.frame());
     cutter::setEarlierQuads(mask, filter); // a stroke going back into the cut so far adds nothing there
     for (size_t i = 0; i < strokes.size(); ++i) {
@@ -181,6 +182,7 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                 refused.push_back({i + 1, kept, quads.size(), times[kept], describeRefusal(why, mask.frame(), mask.kerf())});
         }
         for (size_t k = 0; k < kept; ++k) filter.addEarlierQuad(quads[k]);
+        if (maskStrokes && kept > 0) (*maskStrokes)[i] = mask.strokeCount();
         count += kept;
     }
     return count;

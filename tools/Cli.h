@@ -131,12 +131,13 @@ using cutter::refusalOf; // the re-mesher's refusal of an update, or ""
 /// dropped, and the refusal of the update that added it). A stroke whose
 /// live cut stepped round a refusal (LiveStroke: its blade moved by a
 /// hundredth of a voxel at most) is listed (1-based) in `steppedRound`
-/// when given. The path filter sees only the quads kept. Returns the quads
-/// kept. Throws what update() throws other than a refusal (InputError,
-/// Cancelled).
+/// when given. `maskStrokes`, when given, gets per stroke the mask's
+/// number of it (1-based; 0: nothing of it kept). The path filter sees only
+/// the quads kept. Returns the quads kept. Throws what update() throws
+/// other than a refusal (InputError, Cancelled).
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
                          const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
-                         std::vector<size_t>* steppedRound = nullptr);
+                         std::vector<size_t>* steppedRound = nullptr, std::vector<uint32_t>* maskStrokes = nullptr);
 
 /// The report lines of a cut made stroke by stroke (--keep-going): one
 /// "refused:" line per stroke cut only in part, one "stepped:" line per

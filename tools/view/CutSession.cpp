@@ -14,6 +14,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <map>
 
 namespace mtcut::view {
 
@@ -86,6 +88,21 @@ struct CutSession::State
     bool haveBlade = false;
     cutter::Pose blade;
     std::string pathFile; ///< the path file the whole cut came from ("" after a mouse stroke)
+
+    /// What summary.json says of a stroke of the cut, by its number in the
+    /// mask (1-based): cut only in part (its quads in the mask then, to
+    /// tell a later undo of part of it), or stepped round a refusal.
+    struct StrokeNote
+    {
+        bool refused = false;
+        cli::RefusedStroke refusal;
+        uint32_t maskQuads = 0;
+        bool steppedRound = false;
+    };
+    std::map<uint32_t, StrokeNote> notes;
+    /// A stroke entered the mask as `number`: the notes of strokes
+    /// undone before it, which it replaces, go.
+    void strokeEntered(uint32_t number) { notes.erase(notes.lower_bound(number), notes.end()); }
 
     // What the next publish must do.
     bool cutDirty = false;       ///< mask changed since the remesher's last update
@@ -212,13 +229,26 @@ void CutSession::updateCut(bool mayDefer)
     s.cutDirty = false;
     const auto t0 = Clock::now();
     if (s.live && s.stroke && s.stroke->inMask()) {
+        const uint32_t given = s.stroke->quads(); // a stop cuts them back
         const cutter::LiveStroke::Result r = mayDefer ? s.stroke->update() : s.stroke->finish();
-        if (r.outcome == cutter::LiveStroke::Outcome::Stopped)
-            message(true, "cut refused, the stroke stops here: " +
-                              cli::describeRefusal(r.refusal, s.mask->frame(), s.mask->kerf()));
-        if (r.steppedRound)
+        const uint32_t stroke = s.stroke->inMask() ? s.mask->strokeCount() : 0; // 0: nothing of it kept
+        if (r.outcome == cutter::LiveStroke::Outcome::Stopped) {
+            const std::string why = cli::describeRefusal(r.refusal, s.mask->frame(), s.mask->kerf());
+            message(true, "cut refused, the stroke stops here: " + why);
+            if (stroke) {
+                State::StrokeNote& note = s.notes[stroke];
+                note.refused = true;
+                // (A mouse stroke's poses carry no time of their own.)
+                note.refusal = {stroke, s.stroke->acceptedQuads(), given,
+                                std::numeric_limits<double>::quiet_NaN(), why};
+                note.maskQuads = s.mask->quadCount(stroke);
+            }
+        }
+        if (r.steppedRound) {
             message(false, "the blade stepped round a refusal below a float step, moving by a hundredth of a voxel "
                            "at most: " + r.refusal);
+            if (stroke) s.notes[stroke].steppedRound = true;
+        }
         if (r.outcome == cutter::LiveStroke::Outcome::Deferred) mLastUpdate = secondsSince(t0); // it took its time too
         if (r.outcome == cutter::LiveStroke::Outcome::Unchanged ||
             r.outcome == cutter::LiveStroke::Outcome::Deferred)
@@ -330,6 +360,7 @@ void CutSession::resetCut()
     s.cutDirty = false;
     s.cutIds.reset();
     s.pathFile.clear();
+    s.notes.clear();
     s.sceneDirty = s.fragmentsDirty = true;
 }
 
@@ -480,8 +511,11 @@ void CutSession::addLiveQuads(const std::vector<cutter::Quad>& quads)
 {
     State& s = *mState;
     for (const cutter::Quad& q : quads) {
-        if (!s.stroke->inMask()) s.pathFile.clear(); // the cut is no longer just a path file's
-        if (s.stroke->add(q)) s.cutDirty = true;
+        const bool entering = !s.stroke->inMask();
+        if (entering) s.pathFile.clear(); // the cut is no longer just a path file's
+        if (!s.stroke->add(q)) continue;
+        s.cutDirty = true;
+        if (entering) s.strokeEntered(s.mask->strokeCount());
     }
 }
 
@@ -502,16 +536,28 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
               const uint32_t before = s.mask->strokeCount();
               std::vector<cli::RefusedStroke> refused;
               std::vector<size_t> stepped;
-              const size_t quads = cli::cutStrokeByStroke(*s.remesher, *s.mask, strokes, refused, &stepped);
+              std::vector<uint32_t> maskStroke; // per stroke of the file: its number in the mask, 0 if none
+              const size_t quads = cli::cutStrokeByStroke(*s.remesher, *s.mask, strokes, refused, &stepped, &maskStroke);
               const size_t added = s.mask->strokeCount() - before;
-              for (const cli::RefusedStroke& r : refused)
+              if (added) s.strokeEntered(before + 1);
+              for (const cli::RefusedStroke& r : refused) {
                   message(true, pathName + ": stroke " + std::to_string(r.stroke) + " refused at quad " +
                                     std::to_string(r.quadsKept + 1) + " of " + std::to_string(r.quads) + ", cut to quad " +
                                     std::to_string(r.quadsKept) + ": " + r.message);
-              for (const size_t i : stepped)
+                  if (const uint32_t m = maskStroke[r.stroke - 1]) {
+                      State::StrokeNote& note = s.notes[m];
+                      note.refused = true;
+                      note.refusal = r;
+                      note.refusal.stroke = m; // the summary numbers the cut's strokes
+                      note.maskQuads = s.mask->quadCount(m);
+                  }
+              }
+              for (const size_t i : stepped) {
                   message(false, pathName + ": stroke " + std::to_string(i) +
                                      " stepped round a refusal below a float step, its blade moved by a hundredth of a "
                                      "voxel at most");
+                  if (const uint32_t m = maskStroke[i - 1]) s.notes[m].steppedRound = true;
+              }
               if (added) s.pathFile = pathName;
               mLastUpdate = secondsSince(t0);
               s.sceneDirty = s.fragmentsDirty = true;
@@ -601,6 +647,13 @@ void CutSession::save(SaveRequest request)
               r.isovalue = s.iso;
               r.kerfMm = s.kerf;
               r.selected = request.selected;
+              // The strokes of the cut now (after any undo) that were cut
+              // only in part, as they still are, or stepped round a refusal.
+              for (const auto& [stroke, note] : s.notes) {
+                  if (stroke > s.mask->strokeCount()) break;
+                  if (note.refused && s.mask->quadCount(stroke) == note.maskQuads) r.refused.push_back(note.refusal);
+                  if (note.steppedRound) r.steppedRound.push_back(stroke);
+              }
               const std::vector<cli::FragmentRecord> written =
                   cli::writeCutOutputs(r, *s.volume, *s.mask, fragments, check, timings, mProgress.get());
               char buf[160];
