@@ -53,11 +53,14 @@ std::string whyNotRunnable()
 }
 
 /// Runs mtcut-view under a fresh Xvfb with a 640x480 window; output = stdout + stderr.
-test::RunResult runView(const std::string& args)
+/// Runs mtcut-view under Xvfb; `stdinFrom` (a shell command), when given,
+/// feeds its standard input.
+test::RunResult runView(const std::string& args, const std::string& stdinFrom = "")
 {
     test::RunResult r;
-    const std::string cmd = "timeout 300 xvfb-run -a -s '-screen 0 1024x768x24' " + std::string(MTCUT_VIEW_BIN) +
-                            " " + args + " 2>&1";
+    const std::string cmd = (stdinFrom.empty() ? std::string() : "(" + stdinFrom + ") | ") +
+                            "timeout 300 xvfb-run -a -s '-screen 0 1024x768x24' " + std::string(MTCUT_VIEW_BIN) + " " +
+                            args + " 2>&1";
     FILE* p = ::popen(cmd.c_str(), "r");
     if (!p) return r;
     char buf[4096];
@@ -374,6 +377,83 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
               std::string::npos)
         << listed;
     EXPECT_EQ(refusedOf(dir.file("out/summary.json")), listed);
+}
+
+// A haptic device's stream (--poses stdin), its strokes cut live: the ball
+// cut in two by a stroke at kerf 0, then by the tilted-blade stroke above,
+// whose quads overlap the first's inside the ball. Its first poses (in air,
+// x < -18 mm; the ball's radius is 15) come, then, a few seconds later, the
+// rest: the live stroke keeps what it had and stops at the refusal, with a
+// message. `wait poses` lets the script export only once the stream has
+// ended and is cut. The second stroke's kept quads are in air, so the
+// fragments are those of `mtcut cut` of the first stroke alone, file for
+// file, and summary.json lists the second as cut in part.
+TEST(ViewPoses, AStreamedStrokeThatIsRefusedStopsThereAndTheSummarySaysSo)
+{
+    if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
+    openvdb::initialize();
+    test::TempDir dir;
+    const std::string ball = dir.file("ball.vdb");
+    vdb::writeVolume(test::fieldVolume(openvdb::Coord(40), openvdb::Vec3d(1.0), openvdb::Vec3d(-19.5),
+                                       [](const openvdb::Vec3d& p) { return 15.0 - p.length(); }),
+                     ball);
+    const std::vector<cutter::Pose> first = test::straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, {0, 0, -1}, 45, 200);
+    const std::vector<cutter::Pose> second =
+        test::straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, glm::normalize(glm::dvec3(0.02, 0, -1)), 45, 200);
+    constexpr size_t kInAir = 25; // poses of the second stroke sent first: x up to -19 mm
+    {
+        std::ofstream f(dir.file("part1.csv"));
+        cutter::writePath(f, {first, std::vector<cutter::Pose>(second.begin(), second.begin() + kInAir)});
+        std::ofstream g(dir.file("part2.csv"));
+        for (size_t i = kInAir; i < second.size(); ++i) g << cutter::formatPoseLine(second[i]) << '\n';
+        g << "end\n";
+        std::ofstream h(dir.file("first.csv"));
+        cutter::writePath(h, {first});
+    }
+    writeText(dir.file("s.txt"), "wait poses\nexport " + dir.file("out") + "\nquit\n");
+    const test::RunResult r = runView(ball + " --iso 0 --size 320x240 --poses stdin --script " + dir.file("s.txt"),
+                                      "cat " + dir.file("part1.csv") + "; sleep 3; cat " + dir.file("part2.csv"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("cut refused, the stroke stops here: remesh: coplanar overlapping quads in cell ("),
+              std::string::npos)
+        << r.output;
+    EXPECT_EQ(r.output.find("wait poses:"), std::string::npos) << r.output;
+
+    const std::string json = readBytes(dir.file("out/summary.json"));
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(json, m, std::regex(R"("refused": \[\n    \{"stroke": 2, "quads_kept": (\d+), "quads": (\d+), "refused_at_t": null, "message": "remesh: coplanar overlapping quads in cell)")))
+        << json;
+    const int kept = std::stoi(m[1]), quads = std::stoi(m[2]);
+    EXPECT_GT(kept, 0) << "the quads in air were cut before the rest came";
+    EXPECT_LT(kept, quads);
+    EXPECT_NE(json.find("\"stepped_round\": []"), std::string::npos) << json;
+
+    const test::RunResult cut = test::runMtcut("cut " + ball + " --iso 0 --kerf 0 --path " + dir.file("first.csv") +
+                                               " -o " + dir.file("cut") + " --check");
+    ASSERT_EQ(cut.exitCode, 0) << cut.output;
+    size_t fragments = 0;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir.file("cut"))) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind("fragment_", 0) != 0) continue;
+        ++fragments;
+        EXPECT_EQ(readBytes(dir.file("out/" + name)), readBytes(e.path().string())) << name << " differs from mtcut cut's";
+    }
+    EXPECT_EQ(fragments, 2u);
+
+    // Without a stream, `wait poses` is an error message and the script goes
+    // on; a wait for neither seconds nor poses stops it before it starts.
+    writeText(dir.file("nostream.txt"), "wait poses\nquit\n");
+    const test::RunResult none = runView(ball + " --iso 0 --size 320x240 --script " + dir.file("nostream.txt"));
+    EXPECT_EQ(none.exitCode, 0) << none.output;
+    EXPECT_NE(none.output.find("nostream.txt:1: wait poses: no pose stream (start with --poses stdin or --poses udp:PORT)"),
+              std::string::npos)
+        << none.output;
+    writeText(dir.file("soon.txt"), "wait soon\n");
+    const test::RunResult soon = runView(ball + " --script " + dir.file("soon.txt"));
+    EXPECT_NE(soon.exitCode, 0);
+    EXPECT_NE(soon.output.find("soon.txt:1: wait (seconds, or 'poses'): expected a number >= 0, got 'soon'"),
+              std::string::npos)
+        << soon.output;
 }
 
 // Ctrl+click (`pick`) selects the fragment under the cursor: the one whose

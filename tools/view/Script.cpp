@@ -79,7 +79,10 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         a.line = lineNo;
         if (a.kind == ScriptAction::Kind::Iso) a.number = numberOf(rest, where + ": iso", false);
         if (a.kind == ScriptAction::Kind::Kerf) a.number = numberOf(rest, where + ": kerf", true);
-        if (a.kind == ScriptAction::Kind::Wait) a.number = numberOf(rest, where + ": wait", true);
+        if (a.kind == ScriptAction::Kind::Wait) {
+            if (rest == "poses") a.kind = ScriptAction::Kind::WaitPoses;
+            else a.number = numberOf(rest, where + ": wait (seconds, or 'poses')", true);
+        }
         if (a.kind == ScriptAction::Kind::Drag) {
             std::istringstream words(rest);
             double v[4];

@@ -14,7 +14,9 @@
 //   window FILE           the whole window, panel and overlay included, as .png
 //   export DIR            fragments, cut.vdb, slices.exr, summary.json (as `mtcut cut -o DIR`)
 //   export-selected DIR   the same with the selected fragments only (as "Save selected")
-//   wait S                waits S seconds, drawing (e.g. for poses streamed with --poses)
+//   wait S                waits S seconds, drawing
+//   wait poses            waits until the --poses stream has ended (its `end`
+//                         line, or the end of stdin) and its strokes are cut
 //   quit                  closes the viewer (exit 0)
 //   # ...                 comment; blank lines are skipped
 //
@@ -29,10 +31,10 @@ namespace mtcut::view {
 
 struct ScriptAction
 {
-    enum class Kind { Iso, View, Kerf, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Wait, Quit };
+    enum class Kind { Iso, View, Kerf, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Wait, WaitPoses, Quit };
     Kind kind = Kind::Quit;
     std::string argument; ///< the rest of the line, trimmed (file names may hold spaces)
-    double number = 0.0;  ///< iso, kerf
+    double number = 0.0;  ///< iso, kerf, wait's seconds
     size_t line = 0;      ///< 1-based line in the script
 };
 

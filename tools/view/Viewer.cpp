@@ -80,6 +80,9 @@ public:
             mThread.join();
         }
     }
+    /// The stream has ended (`end`, or the end of stdin); every pose of it
+    /// is posted to the session.
+    bool ended() const { return mEnded; }
 
 private:
     void run()
@@ -106,11 +109,13 @@ private:
             }
         }
         if (inStroke && !mStop) mSession.endStroke();
+        mEnded = true; // after the last command it posts
     }
 
     CutSession& mSession;
     std::unique_ptr<cutter::LineSource> mSource;
     std::atomic<bool> mStop{false};
+    std::atomic<bool> mEnded{false};
     std::thread mThread;
 };
 
@@ -187,6 +192,7 @@ private:
     float mKerf = 0.0f;
     float mBladeLength = 60.0f;   ///< mm
     double mScriptWaitUntil = 0.0; ///< glfwGetTime() before which the script waits (`wait`)
+    bool mScriptWaitPoses = false; ///< the script waits for the --poses stream to end (`wait poses`)
     int mScrollTo = -1;           ///< fragment list row to scroll to (-1: none)
     float mBladeAngle = 0.0f;     ///< degrees, blade tilted from the view direction towards the screen's bottom
     bool mHighlight = false;
@@ -596,6 +602,12 @@ void Viewer::scriptDrag(const std::string& argument)
 void Viewer::stepScript()
 {
     if (mScriptNext >= mOptions.script.size()) return;
+    // `wait poses`: the stream's commands are all posted once it has ended,
+    // so the session's being idle below means they are done.
+    if (mScriptWaitPoses) {
+        if (mPoses && !mPoses->ended()) return;
+        mScriptWaitPoses = false;
+    }
     // The action before has finished and its result is on screen.
     if (!mSession.idle() || mSession.snapshot() != mShown || !mRenderer) return;
     if (glfwGetTime() < mScriptWaitUntil) return;
@@ -625,6 +637,10 @@ void Viewer::stepScript()
             break;
         }
         case ScriptAction::Kind::Wait: mScriptWaitUntil = glfwGetTime() + a.number; break;
+        case ScriptAction::Kind::WaitPoses:
+            if (!mPoses) throw InputError("wait poses: no pose stream (start with --poses stdin or --poses udp:PORT)");
+            mScriptWaitPoses = true;
+            break;
         case ScriptAction::Kind::Quit: mQuit = true; break;
         }
     } catch (const std::exception& e) {
