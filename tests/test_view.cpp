@@ -257,6 +257,45 @@ TEST_F(ViewScript, CutUndoRedoScreenshotsAndExportMatchTheCommandLine)
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 
+// The window shows each change of the scene: a frame that changes nothing
+// presents the image drawn before (the viewer does not draw the head again
+// 4 times a second), so a change it missed would leave the old image on
+// screen. `window` shots of the cut head, after undoing its strokes (the
+// camera stays: only the uploaded geometry changes), after redoing them,
+// and from the side; compared where only the 3D view is (right of the
+// panel, below the overlay).
+TEST_F(ViewScript, TheWindowShowsEachChangeOfTheScene)
+{
+    test::TempDir dir;
+    const std::string first = dir.file("first.csv"), both = dir.file("both.csv");
+    writePaths(first, both);
+    auto shot = [&](const std::string& name) { return "window " + dir.file(name) + "\n"; };
+    writeText(dir.file("s.txt"), "iso 400\nkerf 2\npath " + both + "\n" + shot("cut.png") + "undo\nundo\n" +
+                                     shot("uncut.png") + "redo\nredo\n" + shot("again.png") + "view side\n" +
+                                     shot("side.png") + "quit\n");
+    const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file("s.txt"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(r.output.find("error"), std::string::npos) << r.output;
+    auto differing = [&](const std::string& x, const std::string& y) {
+        const render::Frame a = render::readPng(dir.file(x)), b = render::readPng(dir.file(y));
+        EXPECT_EQ(a.width, b.width);
+        EXPECT_EQ(a.height, b.height);
+        size_t n = 0;
+        for (int row = a.height * 3 / 10; row < a.height; ++row)
+            for (int col = a.width * 45 / 100; col < a.width; ++col) {
+                const size_t p = 4 * (size_t(row) * size_t(a.width) + size_t(col));
+                bool differs = false;
+                for (int c = 0; c < 3; ++c) differs |= std::abs(int(a.rgba[p + size_t(c)]) - int(b.rgba[p + size_t(c)])) > 2;
+                n += differs;
+            }
+        std::printf("%s vs %s: %zu pixels differ\n", x.c_str(), y.c_str(), n);
+        return n;
+    };
+    EXPECT_EQ(differing("cut.png", "again.png"), 0u) << "the same scene twice";
+    EXPECT_GT(differing("cut.png", "uncut.png"), 100u) << "the undone cut is still on screen";
+    EXPECT_GT(differing("again.png", "side.png"), 5000u) << "the new view is not on screen";
+}
+
 TEST_F(ViewScript, AMouseStrokeCutsAndUndoes)
 {
     // `drag` goes through the mouse's path: the blade picked on the bone at the

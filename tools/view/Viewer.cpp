@@ -119,6 +119,20 @@ private:
     std::thread mThread;
 };
 
+bool sameCamera(const render::Camera& a, const render::Camera& b)
+{
+    static_assert(sizeof(render::Camera) == 3 * sizeof(glm::dvec3) + 3 * sizeof(double) + sizeof(glm::dvec2),
+                  "a field added to Camera must be compared here");
+    return a.eye == b.eye && a.target == b.target && a.up == b.up && a.fovYDegrees == b.fovYDegrees &&
+           a.nearMm == b.nearMm && a.farMm == b.farMm && a.lensShift == b.lensShift;
+}
+
+bool sameStyle(const render::RenderStyle& a, const render::RenderStyle& b)
+{
+    return a.colour == b.colour && a.highlightColour == b.highlightColour && a.background == b.background &&
+           a.highlight == b.highlight && a.fragmentColours == b.fragmentColours;
+}
+
 /// Per-fragment display state, by fragment index (id - 1).
 struct FragmentStyle
 {
@@ -178,6 +192,13 @@ private:
 
     // scene
     std::shared_ptr<const SceneSnapshot> mShown; ///< what the renderer holds
+    /// The renderer's image is the window's view of mShown with this camera
+    /// and style: a frame that changes none of them only presents it again
+    /// (an idle or busy viewer does not redraw millions of triangles 4 times
+    /// a second; llvmpipe draws on the cores a save or a cut needs).
+    bool mSceneDrawn = false;
+    render::Camera mDrawnCamera;
+    render::RenderStyle mDrawnStyle;
     uint64_t mShownSurfaceSerial = 0;
     std::vector<FragmentStyle> mFragments;
 
@@ -332,6 +353,7 @@ void Viewer::applySnapshot()
 {
     const std::shared_ptr<const SceneSnapshot> snap = mSession.snapshot();
     if (snap == mShown || !mRenderer) return;
+    mSceneDrawn = false;
     const bool firstSurface = !mShown || !mShown->surface || mShown->input != snap->input;
     if (snap->surface) {
         const std::vector<uint32_t> noIds;
@@ -548,6 +570,7 @@ void Viewer::screenshot(const std::string& path)
     if (!mRenderer) throw InputError("screenshot " + path + ": nothing on screen yet");
     // A preset view as `mtcut render` frames it (the window's may sit right of the panel).
     mRenderer->render(mPreset.empty() ? mCamera : presetCamera(), style(true));
+    mSceneDrawn = false;
     const render::Frame frame = mRenderer->readFrame();
     if (ext == ".png") {
         render::writePng(frame, path);
@@ -586,6 +609,7 @@ void Viewer::scriptDrag(const std::string& argument)
         throw InputError("drag " + argument + ": expected X0 Y0 X1 Y1 (pixels)");
     }
     mRenderer->render(mCamera, style(false)); // pick on what the current camera sees
+    mSceneDrawn = false;
     const float depth = mRenderer->viewDepthAt(int(x0), int(y0));
     if (!std::isfinite(depth)) throw InputError("drag " + argument + ": no bone under the start pixel");
     mStrokeDepth = depth;
@@ -853,15 +877,20 @@ void Viewer::renderFrame()
     if (mWidth <= 0 || mHeight <= 0) return;
     if (!mRenderer || mRenderer->width() != mWidth || mRenderer->height() != mHeight) {
         mRenderer = std::make_unique<render::SurfaceRenderer>(mWidth, mHeight);
+        mSceneDrawn = false;
         mShown.reset(); // upload again
         mShownSurfaceSerial = 0;
         applySnapshot();
     }
     updateCamera();
     mTimer->beginFrame();
-    {
+    const render::RenderStyle now = style(false);
+    if (!mSceneDrawn || !sameCamera(mCamera, mDrawnCamera) || !sameStyle(now, mDrawnStyle)) {
         auto pass = mTimer->scope("scene");
-        mRenderer->render(mCamera, style(false));
+        mRenderer->render(mCamera, now);
+        mSceneDrawn = true;
+        mDrawnCamera = mCamera;
+        mDrawnStyle = now;
     }
     {
         auto pass = mTimer->scope("present");
@@ -893,8 +922,12 @@ void Viewer::renderFrame()
 int Viewer::run()
 {
     while (!mQuit) {
+        // A long task (open, save, a new isovalue: it has a name) changes
+        // nothing on screen but its progress: drawn 4 times a second, so
+        // drawing (llvmpipe: on the same cores) does not slow it down.
+        const bool longTask = !mSession.task().empty() && mDrag == Drag::None;
         const bool busy = !mSession.idle() || mScriptNext < mOptions.script.size() || mDrag != Drag::None;
-        if (busy) {
+        if (busy && !longTask) {
             glfwPollEvents();
         } else {
             glfwWaitEventsTimeout(0.25); // idle: draw on input, else 4 times a second (llvmpipe is busy enough)
