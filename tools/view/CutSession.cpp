@@ -103,6 +103,15 @@ struct CutSession::State
     /// A stroke entered the mask as `number`: the notes of strokes
     /// undone before it, which it replaces, go.
     void strokeEntered(uint32_t number) { notes.erase(notes.lower_bound(number), notes.end()); }
+    /// Stroke `number` of the cut was cut only in part (`refusal` names it so).
+    void noteRefused(uint32_t number, const cli::RefusedStroke& refusal)
+    {
+        StrokeNote& note = notes[number];
+        note.refused = true;
+        note.refusal = refusal;
+        note.refusal.stroke = number;
+        note.maskQuads = mask->quadCount(number);
+    }
 
     // What the next publish must do.
     bool cutDirty = false;       ///< mask changed since the remesher's last update
@@ -235,14 +244,9 @@ void CutSession::updateCut(bool mayDefer)
         if (r.outcome == cutter::LiveStroke::Outcome::Stopped) {
             const std::string why = cli::describeRefusal(r.refusal, s.mask->frame(), s.mask->kerf());
             message(true, "cut refused, the stroke stops here: " + why);
-            if (stroke) {
-                State::StrokeNote& note = s.notes[stroke];
-                note.refused = true;
-                // (A mouse stroke's poses carry no time of their own.)
-                note.refusal = {stroke, s.stroke->acceptedQuads(), given,
-                                std::numeric_limits<double>::quiet_NaN(), why};
-                note.maskQuads = s.mask->quadCount(stroke);
-            }
+            // (A mouse stroke's poses carry no time of their own.)
+            if (stroke)
+                s.noteRefused(stroke, {stroke, s.stroke->acceptedQuads(), given, std::numeric_limits<double>::quiet_NaN(), why});
         }
         if (r.steppedRound) {
             message(false, "the blade stepped round a refusal below a float step, moving by a hundredth of a voxel "
@@ -544,13 +548,7 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
                   message(true, pathName + ": stroke " + std::to_string(r.stroke) + " refused at quad " +
                                     std::to_string(r.quadsKept + 1) + " of " + std::to_string(r.quads) + ", cut to quad " +
                                     std::to_string(r.quadsKept) + ": " + r.message);
-                  if (const uint32_t m = maskStroke[r.stroke - 1]) {
-                      State::StrokeNote& note = s.notes[m];
-                      note.refused = true;
-                      note.refusal = r;
-                      note.refusal.stroke = m; // the summary numbers the cut's strokes
-                      note.maskQuads = s.mask->quadCount(m);
-                  }
+                  if (const uint32_t m = maskStroke[r.stroke - 1]) s.noteRefused(m, r); // numbered as the cut's
               }
               for (const size_t i : stepped) {
                   message(false, pathName + ": stroke " + std::to_string(i) +
