@@ -352,6 +352,36 @@ TEST_F(ViewScript, ThePathLoadedTwiceCutsWhatItCutOnce)
     for (const std::string& f : files) EXPECT_EQ(readBytes(dir.file("twice/" + f)), readBytes(dir.file("once/" + f))) << f;
 }
 
+namespace {
+
+/// A ball of radius 15 mm (the field 15 - |p|, iso 0) in a 40^3 grid of 1 mm
+/// voxels centred on the origin, written into `dir`: no shared data needed.
+std::string writeBall(const test::TempDir& dir)
+{
+    openvdb::initialize();
+    const std::string ball = dir.file("ball.vdb");
+    vdb::writeVolume(test::fieldVolume(openvdb::Coord(40), openvdb::Vec3d(1.0), openvdb::Vec3d(-19.5),
+                                       [](const openvdb::Vec3d& p) { return 15.0 - p.length(); }),
+                     ball);
+    return ball;
+}
+
+/// Expects every fragment file `mtcut cut` wrote into `cutDir` in `exported`
+/// too, byte for byte; returns how many there are.
+size_t sameFragments(const std::string& exported, const std::string& cutDir)
+{
+    size_t fragments = 0;
+    for (const fs::directory_entry& e : fs::directory_iterator(cutDir)) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind("fragment_", 0) != 0) continue;
+        ++fragments;
+        EXPECT_EQ(readBytes(exported + "/" + name), readBytes(e.path().string())) << name << " differs from mtcut cut's";
+    }
+    return fragments;
+}
+
+} // namespace
+
 // A path whose second stroke the re-mesher refuses part way: the ball cut
 // at kerf 0 by a stroke in the plane y = 0.37, then by one in the same plane
 // with its blade tilted, whose quads overlap the first's (the kernel refuses
@@ -362,12 +392,8 @@ TEST_F(ViewScript, ThePathLoadedTwiceCutsWhatItCutOnce)
 TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
 {
     if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
-    openvdb::initialize();
     test::TempDir dir;
-    const std::string ball = dir.file("ball.vdb");
-    vdb::writeVolume(test::fieldVolume(openvdb::Coord(40), openvdb::Vec3d(1.0), openvdb::Vec3d(-19.5),
-                                       [](const openvdb::Vec3d& p) { return 15.0 - p.length(); }),
-                     ball);
+    const std::string ball = writeBall(dir);
     const std::string path = dir.file("twice.csv");
     std::vector<std::vector<cutter::Pose>> strokes;
     for (const glm::dvec3 blade : {glm::dvec3(0, 0, -1), glm::normalize(glm::dvec3(0.02, 0, -1))})
@@ -393,14 +419,7 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
     ASSERT_EQ(cut.exitCode, 0) << cut.output;
     EXPECT_NE(cut.output.find("refused:    stroke 2 at quad " + std::to_string(at) + " of " + std::to_string(quads)),
               std::string::npos) << cut.output;
-    size_t fragments = 0;
-    for (const fs::directory_entry& e : fs::directory_iterator(dir.file("cut"))) {
-        const std::string name = e.path().filename().string();
-        if (name.rfind("fragment_", 0) != 0) continue;
-        ++fragments;
-        EXPECT_EQ(readBytes(dir.file("out/" + name)), readBytes(e.path().string())) << name << " differs from mtcut cut's";
-    }
-    EXPECT_EQ(fragments, 2u) << "the first stroke cuts the ball in two";
+    EXPECT_EQ(sameFragments(dir.file("out"), dir.file("cut")), 2u) << "the first stroke cuts the ball in two";
     // Its summary.json lists the stroke cut in part as the command line's
     // does (the cut's stroke numbers are the file's here: none is dropped).
     auto refusedOf = [&](const std::string& summary) {
@@ -430,12 +449,8 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
 TEST(ViewPoses, AStreamedStrokeThatIsRefusedStopsThereAndTheSummarySaysSo)
 {
     if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
-    openvdb::initialize();
     test::TempDir dir;
-    const std::string ball = dir.file("ball.vdb");
-    vdb::writeVolume(test::fieldVolume(openvdb::Coord(40), openvdb::Vec3d(1.0), openvdb::Vec3d(-19.5),
-                                       [](const openvdb::Vec3d& p) { return 15.0 - p.length(); }),
-                     ball);
+    const std::string ball = writeBall(dir);
     const std::vector<cutter::Pose> first = test::straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, {0, 0, -1}, 45, 200);
     const std::vector<cutter::Pose> second =
         test::straightStroke({-25, 0.37, 22}, {25, 0.37, 22}, glm::normalize(glm::dvec3(0.02, 0, -1)), 45, 200);
@@ -470,14 +485,7 @@ TEST(ViewPoses, AStreamedStrokeThatIsRefusedStopsThereAndTheSummarySaysSo)
     const test::RunResult cut = test::runMtcut("cut " + ball + " --iso 0 --kerf 0 --path " + dir.file("first.csv") +
                                                " -o " + dir.file("cut") + " --check");
     ASSERT_EQ(cut.exitCode, 0) << cut.output;
-    size_t fragments = 0;
-    for (const fs::directory_entry& e : fs::directory_iterator(dir.file("cut"))) {
-        const std::string name = e.path().filename().string();
-        if (name.rfind("fragment_", 0) != 0) continue;
-        ++fragments;
-        EXPECT_EQ(readBytes(dir.file("out/" + name)), readBytes(e.path().string())) << name << " differs from mtcut cut's";
-    }
-    EXPECT_EQ(fragments, 2u);
+    EXPECT_EQ(sameFragments(dir.file("out"), dir.file("cut")), 2u);
 
     // Without a stream, `wait poses` is an error message and the script goes
     // on; a wait for neither seconds nor poses stops it before it starts.
