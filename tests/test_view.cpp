@@ -440,9 +440,11 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
 // A haptic device's stream (--poses stdin), its strokes cut live: the ball
 // cut in two by a stroke at kerf 0, then by the tilted-blade stroke above,
 // whose quads overlap the first's inside the ball. Its first poses (in air,
-// x < -18 mm; the ball's radius is 15) come, then, a few seconds later, the
-// rest: the live stroke keeps what it had and stops at the refusal, with a
-// message. `wait poses` lets the script export only once the stream has
+// x < -18 mm; the ball's radius is 15) come; the rest only once the viewer
+// has cut them (its script writes a window shot a second after it started,
+// which the feeder waits for, so how long the viewer takes to start does
+// not matter): the live stroke keeps what it had and stops at the refusal,
+// with a message. `wait poses` lets the script export only once the stream has
 // ended and is cut. The second stroke's kept quads are in air, so the
 // fragments are those of `mtcut cut` of the first stroke alone, file for
 // file, and summary.json lists the second as cut in part.
@@ -464,9 +466,12 @@ TEST(ViewPoses, AStreamedStrokeThatIsRefusedStopsThereAndTheSummarySaysSo)
         std::ofstream h(dir.file("first.csv"));
         cutter::writePath(h, {first});
     }
-    writeText(dir.file("s.txt"), "wait poses\nexport " + dir.file("out") + "\nquit\n");
+    const std::string ready = dir.file("ready.png"); // written atomically (renamed into place)
+    writeText(dir.file("s.txt"), "wait 1\nwindow " + ready + "\nwait poses\nexport " + dir.file("out") + "\nquit\n");
     const test::RunResult r = runView(ball + " --iso 0 --size 320x240 --poses stdin --script " + dir.file("s.txt"),
-                                      "cat " + dir.file("part1.csv") + "; sleep 3; cat " + dir.file("part2.csv"));
+                                      "cat " + dir.file("part1.csv") + "; i=0; while [ ! -f " + ready +
+                                          " ] && [ $i -lt 1200 ]; do sleep 0.1; i=$((i+1)); done; cat " +
+                                          dir.file("part2.csv"));
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_NE(r.output.find("cut refused, the stroke stops here: remesh: coplanar overlapping quads in cell ("),
               std::string::npos)
