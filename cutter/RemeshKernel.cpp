@@ -2571,25 +2571,16 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
             // ulps wide one of them has zero area once rounded to float mm
             // (tooth seed 1021; kerf 0, updated after every quad: 2 mm head
             // seed 8006, 4 mm head seed 8014).
-            const bool ownCorner = convex && poly.size() == 3 && std::any_of(poly.begin(), poly.end(), [&](int i) {
+            const uint64_t sideTag = r.cap ? r.cap->id << 1 | (r.side < 0 ? 1u : 0u) : 0;
+            auto ownCorner = [&](int i) {
                 const auto& tags = nodes[size_t(ptNode[size_t(i)])].tags;
-                return std::binary_search(tags.begin(), tags.end(), r.cap->id << 1 | (r.side < 0 ? 1u : 0u));
-            });
-            if (ownCorner) {
-                tris.insert(tris.end(), poly.begin(), poly.end());
-            } else if (lone) {
-                for (size_t i = 1; i + 1 < poly.size(); ++i) {
-                    tris.push_back(poly[0]);
-                    tris.push_back(poly[i]);
-                    tris.push_back(poly[i + 1]);
-                }
-            } else if (convex) {
-                // A cap region: fan from a tagged centre, so no chord joins two rim
-                // points (the two sides of the slit would share it).
-                dvec3 centre(0.0);
-                for (int i : poly) centre += mVerts[size_t(nodes[size_t(ptNode[size_t(i)])].vert)].pos / double(poly.size());
+                return std::binary_search(tags.begin(), tags.end(), sideTag);
+            };
+            // A cap region: fan from a tagged centre, so no chord joins two rim
+            // points (the two sides of the slit would share it).
+            auto centreFan = [&](const dvec3& centre) {
                 const int cv = makeSteiner(15, {kCentroid, r.cap->id, uint64_t(&r - regions.data()) + 8}, centre);
-                Tags tags{r.cap->id << 1 | (r.side < 0 ? 1u : 0u)};
+                Tags tags{sideTag};
                 const int cn = nodeOf(cv, tags);
                 pts.push_back({glm::dot(centre, e1), glm::dot(centre, e2)});
                 ptNode.push_back(cn);
@@ -2599,8 +2590,47 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                     tris.push_back(poly[i]);
                     tris.push_back(poly[(i + 1) % poly.size()]);
                 }
+            };
+            auto cornerMean = [&] {
+                dvec3 centre(0.0);
+                for (int i : poly) centre += mVerts[size_t(nodes[size_t(ptNode[size_t(i)])].vert)].pos / double(poly.size());
+                return centre;
+            };
+            if (convex && poly.size() == 3 && std::any_of(poly.begin(), poly.end(), ownCorner)) {
+                tris.insert(tris.end(), poly.begin(), poly.end());
+            } else if (lone) {
+                for (size_t i = 1; i + 1 < poly.size(); ++i) {
+                    tris.push_back(poly[0]);
+                    tris.push_back(poly[i]);
+                    tris.push_back(poly[i + 1]);
+                }
+            } else if (convex) {
+                centreFan(cornerMean());
             } else if (!(mPrism && bestTriangulation(poly, pts, tris)) && !earClip(poly, pts, tris)) {
                 throw std::runtime_error("remesh: triangulation failed in cell " + cellText(mCell));
+            } else if (r.cap && !mPrism && outers.size() == 1 && !hasHoles) {
+                // A cap region with a reflex corner at zero kerf, ear-clipped:
+                // an ear none of whose corners is this side's own may be the
+                // other side's ear too (the same three rim points: a triangle
+                // shared back to back; body CT at 150 HU, seed 16285). Then a
+                // fan from the tagged centre where the region is star-shaped
+                // from it; else the ears stand (and the local check judges).
+                bool shared = false;
+                for (size_t t = 0; t + 2 < tris.size() && !shared; t += 3)
+                    shared = !ownCorner(tris[t]) && !ownCorner(tris[t + 1]) && !ownCorner(tris[t + 2]);
+                if (shared) {
+                    const dvec3 centre = cornerMean();
+                    const Vec2 c{glm::dot(centre, e1), glm::dot(centre, e2)};
+                    bool star = true;
+                    for (size_t i = 0; i < poly.size() && star; ++i) {
+                        const Vec2 &a = pts[size_t(poly[i])], &b = pts[size_t(poly[(i + 1) % poly.size()])];
+                        star = cross2(c, a, b) > 1e-9 * poly2::length2(a.x - c.x, a.y - c.y) * poly2::length2(b.x - c.x, b.y - c.y);
+                    }
+                    if (star) {
+                        tris.clear();
+                        centreFan(centre);
+                    }
+                }
             }
             if (mArrangeCapture) {
                 auto& probe = (*mArrangeCapture)[size_t(mTet)].triangles;

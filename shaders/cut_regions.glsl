@@ -506,6 +506,35 @@ void putTriangles()
     }
 }
 
+/// The mean of poly2Poly's n corners' positions (RemeshKernel's cornerMean).
+dvec3 cornerMean(int n)
+{
+    precise dvec3 centre = dvec3(0.0lf);
+    for (int i = 0; i < n; ++i) centre += gVPos(gNodeVert(gPtNode[poly2Poly[i]])) / double(n);
+    return centre;
+}
+
+/// triangulateRegions' centreFan: cap region r of quad q (its n corners in
+/// poly2Poly) as a fan from `centre`, a Steiner vertex tagged with the
+/// region's side. False when a table is full (gFail set).
+bool centreFan(int r, int q, int n, dvec3 e1, dvec3 e2, dvec3 centre)
+{
+    const uvec2 o = uvec2(0u);
+    uvec2 planes[8] = uvec2[8](b64(kCentroid), b64(kQuads[q].id), b64(uint64_t(r) + 8ul), o, o, o, o, o);
+    const int cv = makeSteiner(15u, planes, 3, centre);
+    if (cv < 0) return false;
+    const int cn = nodeOf(cv, sideTag(q, gRegionSide(r)), 0ul, 0ul, 0ul, 1);
+    if (cn < 0) return false;
+    const int ci = poly2AddPoint(dvec2(dot3(centre, e1), dot3(centre, e2)));
+    if (ci < 0) {
+        gFail |= kFailRegions;
+        return false;
+    }
+    gPtNode[ci] = cn;
+    for (int i = 0; i < n; ++i) poly2AddTri(ci, poly2Poly[i], poly2Poly[(i + 1) % n]);
+    return true;
+}
+
 /// RemeshKernel::triangulateRegions for region r.
 void triangulateRegion(int r)
 {
@@ -635,21 +664,7 @@ void triangulateRegion(int r)
             for (int i = 1; i + 1 < n; ++i) poly2AddTri(poly2Poly[0], poly2Poly[i], poly2Poly[i + 1]);
         } else if (convex) {
             // A cap region: a fan from a tagged centre.
-            precise dvec3 centre = dvec3(0.0lf);
-            for (int i = 0; i < n; ++i) centre += gVPos(gNodeVert(gPtNode[poly2Poly[i]])) / double(n);
-            const uvec2 o = uvec2(0u);
-            uvec2 planes[8] = uvec2[8](b64(kCentroid), b64(kQuads[q].id), b64(uint64_t(r) + 8ul), o, o, o, o, o);
-            const int cv = makeSteiner(15u, planes, 3, centre);
-            if (cv < 0) return;
-            const int cn = nodeOf(cv, sideTag(q, gRegionSide(r)), 0ul, 0ul, 0ul, 1);
-            if (cn < 0) return;
-            const int ci = poly2AddPoint(dvec2(dot3(centre, e1), dot3(centre, e2)));
-            if (ci < 0) {
-                gFail |= kFailRegions;
-                return;
-            }
-            gPtNode[ci] = cn;
-            for (int i = 0; i < n; ++i) poly2AddTri(ci, poly2Poly[i], poly2Poly[(i + 1) % n]);
+            if (!centreFan(r, q, n, e1, e2, cornerMean(n))) return;
         } else {
             bool done = uPrism && poly2BestTriangulation();
             if (!done) {
@@ -659,6 +674,30 @@ void triangulateRegion(int r)
             if (!done) {
                 gFail |= poly2Overflow ? kFailRegions : kRefused; // triangulation failed
                 return;
+            }
+            if (q >= 0 && !uPrism && outers == 1 && !hasHoles) {
+                // A reflex cap region at zero kerf: an ear with no corner of
+                // its own side may be the other side's too; then a fan from
+                // the tagged centre where the region is star-shaped from it.
+                const uint64_t own = sideTag(q, gRegionSide(r));
+                bool sharedEar = false;
+                for (int t = 0; t + 2 < poly2TriCount && !sharedEar; t += 3)
+                    sharedEar = !nodeHasTag(gPtNode[poly2Tri[t]], own) && !nodeHasTag(gPtNode[poly2Tri[t + 1]], own) &&
+                             !nodeHasTag(gPtNode[poly2Tri[t + 2]], own);
+                if (sharedEar) {
+                    const dvec3 centre = cornerMean(n);
+                    const dvec2 c = dvec2(dot3(centre, e1), dot3(centre, e2));
+                    bool star = true;
+                    for (int i = 0; i < n && star; ++i) {
+                        const dvec2 a = poly2Pt(poly2Poly[i]), b = poly2Pt(poly2Poly[(i + 1) % n]);
+                        precise double bound = 1e-9lf * poly2Dist(a, c) * poly2Dist(b, c);
+                        star = poly2Cross(c, a, b) > bound;
+                    }
+                    if (star) {
+                        poly2TriCount = 0;
+                        if (!centreFan(r, q, n, e1, e2, centre)) return;
+                    }
+                }
             }
         }
         if (poly2Overflow) {

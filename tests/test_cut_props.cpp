@@ -1472,14 +1472,15 @@ struct HeadStrokeCut
         }
     }
     /// The strokes before upTo.stroke whole and its quads up to upTo.quad,
-    /// cut from scratch (a state a live stroke updated after every quad is in).
+    /// cut from scratch (a state a live stroke updated after every quad is
+    /// in), at isovalue iso.
     struct UpToQuad
     {
         size_t stroke, quad;
     };
-    HeadStrokeCut(const std::string& path, uint32_t seed, double kerf, UpToQuad upTo)
-        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false})),
-          mask(frameOf(vol), kerf), remesher(vol, 400.0f, uncut)
+    HeadStrokeCut(const std::string& path, uint32_t seed, double kerf, UpToQuad upTo, float iso = 400.0f)
+        : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false})),
+          mask(frameOf(vol), kerf), remesher(vol, iso, uncut)
     {
         const auto all = randomStrokes(mask.frame(), seed, int(upTo.stroke) + 1);
         for (size_t s = 0; s <= upTo.stroke; ++s) {
@@ -1811,6 +1812,28 @@ TEST(CutPropsDefects, ACapTriangleWithACornerOfItsOwnSideGetsNoCentre)
     expectCleanRandomCut(path2, "2 mm head", 8006, 4, 0.0);
     MTCUT_REQUIRE_DATA(path4, "vhm_head_4mm.nhdr");
     expectCleanRandomCut(path4, "4 mm head", 8014, 4, 0.0);
+}
+
+// The body CT (NIfTI) at 150 HU, kerf 0, random strokes seed 16285, with
+// stroke 2's last quad: in cell (86, 49, 20) a cap region has a reflex
+// corner (20 degrees, between edges of about 10 um) where the blade's rim
+// turns inside the bone, so it is ear-clipped rather than fanned from its
+// centre, and both sides of the slit clipped the same ear of three rim
+// points: one triangle back to back, its edges used twice each way
+// (refused; the live stroke stepped round it). An ear with no corner of its
+// own side now makes the region a fan from its tagged centre where the
+// region is star-shaped from it (the GPU pass alike:
+// CutKernelGpu.AReflexCapRegionIsFannedAsTheCpu).
+TEST(CutPropsDefects, AReflexCapRegionWhoseEarBothSidesShareIsFanned)
+{
+    MTCUT_REQUIRE_DATA(path, "body-ct.nii.gz");
+    HeadStrokeCut cut(path, 16285, 0.0, HeadStrokeCut::UpToQuad{2, 45}, 150.0f);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    EXPECT_EQ(t.offBlade, 0u);
 }
 
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every

@@ -521,6 +521,53 @@ TEST(CutKernelGpu, AStripThinnerThanDoubleIsTriangulatedAsTheCpu)
     EXPECT_TRUE(got.madeByGpu[atIndex]) << "the GPU flagged the strip's cell for the CPU";
 }
 
+// The body CT at 150 HU, kerf 0, random strokes seed 16285 to stroke 2's
+// last quad (CutPropsDefects.AReflexCapRegionWhoseEarBothSidesShareIsFanned):
+// a cap region in cell (86, 49, 20) with a reflex corner, ear-clipped with
+// an ear of three rim points on both sides, is a fan from its tagged centre;
+// the GPU pass makes the same vertices and triangles as the CPU in the cells
+// round it, and makes that cell itself.
+TEST(CutKernelGpu, AReflexCapRegionIsFannedAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "body-ct.nii.gz");
+    const render::GpuCutKernel& gpu = cutKernel();
+    const vdb::Volume body = vdb::readVolume(path);
+    CutMask mask(cutter::frameOf(body), 0.0);
+    const uint32_t seed = 16285;
+    const auto strokes = cutter::makeRandomStrokes(mask.frame(), seed, 3, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
+                                                   20.0 + 10.0 * (seed % 4));
+    for (size_t s = 0; s < 3; ++s) {
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
+        if (s == 2) ASSERT_EQ(quads.size(), 46u);
+        mask.beginStroke();
+        for (size_t q = 0; q < quads.size() && (s < 2 || q <= 45); ++q) mask.addQuad(quads[q]);
+    }
+    const openvdb::Coord at(86, 49, 20);
+    std::vector<openvdb::Coord> cells;
+    mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) {
+        if (std::abs(c.x() - at.x()) <= 1 && std::abs(c.y() - at.y()) <= 1 && std::abs(c.z() - at.z()) <= 1) cells.push_back(c);
+    });
+    std::sort(cells.begin(), cells.end());
+    ASSERT_TRUE(std::binary_search(cells.begin(), cells.end(), at));
+    const render::RecoveredCells got = render::recoverCutCells(gpu, body, 150.0f, mask, cells, 1);
+    ASSERT_EQ(got.cells.size(), cells.size());
+    CellKernel cpu(body, 150.0f);
+    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    size_t triangles = 0;
+    for (size_t i = 0; i < cells.size(); ++i) {
+        cutter::CutCellGeometry want;
+        ASSERT_NO_THROW(cpu.remesh(cells[i], kernelQuads.of(cells[i]), false, want));
+        triangles += want.indices.size() / 3;
+        EXPECT_TRUE(got.cells[i].vertexIds == want.vertexIds) << "cell " << i;
+        EXPECT_EQ(got.cells[i].indices, want.indices) << "cell " << i;
+    }
+    std::printf("body CT seed 16285, stroke 2 to quad 45: %zu cells round (86, 49, 20), %zu triangles, %zu made by the GPU\n",
+                cells.size(), triangles, got.byGpu);
+    const size_t atIndex = size_t(std::lower_bound(cells.begin(), cells.end(), at) - cells.begin());
+    EXPECT_TRUE(got.madeByGpu[atIndex]) << "the GPU flagged the reflex region's cell for the CPU";
+}
+
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
 // into its draw buffers and drawn with glDrawArraysIndirect over the
 // discard pass, on the sphere cut by the slanted stroke, against the CPU:
