@@ -218,16 +218,43 @@ int findVertex(uint dim, uvec2 feature[3], int planeCount, uvec2 planes[8])
 
 double mergeTolerance(dvec3 p) { return 1e-11lf * (1.0lf + max(max(abs(p.x), abs(p.y)), abs(p.z))); }
 
+/// RemeshKernel's subsetMergeTolerance (its kNearCell is 1e-5).
+double subsetMergeTolerance(dvec3 p)
+{
+    precise double t = 1e-8lf * (1.0lf + max(max(abs(p.x), abs(p.y)), abs(p.z)));
+    return min(t, 0.5e-5lf);
+}
+
+/// Are vertex v's planes and planes[0..count) (both ascending) nested, one
+/// a subset of the other?
+bool nestedNames(int v, uvec2 planes[8], int count)
+{
+    const int pc = vPlaneCount(v);
+    int i = 0, j = 0, matched = 0;
+    while (i < pc && j < count) {
+        const uint64_t a = gVPlanes(8 * v + i), b = u64(planes[j]);
+        if (a == b) {
+            ++matched;
+            ++i;
+            ++j;
+        } else if (a < b) ++i;
+        else ++j;
+    }
+    return matched == min(pc, count);
+}
+
 /// mergeCandidate: the lowest tet-inside, non-Steiner vertex with this
-/// feature within mergeTolerance of p, or -1.
-int mergeCandidate(uvec2 feature[3], dvec3 p)
+/// feature within mergeTolerance of p, or within subsetMergeTolerance when
+/// one name's planes are a subset of the other's, or -1.
+int mergeCandidate(uvec2 feature[3], uvec2 planes[8], int count, dvec3 p)
 {
     for (int v = 0; v < gVertCount; ++v) {
         if (vDim(v) != 3u || vSteiner(v)) continue;
         if (gVFeature(3 * v) != u64(feature[0]) || gVFeature(3 * v + 1) != u64(feature[1]) ||
             gVFeature(3 * v + 2) != u64(feature[2]))
             continue;
-        if (length3(gVPos(v) - p) <= mergeTolerance(p)) return v;
+        const double d = length3(gVPos(v) - p);
+        if (d <= mergeTolerance(p) || (d <= subsetMergeTolerance(p) && nestedNames(v, planes, count))) return v;
     }
     return -1;
 }
@@ -268,7 +295,7 @@ int makeVertex(uint support, uvec2 defining[8], int definingCount, dvec3 pos0)
     featureOf(support, feature);
     const int found = findVertex(dim, feature, count, name);
     if (found >= 0) return found;
-    const int m = dim == 3u ? mergeCandidate(feature, pos0) : -1;
+    const int m = dim == 3u ? mergeCandidate(feature, name, count, pos0) : -1;
     if (m >= 0) {
         // The union of the two names, ascending, when it fits.
         uvec2 all[16];

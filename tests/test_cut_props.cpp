@@ -1836,6 +1836,27 @@ TEST(CutPropsDefects, AReflexCapRegionWhoseEarBothSidesShareIsFanned)
     EXPECT_EQ(t.offBlade, 0u);
 }
 
+// The 2 mm head at kerf 1, random strokes seed 16234, stroke 2 to quad 49:
+// in tet 4 of cell (110, 90, 91) the prisms of quads 40 to 42 meet nearly
+// at one point, on five planes; made by three of them (q40:k2, q41:k2,
+// q41:k7, nearly parallel) it came out 1.4e-9 voxel from the vertex named
+// by all five, beyond mergeTolerance, so it was a second vertex and an edge
+// of the cap round them was used once (refused; the live stroke waited out
+// seven updates and stepped round the eighth). A dim-3 point whose name's
+// planes are a subset of a near vertex's is that vertex now (the GPU pass
+// alike: CutKernelGpu.APointOfNearlyParallelPlanesIsMergedAsTheCpu).
+TEST(CutPropsDefects, APointNamedByASubsetOfAnotherVertexsPlanesIsThatVertex)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    HeadStrokeCut cut(path, 16234, 1.0, HeadStrokeCut::UpToQuad{2, 49});
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    EXPECT_EQ(t.pairs, 0u);
+}
+
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between
