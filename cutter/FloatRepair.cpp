@@ -80,11 +80,13 @@ bool joinsPinchInFace(const CutVertexId& keep, const CutVertexId& other, const g
 
 bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b)
 {
-    if (a.dim != 2 || b.dim != 2 || a.tagCount != 0 || b.tagCount != 0 || a.planeCount == 0 ||
-        a.planeCount != b.planeCount || a.feature == b.feature)
+    if (a.dim != 2 || b.dim != 2 || a.tagCount != b.tagCount || a.planeCount == 0 || a.planeCount != b.planeCount ||
+        a.feature == b.feature)
         return false;
     for (uint8_t k = 0; k < a.planeCount; ++k)
         if (a.planes[k] != b.planes[k]) return false;
+    for (uint8_t k = 0; k < a.tagCount; ++k)
+        if (a.tags[k] != b.tags[k]) return false;
     // Both in cell faces (the three grid vertices share a coordinate), of
     // different axes, with two grid vertices in common: the cube edge.
     auto faceAxis = [](const CutVertexId& v) {

@@ -210,10 +210,12 @@ constexpr double kFloatStepsLook = 16.0;
 float snapLookSq(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 
 /// True when a and b lie in two cell faces that meet at a cube edge (their
-/// tet faces share its two grid vertices), on the same planes, untagged:
-/// the same curve (e.g. the isosurface's line on a blade plane) crossing
-/// both faces, which passes that edge closer than the cell it cuts across
-/// there is wide. The cheap half of joinsRoundCubeEdge, by name alone.
+/// tet faces share its two grid vertices), on the same planes, with the
+/// same tags (none, or one side of the same slits): the same curve (e.g.
+/// the isosurface's line on a blade plane, a stick between two quads)
+/// crossing both faces, which passes that edge closer than the cell it cuts
+/// across there is wide. The cheap half of joinsRoundCubeEdge, by name
+/// alone.
 bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b);
 
 /// Snap rounding's rule for such a pair joined by an edge: when both round
@@ -225,7 +227,10 @@ bool facesMeetAtCubeEdge(const CutVertexId& a, const CutVertexId& b);
 /// edge; rounded onto it, the sliver of isosurface between them lies flat
 /// in face z = 1053, and the cap triangle below it, whose edge lies in that
 /// face, runs into it; seeds 9103 and 9239: two offset faces' line, one end
-/// a float step off the edge). Joined, the sliver's two triangles collapse.
+/// a float step off the edge; tooth at 400, kerf 0, seed 16215: a stick's
+/// two face points on one side of the slit, and the edge's point of the
+/// quad, all three on the edge's line once written). Joined, the sliver's
+/// triangles collapse.
 bool joinsRoundCubeEdge(const CutVertexId& a, const CutVertexId& b, const glm::vec3& aAt, const glm::vec3& bAt,
                         const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing);
 

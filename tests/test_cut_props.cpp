@@ -1857,6 +1857,27 @@ TEST(CutPropsDefects, APointNamedByASubsetOfAnotherVertexsPlanesIsThatVertex)
     EXPECT_EQ(t.pairs, 0u);
 }
 
+// The tooth at kerf 0, random strokes seed 16215, stroke 3 to quad 22: the
+// stick between quads 21 and 22 passes 2e-6 voxel beside the grid edge
+// (87, 28..29, 86) where quad 22 crosses it, so the faces x = 87 and z = 86
+// each have a vertex of the stick a float step from the edge's vertex, all
+// three on the side q22+. Written, they lie on the edge's line, and the cap
+// triangle between them has no area (refused; the live stroke waited out
+// seven updates and stepped round at quad 29). Snap rounding's rule for two
+// such face vertices round a cube edge (joinsRoundCubeEdge) took untagged
+// ones only; it takes two with the same side tags now, and the triangle goes.
+TEST(CutPropsDefects, TwoFaceVerticesOfOneSideRoundACubeEdgeAreJoined)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    HeadStrokeCut cut(path, 16215, 0.0, HeadStrokeCut::UpToQuad{3, 22});
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    EXPECT_EQ(t.offBlade, 0u);
+}
+
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between
