@@ -2043,12 +2043,22 @@ void RemeshKernel::chooseSplitOrder()
         for (const QuadGeom* q : mQuads)
             if ((q->id >> 4) == (pl.first >> 4)) owner = q;
         // Prisms: a rim plane shared along the stroke by several quads here
-        // splits everywhere (each of them needs it).
+        // splits everywhere (each of them needs it); one that a single quad
+        // has among its sides splits within that quad's junction zone,
+        // which need not be the quad it is named by (a cap at a sharp corner
+        // of a mitred joint is named by the lower quad, and only the quad
+        // whose corner is sharp has it: 1 mm head, kerf 0.5, seed 16497).
         if (mPrism && owner) {
             int users = 0;
+            const QuadGeom* user = nullptr;
             for (const QuadGeom* q : mQuads)
-                for (const auto& sd : q->sides) users += sd.id == pl.first;
+                for (const auto& sd : q->sides)
+                    if (sd.id == pl.first) {
+                        ++users;
+                        user = q;
+                    }
             if (users > 1) owner = nullptr;
+            else if (users == 1) owner = user;
         }
         splitOrder.push_back({pl.first, owner});
     }

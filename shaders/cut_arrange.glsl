@@ -897,13 +897,19 @@ void chooseSplitOrder()
         for (int r = 0; r < gReachCount; ++r)
             if ((kQuads[gReachQuad[r]].id >> 4) == (id >> 4)) owner = gReachQuad[r];
         if (uPrism && owner >= 0) {
-            int users = 0;
+            // Shared: everywhere; one user: within that quad's junction zone
+            // (a cap named by the lower quad may be the upper quad's alone).
+            int users = 0, user = -1;
             for (int r = 0; r < gReachCount; ++r) {
                 const int q = gReachQuad[r];
                 for (uint s = kQuads[q].firstSide; s < kQuads[q].firstSide + kQuads[q].sideCount; ++s)
-                    users += kSides[s].id == id ? 1 : 0;
+                    if (kSides[s].id == id) {
+                        ++users;
+                        user = q;
+                    }
             }
             if (users > 1) owner = -1;
+            else if (users == 1) owner = user;
         }
         gSplitId(gSplitCount) = id;
         gSplitOwner(gSplitCount++) = owner;

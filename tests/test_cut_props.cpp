@@ -1878,6 +1878,29 @@ TEST(CutPropsDefects, TwoFaceVerticesOfOneSideRoundACubeEdgeAreJoined)
     EXPECT_EQ(t.offBlade, 0u);
 }
 
+// The 1 mm head at kerf 0.5, random strokes seed 16497, stroke 3 to quad
+// 78: the joint of quads 77 and 78 is mitred, and quad 78's corner there is
+// too sharp for the mitre, so its prism has a cap at that corner, a plane
+// named by the lower quad (q77:k5) that quad 77's prism lacks. A plane of
+// one quad splits a surface only within that quad's junction zone, and the
+// cap was taken for quad 77's by its name, so on quad 78's side of the mitre
+// it split nothing: a piece of q78's offset face in tet 1 of cell (206,
+// 238, 222) straddled the cap, and the surface round the mitre's line was
+// open (an edge used once; the live stroke waited out seven updates, then
+// stepped round). A plane that one quad has among its sides is that quad's
+// now (the GPU pass alike: CutKernelGpu.ACapOfTheUpperQuadSplitsOnItsSide).
+TEST(CutPropsDefects, ACapOnlyTheUpperQuadHasSplitsOnItsSideOfTheMitre)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    HeadStrokeCut cut(dir, 16497, 0.5, HeadStrokeCut::UpToQuad{3, 78});
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    EXPECT_EQ(t.pairs, 0u);
+}
+
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between

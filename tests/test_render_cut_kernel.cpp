@@ -603,6 +603,15 @@ TEST(CutKernelGpu, APointOfNearlyParallelPlanesIsMergedAsTheCpu)
     expectGpuCellsRoundAsTheCpu("vhm_head_2mm.nhdr", 400.0f, 1.0, 16234, 2, 49, 191, openvdb::Coord(110, 90, 91), true);
 }
 
+// The 1 mm head at kerf 0.5, random strokes seed 16497, stroke 3 to quad 78
+// (CutPropsDefects.ACapOnlyTheUpperQuadHasSplitsOnItsSideOfTheMitre): the
+// cap at quad 78's sharp corner, named by quad 77, splits surfaces on quad
+// 78's side of their mitre, on the GPU as on the CPU.
+TEST(CutKernelGpu, ACapOfTheUpperQuadSplitsOnItsSide)
+{
+    expectGpuCellsRoundAsTheCpu("vhm-head-dicom", 400.0f, 0.5, 16497, 3, 78, 176, openvdb::Coord(206, 238, 222));
+}
+
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
 // into its draw buffers and drawn with glDrawArraysIndirect over the
 // discard pass, on the sphere cut by the slanted stroke, against the CPU:
