@@ -1515,6 +1515,22 @@ void expectCleanRandomCut(const std::string& path, const char* name, uint32_t se
     EXPECT_EQ(pairs, 0u) << name << " seed " << seed;
 }
 
+/// The strokes of `seed` on `path` at `iso` with kerf w before upTo.stroke
+/// and that one to upTo.quad, cut from scratch (a state a live stroke was
+/// refused in): accepted, a clean fused mesh, and no intersecting pairs
+/// near the cut (w = 0: none off the blade).
+void expectCleanCutUpToQuad(const std::string& path, uint32_t seed, double kerf, HeadStrokeCut::UpToQuad upTo,
+                            float iso = 400.0f)
+{
+    HeadStrokeCut cut(path, seed, kerf, upTo, iso);
+    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << "seed " << seed << ": " << cut.result.message;
+    const Mesh fused = cut.remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << "seed " << seed << check.report();
+    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
+    EXPECT_EQ(kerf > 0 ? t.pairs : t.offBlade, 0u) << "seed " << seed;
+}
+
 // Random stroke seed 1021, stroke 0 (randomStrokes(frame, 1021, 4): 200 poses,
 // 0.6 mm per pose, 30 mm blade) on the 4 mm head at 400 HU, w = 0, on a
 // fresh mask: clean, with no triangle of zero area in float. This failed
@@ -1827,13 +1843,7 @@ TEST(CutPropsDefects, ACapTriangleWithACornerOfItsOwnSideGetsNoCentre)
 TEST(CutPropsDefects, AReflexCapRegionWhoseEarBothSidesShareIsFanned)
 {
     MTCUT_REQUIRE_DATA(path, "body-ct.nii.gz");
-    HeadStrokeCut cut(path, 16285, 0.0, HeadStrokeCut::UpToQuad{2, 45}, 150.0f);
-    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
-    const Mesh fused = cut.remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-    EXPECT_EQ(t.offBlade, 0u);
+    expectCleanCutUpToQuad(path, 16285, 0.0, {2, 45}, 150.0f);
 }
 
 // The 2 mm head at kerf 1, random strokes seed 16234, stroke 2 to quad 49:
@@ -1848,13 +1858,7 @@ TEST(CutPropsDefects, AReflexCapRegionWhoseEarBothSidesShareIsFanned)
 TEST(CutPropsDefects, APointNamedByASubsetOfAnotherVertexsPlanesIsThatVertex)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
-    HeadStrokeCut cut(path, 16234, 1.0, HeadStrokeCut::UpToQuad{2, 49});
-    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
-    const Mesh fused = cut.remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-    EXPECT_EQ(t.pairs, 0u);
+    expectCleanCutUpToQuad(path, 16234, 1.0, {2, 49});
 }
 
 // The tooth at kerf 0, random strokes seed 16215, stroke 3 to quad 22: the
@@ -1869,13 +1873,7 @@ TEST(CutPropsDefects, APointNamedByASubsetOfAnotherVertexsPlanesIsThatVertex)
 TEST(CutPropsDefects, TwoFaceVerticesOfOneSideRoundACubeEdgeAreJoined)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
-    HeadStrokeCut cut(path, 16215, 0.0, HeadStrokeCut::UpToQuad{3, 22});
-    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
-    const Mesh fused = cut.remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-    EXPECT_EQ(t.offBlade, 0u);
+    expectCleanCutUpToQuad(path, 16215, 0.0, {3, 22});
 }
 
 // The 1 mm head at kerf 0.5, random strokes seed 16497, stroke 3 to quad
@@ -1892,13 +1890,7 @@ TEST(CutPropsDefects, TwoFaceVerticesOfOneSideRoundACubeEdgeAreJoined)
 TEST(CutPropsDefects, ACapOnlyTheUpperQuadHasSplitsOnItsSideOfTheMitre)
 {
     MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
-    HeadStrokeCut cut(dir, 16497, 0.5, HeadStrokeCut::UpToQuad{3, 78});
-    ASSERT_EQ(cut.result.outcome, Outcome::Ok) << cut.result.message;
-    const Mesh fused = cut.remesher.fusedMesh();
-    const MeshCheck check = checkMesh(fused);
-    EXPECT_TRUE(check.ok()) << check.report();
-    const TouchStats t = touchesNearCut(fused, cut.remesher, cut.mask, 1e-3);
-    EXPECT_EQ(t.pairs, 0u);
+    expectCleanCutUpToQuad(dir, 16497, 0.5, {3, 78});
 }
 
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
