@@ -2589,7 +2589,10 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
             }
             std::vector<int>& tris = mTris;
             tris.clear();
-            bool convex = r.cap && !mPrism && outers.size() == 1 && !hasHoles;
+            // A zero-kerf cap region of one loop: fanned from a tagged centre
+            // when convex (or, below, when an ear has no corner of its side).
+            const bool plainCap = r.cap && !mPrism && outers.size() == 1 && !hasHoles;
+            bool convex = plainCap;
             for (size_t i = 0; i < poly.size() && convex; ++i) {
                 const Vec2 &a = pts[size_t(poly[(i + poly.size() - 1) % poly.size()])], &b = pts[size_t(poly[i])],
                            &c = pts[size_t(poly[(i + 1) % poly.size()])];
@@ -2641,7 +2644,7 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                 centreFan(cornerMean());
             } else if (!(mPrism && bestTriangulation(poly, pts, tris)) && !earClip(poly, pts, tris)) {
                 throw std::runtime_error("remesh: triangulation failed in cell " + cellText(mCell));
-            } else if (r.cap && !mPrism && outers.size() == 1 && !hasHoles) {
+            } else if (plainCap) {
                 // A cap region with a reflex corner at zero kerf, ear-clipped:
                 // an ear none of whose corners is this side's own may be the
                 // other side's ear too (the same three rim points: a triangle

@@ -646,7 +646,8 @@ void triangulateRegion(int r)
             return;
         }
         const int n = poly2PolyCount;
-        bool convex = q >= 0 && !uPrism && outers == 1 && !hasHoles;
+        const bool plainCap = q >= 0 && !uPrism && outers == 1 && !hasHoles;
+        bool convex = plainCap;
         for (int i = 0; i < n && convex; ++i) {
             const dvec2 a = poly2Pt(poly2Poly[(i + n - 1) % n]), b = poly2Pt(poly2Poly[i]),
                         c = poly2Pt(poly2Poly[(i + 1) % n]);
@@ -675,7 +676,7 @@ void triangulateRegion(int r)
                 gFail |= poly2Overflow ? kFailRegions : kRefused; // triangulation failed
                 return;
             }
-            if (q >= 0 && !uPrism && outers == 1 && !hasHoles) {
+            if (plainCap) {
                 // A reflex cap region at zero kerf: an ear with no corner of
                 // its own side may be the other side's too; then a fan from
                 // the tagged centre where the region is star-shaped from it.
