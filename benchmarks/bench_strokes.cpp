@@ -6,8 +6,10 @@
 //
 // Each seed: `--strokes` strokes of cutter::makeRandomStrokes with the
 // parameters tests/test_cut_props.cpp varies by seed (150 + 50 (seed % 5)
-// poses, 0.4 + 0.2 (seed % 4) mm a pose, blade 20 + 10 (seed % 4) mm), one
-// after another on one mask, then checkMesh of the fused mesh. How a stroke
+// poses, 0.4 + 0.2 (seed % 4) mm a pose, blade 20 + 10 (seed % 4) mm; the
+// path turning by --turn a pose, 0.05 as there, about 1 for sharp turns and
+// strokes doubling back), one after another on one mask, then checkMesh of
+// the fused mesh. How a stroke
 // is updated (--mode):
 //   live    a cutter::LiveStroke updated after every quad (the viewer's and
 //           `mtcut cut --keep-going`'s policy: a refused update is waited out,
@@ -23,9 +25,10 @@
 // than write a broken surface).
 //
 // Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
-//                      [--mode live|quad|stroke] [--threads N]
+//                      [--turn W] [--mode live|quad|stroke] [--threads N]
 // VOLUME is anything `mtcut` reads (a DICOM folder, .nhdr, .nii.gz, ...).
-// Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, live, one thread.
+// Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, turn 0.05, live,
+// one thread.
 #include "benchmarks/BenchUtil.h"
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
@@ -62,7 +65,7 @@ struct Totals
 {
     std::fprintf(stderr,
                  "bench_strokes: %s\nusage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N] "
-                 "[--mode live|quad|stroke] [--threads N]\n",
+                 "[--turn W] [--mode live|quad|stroke] [--threads N]\n",
                  why);
     std::exit(2);
 }
@@ -77,6 +80,7 @@ int main(int argc, char** argv)
     double kerf = 0.5;
     long seedLo = 8000, seedHi = 8009;
     int strokes = 4, threads = 1;
+    double turn = 0.05;
     Mode mode = Mode::Live;
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
@@ -98,6 +102,9 @@ int main(int argc, char** argv)
         } else if (a == "--strokes") {
             strokes = int(std::strtol(v, &end, 10));
             if (strokes < 1) usage("--strokes wants a positive count");
+        } else if (a == "--turn") {
+            turn = std::strtod(v, &end);
+            if (!(turn >= 0.0 && turn <= 100.0)) usage("--turn wants a weight from 0 to 100");
         } else if (a == "--threads") {
             threads = int(std::strtol(v, &end, 10));
             if (threads < 1) usage("--threads wants a positive count");
@@ -125,8 +132,8 @@ int main(int argc, char** argv)
     const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
     const IndexFrame frame = frameOf(vol);
     const char* modeName = mode == Mode::Live ? "live" : mode == Mode::Quad ? "quad" : "stroke";
-    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d mode=%s threads=%d uncut_tris=%zu\n", path.c_str(),
-                double(iso), kerf, seedLo, seedHi, strokes, modeName, threads, uncut.triangleCount());
+    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g mode=%s threads=%d uncut_tris=%zu\n",
+                path.c_str(), double(iso), kerf, seedLo, seedHi, strokes, turn, modeName, threads, uncut.triangleCount());
     std::fflush(stdout);
     Totals total;
     const auto t0 = bench::Clock::now();
@@ -136,7 +143,7 @@ int main(int argc, char** argv)
         CutMask mask(frame, kerf);
         CutRemesher remesher(vol, iso, uncut);
         const auto all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
-                                           20.0 + 10.0 * (s32 % 4));
+                                           20.0 + 10.0 * (s32 % 4), turn);
         size_t stopped = 0, deferred = 0, refused = 0, stepped = 0;
         std::string notes;
         for (size_t s = 0; s < all.size(); ++s) {

@@ -906,7 +906,7 @@ std::vector<Pose> makeLeFortStroke(const IndexFrame& frame, const LeFortOptions&
 
 std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32_t seed,
                                                  int strokes, int steps, double stepMm,
-                                                 double bladeLength)
+                                                 double bladeLength, double turn)
 {
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> uni(0.0, 1.0);
@@ -933,7 +933,7 @@ std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32
             pose.length = bladeLength;
             stroke.push_back(pose);
             t += 0.001;
-            vel = glm::normalize(vel + 0.05 * randomUnit());
+            vel = glm::normalize(vel + turn * randomUnit());
             dir = glm::normalize(dir + 0.01 * randomUnit());
             p += stepMm * vel;
         }

@@ -505,9 +505,11 @@ LeFortOptions leFortOptionsFittedTo(const std::vector<glm::vec3>& bone);
 
 /// Seeded random strokes inside the scan box: smooth random walks of the base
 /// with a slowly turning blade. `steps` poses per stroke, base moving about
-/// `stepMm` per pose.
+/// `stepMm` per pose. `turn`: the weight of the random unit vector added to
+/// the base's direction of motion at each pose (0.05: a smooth path; about 1:
+/// sharp turns and strokes doubling back on themselves).
 std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32_t seed,
                                                  int strokes, int steps, double stepMm = 0.3,
-                                                 double bladeLength = 20.0);
+                                                 double bladeLength = 20.0, double turn = 0.05);
 
 } // namespace mtcut::cutter
