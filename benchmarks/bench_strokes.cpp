@@ -199,6 +199,7 @@ int main(int argc, char** argv)
         total.dirtySeeds += check.defects() != 0;
         std::printf("seed=%ld stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f%s\n", seed, stopped,
                     stepped, deferred, refused, check.defects(), bench::msSince(ts), notes.c_str());
+        if (check.defects() != 0) std::printf("%s\n", check.report().c_str());
         std::fflush(stdout);
     }
     std::printf("summary seeds=%zu strokes=%zu stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu "

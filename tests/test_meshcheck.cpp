@@ -152,6 +152,59 @@ TEST(MeshCheck, ShellsTouchingOverAFaceAreNotNestedByTheirCommonFace)
     EXPECT_EQ(checkMesh(bad).negativeVolumeShells, 1u);
 }
 
+// A slab 0.01 thick between two unit cubes, touching both over its whole top
+// and bottom (at kerf 0, a piece cut out between two passes of the blade that
+// run side by side: 2 mm head, random strokes seed 18002 with sharp turns,
+// a piece 1-4 um thick). Its faces are 32 x 32 squares, so every triangle the
+// nesting test tries lies on a face the other shell touches: a ray from any
+// of them starts on a cube's triangle. It is taken from just inside the slab,
+// and crosses that triangle only when it leaves through the slab's face
+// there. Before, each start counted as ambiguous and the first ray was used
+// as it was: from the top face, the upper cube's bottom at the start was
+// left out and the slab counted as inside it (facing the wrong way).
+TEST(MeshCheck, ASlabTouchingCubesOnBothFacesIsNestedInNeither)
+{
+    constexpr int n = 32;
+    const float zb = 1.0f, zt = 1.01f;
+    for (const bool topFirst : {true, false}) {
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        addCube(m, glm::vec3(0.0f, 0.0f, zt), 1.0f);
+        const uint32_t base = uint32_t(m.positions.size());
+        auto at = [&](int i, int j, int k) { return base + uint32_t(2 * ((n + 1) * j + i) + k); }; // k: 0 bottom, 1 top
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i)
+                for (const float z : {zb, zt}) m.positions.push_back(glm::vec3(float(i) / n, float(j) / n, z));
+        auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+            for (uint32_t v : {a, b, c}) m.indices.push_back(v);
+        };
+        auto face = [&](int k) { // k = 1: the top, facing +z; 0: the bottom
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i < n; ++i) {
+                    const uint32_t a = at(i, j, k), b = at(i + 1, j, k), c = at(i + 1, j + 1, k), d = at(i, j + 1, k);
+                    if (k) tri(a, b, c), tri(a, c, d);
+                    else tri(a, c, b), tri(a, d, c);
+                }
+        };
+        face(topFirst ? 1 : 0);
+        face(topFirst ? 0 : 1);
+        for (int i = 0; i < n; ++i) { // the sides, outward
+            tri(at(i, 0, 0), at(i + 1, 0, 0), at(i + 1, 0, 1)), tri(at(i, 0, 0), at(i + 1, 0, 1), at(i, 0, 1));
+            tri(at(i + 1, n, 0), at(i, n, 0), at(i, n, 1)), tri(at(i + 1, n, 0), at(i, n, 1), at(i + 1, n, 1));
+            tri(at(0, i + 1, 0), at(0, i, 0), at(0, i, 1)), tri(at(0, i + 1, 0), at(0, i, 1), at(0, i + 1, 1));
+            tri(at(n, i, 0), at(n, i + 1, 0), at(n, i + 1, 1)), tri(at(n, i, 0), at(n, i + 1, 1), at(n, i, 1));
+        }
+        const MeshCheck c = checkMesh(m);
+        EXPECT_TRUE(c.ok()) << (topFirst ? "top first" : "bottom first") << c.report();
+        EXPECT_EQ(c.shells, 3u);
+        EXPECT_EQ(c.cavities, 0u);
+        const auto shells = findShells(m);
+        ASSERT_EQ(shells.size(), 3u);
+        EXPECT_NEAR(shells[2].volume, 0.01, 1e-6);
+        EXPECT_EQ(enclosingShells(m, shells), std::vector<int>(3, -1));
+    }
+}
+
 // A crack: both sides of a zero-width cut that ends inside the solid, a
 // closed shell of zero volume (here a square in z = 1.5, split along one
 // diagonal on top and the other below). Its volume's sign is rounding noise
