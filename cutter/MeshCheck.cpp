@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -52,8 +53,19 @@ struct Csr
     std::vector<uint64_t> values; // packed payloads
 };
 
-/// For each shell, the winding number of each other shell at the centroid
-/// of its first triangle, or of the first of up to 16 of its triangles
+/// A shell that can be a cavity (facing inward, or flat) and one that can be
+/// an outer shell (facing outward, not flat): Shell::flat.
+bool inward(const Shell& s) { return s.volume < 0.0 || s.flat; }
+bool outward(const Shell& s) { return s.volume > 0.0 && !s.flat; }
+
+/// Whether a shell whose other shells' winding numbers at a point it
+/// encloses add up to `winding` is nested the way it faces: a cavity inside
+/// one solid, an outer shell in none.
+bool nestedRight(const Shell& s, int winding) { return (inward(s) && winding == 1) || (outward(s) && winding == 0); }
+
+/// For each shell, the winding number of each other shell at a point of
+/// the shell's material (a cavity's: the solid round it): the middle of the chord through it from
+/// the centroid of one of up to 16 of its triangles, the deepest of those
 /// whose ray is clear of the other shells' surfaces, edges and vertices
 /// (only the shells with a non-zero number, ascending): rays along the generic direction (a, b, 1), i.e.
 /// along +z after the shear x' = x - a z, y' = y - b z (determinant 1, so
@@ -113,24 +125,49 @@ std::vector<std::vector<std::pair<uint32_t, int>>> windingByOtherShell(const Mes
     }
     std::vector<std::vector<std::pair<uint32_t, int>>> winding(shells.size());
     tbb::parallel_for(size_t(0), shells.size(), [&](size_t s) {
-        std::vector<std::pair<uint32_t, int>> crossings, first, touching;
+        std::vector<std::pair<uint32_t, int>> crossings, first, touching, best;
         std::vector<std::pair<uint32_t, int>> through; // crossed from behind t0, through its centroid
         bool touchingKnown = false;
-        // The ray from the centroid of triangle t0 of the shell. It is
-        // ambiguous when it starts on another shell's triangle or passes
-        // through another shell's edge or vertex (the count would depend on
-        // rounding); then the centroid of another of the shell's triangles
-        // is tried, up to kTries. At kerf 0 the two sides of a cut touch, so
-        // a cut piece's cap lies on the other side's cap, and a piece cut out
-        // between two passes of the blade has every cap triangle on another
-        // shell's (2 mm head, random strokes seed 18002 with sharp turns: 158
-        // triangles, 1-4 um thick). When no ray is clear, the first that
-        // starts inside other shells' triangles and is otherwise clear is
-        // taken from just behind t0, in the shell's material (a cavity's:
-        // the solid round it; so in a valid mesh no other shell is there):
-        // it crosses a triangle through the centroid when it leaves through
-        // t0 (t0 counter-clockwise in the projection). Else the first ray.
+        double bestDepth = -1.0; // of `best`, a clear ray's; -1: none yet
+        std::vector<std::pair<uint32_t, int>> right; // the first clear ray's that finds the shell nested right
+        bool rightKnown = false;
+        // The ray through the centroid of triangle t0 of the shell, counted
+        // from the middle of its chord through the shell's material (behind
+        // t0: an outer shell's solid, the solid round a cavity) up to the
+        // shell's next triangle, if any: the point on that line farthest
+        // from the shell's own surface. A shell's triangles may lie a float
+        // step or two inside another's where the two touch: at kerf 0 the
+        // two sides of a cut lie on each other, and where passes of the
+        // blade cross, each side's vertices rounded to float make them
+        // overlap (the tooth's pivoting fan: pieces 10-100 um across, whose
+        // every point just behind some triangles is inside the main body,
+        // by 1-10 um; the middle of every chord longer than 3.7 um is not).
+        // A ray is ambiguous when it starts on another shell's triangle or
+        // passes through another shell's edge or vertex (the count
+        // would depend on rounding); the centroids of up to kTries of the
+        // shell's triangles are tried, and of the clear rays the one whose
+        // start is deepest is taken (the first kDeep float steps deep ends
+        // the search). Without a chord (t0 upright in the projection, a flat
+        // shell, no triangle of its own beyond) the ray starts at t0's
+        // centroid. At kerf 0 a piece cut out between two passes of the
+        // blade can have every cap triangle on another shell's (2 mm head,
+        // random strokes seed 18002 with sharp turns: 158 triangles, 1-4 um
+        // thick); when no ray is clear, the first that starts inside other
+        // shells' triangles and is otherwise clear is taken from just behind
+        // t0, in the shell's material (so in a valid mesh no other shell is
+        // there): it crosses a triangle through the centroid when it leaves
+        // through t0 (t0 counter-clockwise in the projection). Else the first
+        // ray. A shell thinner than rounding everywhere (below) has no point
+        // far enough from its surface to tell: the first ray that finds it
+        // nested the way it faces is taken, if any (the fan's cavities of
+        // 1e-13 mm^3 among a dozen such pieces).
         constexpr size_t kTries = 16;
+        constexpr double kDeep = 16.0, kShallow = 2.0;
+        auto isRight = [&](const std::vector<std::pair<uint32_t, int>>& list) {
+            int sum = 0;
+            for (const auto& x : list) sum += x.second;
+            return nestedRight(shells[s], sum);
+        };
         const std::vector<uint32_t>& own = shells[s].triangles;
         const size_t stride = std::max<size_t>(1, own.size() / kTries);
         for (size_t attempt = 0; attempt < kTries && attempt * stride < own.size(); ++attempt) {
@@ -139,10 +176,37 @@ std::vector<std::vector<std::pair<uint32_t, int>>> windingByOtherShell(const Mes
                                           shear(mesh.indices[3 * size_t(t0) + 2]));
             glm::dvec3 p(0.0);
             for (int k = 0; k < 3; ++k) p += glm::dvec3(mesh.positions[mesh.indices[3 * size_t(t0) + k]]) / 3.0;
-            const double tol = 1e-9 * (1.0 + std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}));
+            const double scale = 1.0 + std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+            const double tol = 1e-9 * scale;
+            const double floatStep = scale * std::ldexp(1.0, -23);
             p = glm::dvec3(p.x - a * p.z, p.y - b * p.z, p.z);
             const glm::ivec2 c = cellOf(glm::dvec2(p));
             const size_t cell = size_t(c.y) * n + c.x;
+            // The chord: the shell's nearest other triangle behind t0 (below
+            // it when t0 faces up, counter-clockwise in the projection).
+            double depth = 0.0, pz = p.z;
+            if (ownArea != 0.0 && !shells[s].flat) {
+                const bool below = ownArea > 0.0;
+                double chord = std::numeric_limits<double>::infinity();
+                for (uint32_t k = start[cell]; k < start[cell + 1]; ++k) {
+                    const uint32_t i = bucket[k];
+                    const uint32_t t = triangles[i];
+                    if (shellOf[i] != s || t == t0) continue;
+                    const glm::dvec3 q0 = shear(mesh.indices[3 * size_t(t)]), q1 = shear(mesh.indices[3 * size_t(t) + 1]),
+                                     q2 = shear(mesh.indices[3 * size_t(t) + 2]);
+                    const double area = cross2(q0, q1, q2);
+                    if (area == 0.0) continue;
+                    const double w0 = cross2(q1, q2, p), w1 = cross2(q2, q0, p), w2 = cross2(q0, q1, p);
+                    if (area > 0 ? (w0 < 0 || w1 < 0 || w2 < 0) : (w0 > 0 || w1 > 0 || w2 > 0)) continue;
+                    const double d = below ? p.z - (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area
+                                           : (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area - p.z;
+                    if (d > 0.0) chord = std::min(chord, d);
+                }
+                if (chord < std::numeric_limits<double>::infinity()) {
+                    depth = chord / 2.0;
+                    pz = below ? p.z - depth : p.z + depth;
+                }
+            }
             bool onOther = false, ambiguous = false; // starts inside another shell's triangle; any other ambiguity
             crossings.clear();
             through.clear();
@@ -159,8 +223,8 @@ std::vector<std::vector<std::pair<uint32_t, int>>> windingByOtherShell(const Mes
                 const bool closed = area > 0 ? (w0 >= 0 && w1 >= 0 && w2 >= 0) : (w0 <= 0 && w1 <= 0 && w2 <= 0);
                 if (!closed) continue;
                 const double z = (w0 * q0.z + w1 * q1.z + w2 * q2.z) / area;
-                if (std::abs(z - p.z) <= tol) { // through the centroid
-                    if (inside && ownArea != 0.0) {
+                if (std::abs(z - pz) <= tol) { // through the start
+                    if (depth == 0.0 && inside && ownArea != 0.0) {
                         onOther = true;
                         if (ownArea > 0.0) through.push_back({shellOf[i], area > 0 ? 1 : -1});
                     } else {
@@ -168,19 +232,36 @@ std::vector<std::vector<std::pair<uint32_t, int>>> windingByOtherShell(const Mes
                     }
                     continue;
                 }
-                if (!inside && z > p.z) ambiguous = true;
-                if (inside && z > p.z) crossings.push_back({shellOf[i], area > 0 ? 1 : -1});
+                if (!inside && z > pz) ambiguous = true;
+                if (inside && z > pz) crossings.push_back({shellOf[i], area > 0 ? 1 : -1});
             }
             if (attempt == 0) first = crossings;
-            if (!onOther && !ambiguous) break; // a clear ray
-            if (!ambiguous && !touchingKnown) {
+            if (!onOther && !ambiguous) { // a clear ray
+                if (depth > bestDepth) {
+                    best = crossings;
+                    bestDepth = depth;
+                }
+                if (!rightKnown && isRight(crossings)) {
+                    right = crossings;
+                    rightKnown = true;
+                }
+                if (depth >= kDeep * floatStep) break;
+            } else if (!ambiguous && !touchingKnown) {
                 touching = crossings;
                 touching.insert(touching.end(), through.begin(), through.end());
                 touchingKnown = true;
             }
-            if (attempt + 1 == kTries || (attempt + 1) * stride >= own.size()) // none clear
-                crossings = touchingKnown ? touching : first;
         }
+        // A shell thinner than rounding: 3 |volume| / area (a slab's 1.5 x
+        // thickness) under kShallow float steps of its coordinates.
+        const Shell& sh = shells[s];
+        const double reach = std::max({std::abs(sh.boundsMin.x), std::abs(sh.boundsMin.y), std::abs(sh.boundsMin.z),
+                                       std::abs(sh.boundsMax.x), std::abs(sh.boundsMax.y), std::abs(sh.boundsMax.z)});
+        const bool thin = 3.0 * std::abs(sh.volume) < kShallow * (1.0 + reach) * std::ldexp(1.0, -23) * sh.area;
+        if (thin && rightKnown) crossings = right;
+        else if (thin && touchingKnown && isRight(touching)) crossings = touching;
+        else if (bestDepth >= 0.0) crossings = best;
+        else crossings = touchingKnown ? touching : first;
         std::sort(crossings.begin(), crossings.end());
         for (const auto& [other, sign] : crossings) {
             if (winding[s].empty() || winding[s].back().first != other) winding[s].push_back({other, 0});
@@ -220,14 +301,6 @@ std::string MeshCheck::report() const
     return os.str();
 }
 
-namespace {
-
-/// A shell that can be a cavity (facing inward, or flat) and one that can be
-/// an outer shell (facing outward, not flat): Shell::flat.
-bool inward(const Shell& s) { return s.volume < 0.0 || s.flat; }
-bool outward(const Shell& s) { return s.volume > 0.0 && !s.flat; }
-
-} // namespace
 
 MeshCheck checkMesh(const Mesh& mesh)
 {

@@ -6,7 +6,10 @@
 #include "cutter/MeshCheck.h"
 #include "cutter/MeshIO.h"
 
+#include <glm/common.hpp>
+
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 using namespace mtcut;
@@ -14,11 +17,12 @@ using namespace mtcut::cutter;
 
 namespace {
 
-/// Axis-aligned cube [o, o+s]^3, 12 triangles, outward CCW.
-void addCube(Mesh& m, glm::vec3 o, float s, bool inward = false)
+/// Axis-aligned box [lo, hi], 12 triangles, outward CCW (the bottom, z =
+/// lo.z, first).
+void addBox(Mesh& m, glm::vec3 lo, glm::vec3 hi, bool inward = false)
 {
     const uint32_t base = uint32_t(m.positions.size());
-    for (int c = 0; c < 8; ++c) m.positions.push_back(o + s * glm::vec3(c & 1, c >> 1 & 1, c >> 2 & 1));
+    for (int c = 0; c < 8; ++c) m.positions.push_back(glm::mix(lo, hi, glm::vec3(c & 1, c >> 1 & 1, c >> 2 & 1)));
     const uint32_t quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
     for (const auto& q : quads) {
         uint32_t t[6] = {q[0], q[1], q[2], q[0], q[2], q[3]};
@@ -26,6 +30,9 @@ void addCube(Mesh& m, glm::vec3 o, float s, bool inward = false)
         for (uint32_t v : t) m.indices.push_back(base + v);
     }
 }
+
+/// Axis-aligned cube [o, o+s]^3, 12 triangles, outward CCW.
+void addCube(Mesh& m, glm::vec3 o, float s, bool inward = false) { addBox(m, o, o + glm::vec3(s), inward); }
 
 } // namespace
 
@@ -202,6 +209,30 @@ TEST(MeshCheck, ASlabTouchingCubesOnBothFacesIsNestedInNeither)
         ASSERT_EQ(shells.size(), 3u);
         EXPECT_NEAR(shells[2].volume, 0.01, 1e-6);
         EXPECT_EQ(enclosingShells(m, shells), std::vector<int>(3, -1));
+    }
+}
+
+// A piece lying on a solid and reaching two float steps into it (at kerf 0,
+// where two passes of the blade cross, each side's vertices rounded to float:
+// the tooth's pivoting fan left pieces 10-100 um across inside the main body
+// by 1-10 um at some of their triangles) is judged from the middle of a
+// chord through it, not from just behind a triangle: the first tried here,
+// its bottom, lies inside the cube. Before, that ray was clear and counted
+// the piece inside the cube (facing the wrong way). One reaching half way
+// into the cube is still found.
+TEST(MeshCheck, APieceReachingAFloatStepIntoAnotherIsJudgedFromItsMiddle)
+{
+    const float below = std::nextafter(std::nextafter(1.0f, 0.0f), 0.0f);
+    for (const float bottom : {below, 0.5f}) {
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        addBox(m, glm::vec3(0.25f, 0.25f, bottom), glm::vec3(0.75f, 0.75f, 1.01f));
+        const auto shells = findShells(m);
+        ASSERT_EQ(shells.size(), 2u);
+        ASSERT_EQ(m.positions[m.indices[shells[1].triangles[0] * 3]].z, bottom);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.negativeVolumeShells, bottom == below ? 0u : 1u) << "bottom " << bottom << "\n" << c.report();
+        EXPECT_EQ(c.cavities, 0u);
     }
 }
 
