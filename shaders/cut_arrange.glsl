@@ -425,6 +425,10 @@ bool rimLineIn(int o, uint s, int r)
 /// RemeshKernel::onStripRim.
 bool onStripRim(int v, int r)
 {
+    bool onJunction = false; // (a point off r's junctions is r's own)
+    for (uint s = kQuads[r].firstSide; s < kQuads[r].firstSide + kQuads[r].sideCount; ++s)
+        onJunction = onJunction || (kSides[s].partner >= 0 && signOf(v, kSides[s].id) == 0);
+    if (!onJunction) return false;
     const uint64_t rid = kQuads[r].id;
     for (int i = 0; i < gReachCount; ++i) {
         const int o = gReachQuad[i];

@@ -1893,6 +1893,22 @@ TEST(CutPropsDefects, ACapOnlyTheUpperQuadHasSplitsOnItsSideOfTheMitre)
     expectCleanCutUpToQuad(dir, 16497, 0.5, {3, 78});
 }
 
+// The tooth at kerf 0, random strokes seed 16929, stroke 3 to quad 83: the
+// stroke turns back on itself, and quad 83's blade crosses a rim line of
+// quad 81, two quads back, inside cell (76, 16, 116). The point where it
+// does lies inside quad 83, off its sides, but was taken as a strip corner
+// of quad 83 (onStripRim: on a rim of a quad of its strip), so it was one
+// vertex for both sides of 83's slit: a pinch (refused; stepping round by
+// 1e-3 and 1e-2 voxel met it too, and the live stroke stopped there). A
+// strip corner lies on one of the quad's junctions; off them the point is
+// in the slit and has a vertex on each side (the GPU pass alike:
+// CutKernelGpu.AQuadCrossingARimTwoQuadsBackSplitsThePointAsTheCpu).
+TEST(CutPropsDefects, AQuadCrossingARimTwoQuadsBackSplitsThePoint)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanCutUpToQuad(path, 16929, 0.0, {3, 83});
+}
+
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between

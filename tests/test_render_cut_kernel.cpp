@@ -612,6 +612,17 @@ TEST(CutKernelGpu, ACapOfTheUpperQuadSplitsOnItsSide)
     expectGpuCellsRoundAsTheCpu("vhm-head-dicom", 400.0f, 0.5, 16497, 3, 78, 176, openvdb::Coord(206, 238, 222));
 }
 
+// The tooth at kerf 0, random strokes seed 16929, stroke 3 to quad 83
+// (CutPropsDefects.AQuadCrossingARimTwoQuadsBackSplitsThePoint): the point
+// where quad 83 crosses a rim line of quad 81 is in 83's slit, on the GPU as
+// on the CPU. That tet (tet 0 of cell (76, 16, 116)) meets llvmpipe's loop
+// limit, so there the CPU makes it and the 14 cells round it are compared:
+// the change in cut_arrange.glsl's onStripRim is checked on a GPU.
+TEST(CutKernelGpu, AQuadCrossingARimTwoQuadsBackSplitsThePointAsTheCpu)
+{
+    expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 16929, 3, 83, 241, openvdb::Coord(76, 16, 116), true);
+}
+
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
 // into its draw buffers and drawn with glDrawArraysIndirect over the
 // discard pass, on the sphere cut by the slanted stroke, against the CPU:
