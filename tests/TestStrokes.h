@@ -2,6 +2,7 @@
 #pragma once
 
 #include "cutter/BladePath.h"
+#include "cutter/CutMask.h"
 
 #include <vector>
 
@@ -21,6 +22,25 @@ inline std::vector<cutter::Pose> straightStroke(glm::dvec3 from, glm::dvec3 to, 
         poses.push_back(p);
     }
     return poses;
+}
+
+/// A stroke that turns back across its own start, as one new stroke of
+/// `mask`: three quads from four vertical sticks round (0.31, 0.27, 0.13)
+/// mm, the third crossing the first's base line at (1.31, 0.27, 0.13),
+/// inside the third, off its sides (inside the sphere of TestVolumes' and
+/// test_render_util's sphereVolume, radius 15 mm round the origin; the
+/// point lies in cell (20, 19, 19) there). Zero kerf: that point is in the
+/// third quad's slit, a vertex on each side of it.
+inline void addRimCrossingStroke(cutter::CutMask& mask)
+{
+    const glm::dvec3 o(0.31, 0.27, 0.13);
+    const glm::dvec3 base[4] = {o, o + glm::dvec3(4, 0, 0), o + glm::dvec3(4, 4, 0), o + glm::dvec3(-2, -4, -5)};
+    mask.beginStroke();
+    for (uint32_t i = 0; i < 3; ++i) {
+        const glm::dvec3 c[4] = {base[i], glm::dvec3(base[i].x, base[i].y, o.z + 10.0),
+                                 glm::dvec3(base[i + 1].x, base[i + 1].y, o.z + 10.0), base[i + 1]};
+        mask.addQuad(cutter::makeQuad(c, 4, i));
+    }
 }
 
 } // namespace mtcut::test

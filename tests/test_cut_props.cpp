@@ -1909,6 +1909,25 @@ TEST(CutPropsDefects, AQuadCrossingARimTwoQuadsBackSplitsThePoint)
     expectCleanCutUpToQuad(path, 16929, 0.0, {3, 83});
 }
 
+// The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
+// three quads, the third across the first's base line. The point where it
+// crosses was one vertex for both sides of the third quad's slit (refused:
+// a pinch in cell (20, 19, 19)); now the cut is accepted and clean.
+TEST(CutPropsDefects, AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    test::addRimCrossingStroke(mask);
+    CutRemesher remesher(vol, 0.0f, uncut);
+    const UpdateResult u = tryUpdate(remesher, mask);
+    ASSERT_EQ(u.outcome, Outcome::Ok) << u.message;
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
+}
+
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between
@@ -2424,3 +2443,4 @@ TEST(CutPropsDefects, RandomKerfStrokesOnThe1mmHeadAreCleanAndDoNotIntersectThem
     std::printf("1 mm head, random kerf strokes: %zu strokes, %zu cut cells in all, %.1f s\n", strokes, cells,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
+

@@ -523,29 +523,15 @@ TEST(CutKernelGpu, AStripThinnerThanDoubleIsTriangulatedAsTheCpu)
 
 namespace {
 
-/// The GPU pass against the CPU kernel in the cells round `at` (its 3^3
-/// block) for random strokes `seed` on `file` (the first `stroke` whole,
-/// then that one to `quad`): the same vertices and triangles, and `at`
-/// made by the GPU (`heavy`: on a GPU without llvmpipe's loop limit only;
-/// on llvmpipe its tet meets the limit and the CPU makes it).
-void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint32_t seed, size_t stroke, size_t quad,
-                                 size_t quadsInStroke, const openvdb::Coord& at, bool heavy = false)
+/// The GPU pass against the CPU kernel in the cells of `mask` round `at`
+/// (its 3^3 block) on `vol` at `iso`: the same vertices and triangles, and
+/// `at` made by the GPU (`heavy`: on a GPU without llvmpipe's loop limit
+/// only; on llvmpipe its tet meets the limit and the CPU makes it). `what`
+/// names the case in the printed line.
+void expectGpuCellsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& mask, const openvdb::Coord& at,
+                            bool heavy, const std::string& what)
 {
-    MTCUT_REQUIRE_GL();
-    MTCUT_REQUIRE_DATA(path, file);
     const render::GpuCutKernel& gpu = cutKernel();
-    const vdb::Volume vol = vdb::readVolume(path);
-    CutMask mask(cutter::frameOf(vol), kerf);
-    const auto strokes = cutter::makeRandomStrokes(mask.frame(), seed, int(stroke) + 1, 150 + 50 * int(seed % 5),
-                                                   0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
-    for (size_t s = 0; s <= stroke; ++s) {
-        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
-        if (s == stroke) {
-            ASSERT_EQ(quads.size(), quadsInStroke);
-        }
-        mask.beginStroke();
-        for (size_t q = 0; q < quads.size() && (s < stroke || q <= quad); ++q) mask.addQuad(quads[q]);
-    }
     std::vector<openvdb::Coord> cells;
     mask.forEachCutCell([&](const openvdb::Coord& c, const std::vector<cutter::QuadRef>&) {
         if (std::abs(c.x() - at.x()) <= 1 && std::abs(c.y() - at.y()) <= 1 && std::abs(c.z() - at.z()) <= 1) cells.push_back(c);
@@ -561,13 +547,13 @@ void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint3
     size_t triangles = 0;
     for (size_t i = 0; i < cells.size(); ++i) {
         cutter::CutCellGeometry want;
-        ASSERT_NO_THROW(cpu.remesh(cells[i], kernelQuads.of(cells[i]), kerf > 0, want));
+        ASSERT_NO_THROW(cpu.remesh(cells[i], kernelQuads.of(cells[i]), mask.kerf() > 0, want));
         triangles += want.indices.size() / 3;
         EXPECT_TRUE(got.cells[i].vertexIds == want.vertexIds) << "cell " << i;
         EXPECT_EQ(got.cells[i].indices, want.indices) << "cell " << i;
     }
-    std::printf("%s seed %u, stroke %zu to quad %zu: %zu cells round (%d, %d, %d), %zu triangles, %zu made by the GPU\n",
-                file, seed, stroke, quad, cells.size(), at.x(), at.y(), at.z(), triangles, got.byGpu);
+    std::printf("%s: %zu cells round (%d, %d, %d), %zu triangles, %zu made by the GPU\n", what.c_str(), cells.size(),
+                at.x(), at.y(), at.z(), triangles, got.byGpu);
     const size_t atIndex = size_t(std::lower_bound(cells.begin(), cells.end(), at) - cells.begin());
     const bool llvmpipe = std::strstr(reinterpret_cast<const char*>(glGetString(GL_RENDERER)), "llvmpipe") != nullptr;
     if (heavy && llvmpipe) {
@@ -576,6 +562,30 @@ void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint3
         return;
     }
     EXPECT_TRUE(got.madeByGpu[atIndex]) << "the GPU flagged the cell for the CPU";
+}
+
+/// expectGpuCellsAsTheCpu for random strokes `seed` on `file` (the first
+/// `stroke` whole, then that one to `quad`).
+void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint32_t seed, size_t stroke, size_t quad,
+                                 size_t quadsInStroke, const openvdb::Coord& at, bool heavy = false)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, file);
+    const vdb::Volume vol = vdb::readVolume(path);
+    CutMask mask(cutter::frameOf(vol), kerf);
+    const auto strokes = cutter::makeRandomStrokes(mask.frame(), seed, int(stroke) + 1, 150 + 50 * int(seed % 5),
+                                                   0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
+    for (size_t s = 0; s <= stroke; ++s) {
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
+        if (s == stroke) {
+            ASSERT_EQ(quads.size(), quadsInStroke);
+        }
+        mask.beginStroke();
+        for (size_t q = 0; q < quads.size() && (s < stroke || q <= quad); ++q) mask.addQuad(quads[q]);
+    }
+    char what[256];
+    std::snprintf(what, sizeof what, "%s seed %u, stroke %zu to quad %zu", file, seed, stroke, quad);
+    expectGpuCellsAsTheCpu(vol, iso, mask, at, heavy, what);
 }
 
 } // namespace
@@ -621,6 +631,20 @@ TEST(CutKernelGpu, ACapOfTheUpperQuadSplitsOnItsSide)
 TEST(CutKernelGpu, AQuadCrossingARimTwoQuadsBackSplitsThePointAsTheCpu)
 {
     expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 16929, 3, 83, 241, openvdb::Coord(76, 16, 116), true);
+}
+
+// The same made by hand on the sphere (TestStrokes.h: addRimCrossingStroke;
+// CutPropsDefects.AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim):
+// light enough for llvmpipe, so there the GPU makes the cell where the third
+// quad crosses the first's base line, equal to the CPU's (one tet differs
+// without the change in cut_arrange.glsl).
+TEST(CutKernelGpu, AStrokeTurnedBackAcrossItsStartIsSplitAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    const vdb::Volume vol = test::sphereVolume();
+    CutMask mask(cutter::frameOf(vol), 0.0);
+    test::addRimCrossingStroke(mask);
+    expectGpuCellsAsTheCpu(vol, 0.0f, mask, openvdb::Coord(20, 19, 19), false, "sphere, a stroke across its start");
 }
 
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
