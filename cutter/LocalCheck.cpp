@@ -839,13 +839,15 @@ void checkVertexLinks(const LocalRegion& reg)
             if (at == link[0].second) break;
         }
         if (steps == link.size()) continue;
-        // With kerf, fans that are each a closed disc are a pinch that
-        // fusedMesh() splits (a copy of the vertex per fan but the first):
-        // at a new vertex, or at a marching-tetrahedra vertex that only cut
-        // cells' triangles use (all the cells round its grid edge are cut;
-        // the region holds them all).
+        // Fans that are each a closed disc are a pinch that fusedMesh()
+        // splits (a copy of the vertex per fan but the first): at a new
+        // vertex, or at a marching-tetrahedra vertex that only cut cells'
+        // triangles use (all the cells round its grid edge are cut; the
+        // region holds them all). With kerf or without: at kerf 0 three slits
+        // of a stroke turning sharply cut out a cone that touches the rest
+        // at its tip (2 mm head, random strokes seed 18088 with sharp turns).
         std::vector<int> fanOf;
-        if (reg.kerf && linkFans(link, fanOf) >= 2) {
+        if (linkFans(link, fanOf) >= 2) {
             bool split = !ids[v].isIsoEdgeVertex();
             if (!split) {
                 split = true;

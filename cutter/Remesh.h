@@ -194,8 +194,8 @@ public:
     /// those cells, must be used by exactly two triangles of the fused mesh,
     /// once each way; no triangle may repeat a vertex or have zero area in
     /// float world mm (as fusedMesh() writes it); and every vertex of the
-    /// changed cells must have one fan (no pinch points; with kerf > 0, a
-    /// new vertex whose fans are each a closed disc is a pinch, which
+    /// changed cells must have one fan (no pinch points; a new vertex whose
+    /// fans are each a closed disc is a pinch, which
     /// fusedMesh() splits, and so is such an isosurface vertex whose
     /// triangles are all cut cells'); otherwise it throws
     /// std::runtime_error("remesh: open or inconsistent surface ... in cell
@@ -259,10 +259,11 @@ public:
     /// then the new ones; marching-tetrahedra vertices of cut cells are the
     /// uncut mesh's own (welded by edge key). Normals when the uncut mesh has
     /// them (new vertices: area-weighted triangle normals). Snap rounding
-    /// (file comment) can drop collapsed triangles. With kerf > 0, a new
-    /// vertex whose triangles form several fans, each a closed disc (a pinch
-    /// that spans cells: an offset plane through a saddle of the isosurface
-    /// on a cell face), gets a copy per fan but the first, at its position,
+    /// (file comment) can drop collapsed triangles. A new vertex whose
+    /// triangles form several fans, each a closed disc (a pinch that spans
+    /// cells: an offset plane through a saddle of the isosurface on a cell
+    /// face; at kerf 0, three slits of a stroke with sharp turns meeting at a
+    /// point), gets a copy per fan but the first, at its position,
     /// appended after the new vertices; so does such an isosurface vertex
     /// whose triangles are all cut cells' (every cell round its grid edge
     /// that has triangles is cut), after them. With `source`, for each

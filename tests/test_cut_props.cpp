@@ -1103,11 +1103,12 @@ std::vector<std::pair<std::string, std::vector<std::vector<Pose>>>> handStrokes(
     return out;
 }
 
-/// Random strokes of makeRandomStrokes with parameters varied by seed.
-std::vector<std::vector<Pose>> randomStrokes(const IndexFrame& f, uint32_t seed, int count)
+/// Random strokes of makeRandomStrokes with parameters varied by seed (as
+/// bench_strokes makes them; `turn` as its --turn).
+std::vector<std::vector<Pose>> randomStrokes(const IndexFrame& f, uint32_t seed, int count, double turn = 0.05)
 {
     return makeRandomStrokes(f, seed, count, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
-                             20.0 + 10.0 * (seed % 4));
+                             20.0 + 10.0 * (seed % 4), turn);
 }
 
 void printHead(const std::string& what, const HeadStats& st, double seconds)
@@ -1473,16 +1474,17 @@ struct HeadStrokeCut
     }
     /// The strokes before upTo.stroke whole and its quads up to upTo.quad,
     /// cut from scratch (a state a live stroke updated after every quad is
-    /// in), at isovalue iso.
+    /// in), at isovalue iso, the strokes turning by `turn` (randomStrokes).
     struct UpToQuad
     {
         size_t stroke, quad;
     };
-    HeadStrokeCut(const std::string& path, uint32_t seed, double kerf, UpToQuad upTo, float iso = 400.0f)
+    HeadStrokeCut(const std::string& path, uint32_t seed, double kerf, UpToQuad upTo, float iso = 400.0f,
+                  double turn = 0.05)
         : vol(vdb::readVolume(path)), uncut(extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false})),
           mask(frameOf(vol), kerf), remesher(vol, iso, uncut)
     {
-        const auto all = randomStrokes(mask.frame(), seed, int(upTo.stroke) + 1);
+        const auto all = randomStrokes(mask.frame(), seed, int(upTo.stroke) + 1, turn);
         for (size_t s = 0; s <= upTo.stroke; ++s) {
             const std::vector<Quad> quads = filterStroke(all[s], mask.frame());
             mask.beginStroke();
@@ -1520,9 +1522,9 @@ void expectCleanRandomCut(const std::string& path, const char* name, uint32_t se
 /// refused in): accepted, a clean fused mesh, and no intersecting pairs
 /// near the cut (w = 0: none off the blade).
 void expectCleanCutUpToQuad(const std::string& path, uint32_t seed, double kerf, HeadStrokeCut::UpToQuad upTo,
-                            float iso = 400.0f)
+                            float iso = 400.0f, double turn = 0.05)
 {
-    HeadStrokeCut cut(path, seed, kerf, upTo, iso);
+    HeadStrokeCut cut(path, seed, kerf, upTo, iso, turn);
     ASSERT_EQ(cut.result.outcome, Outcome::Ok) << "seed " << seed << ": " << cut.result.message;
     const Mesh fused = cut.remesher.fusedMesh();
     const MeshCheck check = checkMesh(fused);
@@ -1907,6 +1909,19 @@ TEST(CutPropsDefects, AQuadCrossingARimTwoQuadsBackSplitsThePoint)
 {
     MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
     expectCleanCutUpToQuad(path, 16929, 0.0, {3, 83});
+}
+
+// The 2 mm head at kerf 0, random strokes with sharp turns (bench_strokes
+// --turn 1) seed 18088, stroke 3 to quad 57: quads 55, 56 and 57 cut a
+// small cone of bone out that touches the rest only at its tip, a vertex in
+// cell (78, 61, 118) whose triangles are two closed fans: a pinch of the
+// zero-width cut, refused ("a vertex where the surface pinches"), and the
+// live stroke stopped there. Pinches are split in fusion at kerf 0 as with
+// a kerf (a copy of the vertex per fan but the first).
+TEST(CutPropsDefects, ThreeSlitsMeetingAtAPointAreSplitThereAtKerfZero)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    expectCleanCutUpToQuad(path, 18088, 0.0, {3, 57}, 400.0f, 1.0);
 }
 
 // The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
