@@ -457,10 +457,8 @@ MeshCheck checkMesh(const Mesh& mesh)
     for (size_t s = 0; s < shells.size(); ++s) {
         int winding = 0;
         for (const auto& w : byShell[s]) winding += w.second;
-        const bool cavity = inward(shells[s]) && winding == 1;
-        const bool outer = outward(shells[s]) && winding == 0;
-        r.cavities += cavity;
-        r.negativeVolumeShells += !cavity && !outer;
+        r.cavities += inward(shells[s]) && winding == 1;
+        r.negativeVolumeShells += !nestedRight(shells[s], winding);
     }
     return r;
 }
