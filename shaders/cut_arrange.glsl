@@ -442,16 +442,15 @@ bool onStripRim(int v, int r)
     return false;
 }
 
-/// RemeshKernel::slitInterior.
-bool slitInterior(int v, int r) { return signOf(v, kQuads[r].id) == 0 && inSlitOpen(v, r) && !onStripRim(v, r); }
-
-/// RemeshKernel::chordEnd.
-bool chordEnd(int v, int r) { return signOf(v, kQuads[r].id) == 0 && inExtentClosed(v, r) && !slitInterior(v, r); }
-
 /// RemeshKernel::needsMidpoint.
 bool needsMidpoint(int u, int v, int r)
 {
-    if (uPrism || !chordEnd(u, r) || !chordEnd(v, r)) return false;
+    if (uPrism) return false;
+    const uint64_t rid = kQuads[r].id;
+    if (signOf(u, rid) != 0 || signOf(v, rid) != 0) return false;
+    if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) ||
+        (inSlitOpen(v, r) && !onStripRim(v, r)))
+        return false;
     for (uint s = kQuads[r].firstSide; s < kQuads[r].firstSide + kQuads[r].sideCount; ++s)
         if (kSides[s].partner < 0 && signOf(u, kSides[s].id) == 0 && signOf(v, kSides[s].id) == 0) return false;
     return true;
@@ -1154,58 +1153,8 @@ void classifyPieces(int s)
     }
 }
 
-/// RemeshKernel::splitChord's walk: the kept pieces' edge (region 0) that
-/// goes on from `cur` along `dir` on quad r's plane, or -1.
-int chordNext(int cur, dvec3 dir, int r)
-{
-    const precise dvec3 c = gVPos(cur);
-    const double len = length(dir);
-    for (int i = 0; i < gPieceCount[0]; ++i) {
-        if (!gKept[i]) continue;
-        const int n = pieceLen(0, i);
-        for (int k = 0; k < n; ++k) {
-            if (pieceV(0, i, k) != cur) continue;
-            for (int h = 0; h < 2; ++h) {
-                const int y = pieceV(0, i, h == 0 ? (k + 1) % n : (k + n - 1) % n);
-                const precise dvec3 e = gVPos(y) - c;
-                const double el = length(e);
-                if (el > 0.0lf && dot(e, dir) > 0.0lf && length(cross(e, dir)) <= 1e-9lf * el * len &&
-                    signOf(y, kQuads[r].id) == 0)
-                    return y;
-            }
-        }
-    }
-    return -1;
-}
-
-/// RemeshKernel::splitChord: edge u -> w a piece of r's slit chord split
-/// by other planes of the cell; its whole chord a -> b.
-bool splitChord(int u, int w, int r, out int a, out int b)
-{
-    a = u;
-    b = w;
-    const uint64_t rid = kQuads[r].id;
-    if (uPrism || signOf(u, rid) != 0 || signOf(w, rid) != 0) return false;
-    const bool su = slitInterior(u, r), sw = slitInterior(w, r);
-    if (!(su || sw) || !(su || chordEnd(u, r)) || !(sw || chordEnd(w, r))) return false;
-    const precise dvec3 d = gVPos(w) - gVPos(u);
-    if (!(length(d) > 0.0lf)) return false;
-    for (int hops = 0; slitInterior(a, r); ++hops) {
-        if (hops == 16) return false;
-        a = chordNext(a, -d, r);
-        if (a < 0) return false;
-    }
-    for (int hops = 0; slitInterior(b, r); ++hops) {
-        if (hops == 16) return false;
-        b = chordNext(b, d, r);
-        if (b < 0) return false;
-    }
-    return chordEnd(a, r) && chordEnd(b, r);
-}
-
 /// RemeshKernel::insertSlitMidpoints: a Steiner midpoint on every slit
-/// chord of a kept piece between two rim points, one per chord however
-/// other planes split it (splitChord).
+/// chord of a kept piece between two rim points.
 void insertSlitMidpoints()
 {
     poolClear(1);
@@ -1222,27 +1171,21 @@ void insertSlitMidpoints()
             poolAdd(1, u, lab);
             for (int j = 0; j < gReachCount; ++j) {
                 const int r = gReachQuad[j];
-                int a = u, b = w;
-                if (!needsMidpoint(u, w, r) && !(splitChord(u, w, r, a, b) && needsMidpoint(a, b, r))) continue;
-                precise dvec3 mid = 0.5lf * (gVPos(a) + gVPos(b));
-                if (a != u || b != w) { // a piece of the chord: the midpoint goes in the piece that holds it
-                    const precise dvec3 d = gVPos(w) - gVPos(u);
-                    const double t = dot(mid - gVPos(u), d) / dot(d, d);
-                    if (!(t > 0.0lf && t < 1.0lf)) continue;
-                }
-                const uint64_t hu = (vHash(a) >> 2) | (1ul << 62), hw = (vHash(b) >> 2) | (1ul << 62);
+                if (!needsMidpoint(u, w, r)) continue;
+                const uint64_t hu = (vHash(u) >> 2) | (1ul << 62), hw = (vHash(w) >> 2) | (1ul << 62);
                 uvec2 planes[8];
                 int count = 0;
                 planes[count++] = b64(kMid);
                 planes[count++] = b64(kQuads[r].id);
                 planes[count++] = b64(min(hu, hw));
                 planes[count++] = b64(max(hu, hw));
-                const uint sup = vSupport(a) | vSupport(b);
+                const uint sup = vSupport(u) | vSupport(w);
                 if (bitCount4(sup) < 4) {
-                    const bool isoU = vPlaneCount(a) > 0 && gVPlanes(8 * a) == kIso;
-                    const bool isoW = vPlaneCount(b) > 0 && gVPlanes(8 * b) == kIso;
+                    const bool isoU = vPlaneCount(u) > 0 && gVPlanes(8 * u) == kIso;
+                    const bool isoW = vPlaneCount(w) > 0 && gVPlanes(8 * w) == kIso;
                     if (isoU && isoW) planes[count++] = b64(kIso);
                 }
+                precise dvec3 mid = 0.5lf * (gVPos(u) + gVPos(w));
                 const int m = makeSteiner(sup, planes, count, mid);
                 if (m < 0) return;
                 poolAdd(1, m, lab);
