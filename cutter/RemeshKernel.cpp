@@ -824,6 +824,7 @@ private:
     void conformPieces();
     void classifyPieces(const Surface& s, SmallVector<char, 32>& kept);
     void insertSlitMidpoints(const SmallVector<char, 32>& kept);
+    bool splitChord(int u, int w, const QuadGeom& r, const SmallVector<char, 32>& kept, int& a, int& b);
     void traceRegions(const Surface& s, int side, const SmallVector<char, 32>& kept);
     /// The nodes kept as corners of the regions' loops, then the regions triangulated into `out`.
     void markCorners(SmallVector<char, 64>& corner);
@@ -2265,15 +2266,25 @@ void RemeshKernel::classifyPieces(const Surface& s, SmallVector<char, 32>& kept)
 void RemeshKernel::insertSlitMidpoints(const SmallVector<char, 32>& kept)
 {
     std::vector<Poly>& pieces = mPieces;
-    // Steiner midpoints on slit chords between rim points (see needsMidpoint).
+    // Steiner midpoints on slit chords between rim points (see needsMidpoint),
+    // found on the pieces as they are (splitChord walks them; the GPU reads
+    // them unchanged from its pool's region 0), then put in.
+    SmallVector<std::array<int, 3>, 8> found; // (piece, edge, midpoint)
     for (size_t i = 0; i < pieces.size(); ++i) {
         if (!kept[i]) continue;
         Poly& p = pieces[i];
         for (size_t k = 0; k < p.v.size(); ++k) {
             const int u = p.v[k], w = p.v[(k + 1) % p.v.size()];
             for (const QuadGeom* r : mQuads) {
-                if (!needsMidpoint(u, w, *r)) continue;
-                const Vert &vu = mVerts[size_t(u)], &vw = mVerts[size_t(w)];
+                int a = u, b = w;
+                if (!needsMidpoint(u, w, *r) && !(splitChord(u, w, *r, kept, a, b) && needsMidpoint(a, b, *r))) continue;
+                const Vert &vu = mVerts[size_t(a)], &vw = mVerts[size_t(b)];
+                const dvec3 mid = 0.5 * (vu.pos + vw.pos);
+                if (a != u || b != w) { // a piece of the chord: the midpoint goes in the piece that holds it
+                    const dvec3 d = mVerts[size_t(w)].pos - mVerts[size_t(u)].pos;
+                    const double t = glm::dot(mid - mVerts[size_t(u)].pos, d) / glm::dot(d, d);
+                    if (!(t > 0.0 && t < 1.0)) continue;
+                }
                 uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
                 uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
                 PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
@@ -2283,14 +2294,63 @@ void RemeshKernel::insertSlitMidpoints(const SmallVector<char, 32>& kept)
                     const bool isoW = vw.key.planeCount && vw.key.planes[0] == kIso;
                     if (isoU && isoW) planes.push_back(kIso);
                 }
-                const int m = makeSteiner(sup, planes, 0.5 * (vu.pos + vw.pos));
-                p.v.insert(p.v.begin() + long(k) + 1, m);
-                p.lab.insert(p.lab.begin() + long(k) + 1, p.lab[k]);
-                ++k;
+                found.push_back({int(i), int(k), makeSteiner(sup, planes, mid)});
                 break;
             }
         }
     }
+    for (size_t f = found.size(); f-- > 0;) { // last first: the earlier edges' indices stay
+        Poly& p = pieces[size_t(found[f][0])];
+        const long k = found[f][1];
+        p.v.insert(p.v.begin() + k + 1, found[f][2]);
+        p.lab.insert(p.lab.begin() + k + 1, p.lab[size_t(k)]);
+    }
+}
+
+/// Edge u -> w of a kept piece lies on quad r's plane with an end inside
+/// r's open slit: a piece of a chord that other planes of the cell split
+/// (a side line of a quad the neighbouring cell does not have). Its whole
+/// chord, followed along the kept pieces' collinear edges through points
+/// inside the slit, is a -> b: whether the chord needs a midpoint, and
+/// which, must not depend on those splits, or the neighbour, which sees
+/// the chord whole, closes it with a vertex this cell lacks (tooth, kerf
+/// 0, sharp turns, seed 18004: quad 31's side line splits quad 27's chord
+/// in cell (35, 64, 35), not in (35, 64, 36)). False if it is not such a
+/// piece or the chord does not end at rim points in the cell.
+bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector<char, 32>& kept, int& a, int& b)
+{
+    if (mPrism || sign(u, r.id) != 0 || sign(w, r.id) != 0) return false;
+    const bool su = slitInterior(u, r), sw = slitInterior(w, r);
+    if (!(su || sw) || !(su || chordEnd(u, r)) || !(sw || chordEnd(w, r))) return false;
+    const dvec3 d = mVerts[size_t(w)].pos - mVerts[size_t(u)].pos;
+    const double len = glm::length(d);
+    if (!(len > 0.0)) return false;
+    // The kept pieces' edge that goes on from `cur` along `dir`, or -1.
+    auto next = [&](int cur, const dvec3& dir) {
+        const dvec3& c = mVerts[size_t(cur)].pos;
+        for (size_t i = 0; i < mPieces.size(); ++i) {
+            if (!kept[i]) continue;
+            const auto& v = mPieces[i].v;
+            for (size_t k = 0; k < v.size(); ++k) {
+                if (v[k] != cur) continue;
+                for (int y : {v[(k + 1) % v.size()], v[(k + v.size() - 1) % v.size()]}) {
+                    const dvec3 e = mVerts[size_t(y)].pos - c;
+                    const double el = glm::length(e);
+                    if (el > 0.0 && glm::dot(e, dir) > 0.0 && glm::length(glm::cross(e, dir)) <= 1e-9 * el * len &&
+                        sign(y, r.id) == 0)
+                        return y;
+                }
+            }
+        }
+        return -1;
+    };
+    a = u;
+    b = w;
+    for (int hops = 0; slitInterior(a, r); ++hops)
+        if (hops == 16 || (a = next(a, -d)) < 0) return false;
+    for (int hops = 0; slitInterior(b, r); ++hops)
+        if (hops == 16 || (b = next(b, d)) < 0) return false;
+    return chordEnd(a, r) && chordEnd(b, r);
 }
 
 void RemeshKernel::traceRegions(const Surface& s, int side, const SmallVector<char, 32>& kept)

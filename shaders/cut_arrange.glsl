@@ -442,19 +442,22 @@ bool onStripRim(int v, int r)
     return false;
 }
 
-/// RemeshKernel::needsMidpoint.
-bool needsMidpoint(int u, int v, int r)
+/// RemeshKernel::slitInterior.
+bool slitInterior(int v, int r) { return signOf(v, kQuads[r].id) == 0 && inSlitOpen(v, r) && !onStripRim(v, r); }
+
+/// RemeshKernel::chordEnd.
+bool chordEnd(int v, int r) { return signOf(v, kQuads[r].id) == 0 && inExtentClosed(v, r) && !slitInterior(v, r); }
+
+/// needsMidpoint's last test: u and v not both on one rim line of r.
+bool apartOnRims(int u, int v, int r)
 {
-    if (uPrism) return false;
-    const uint64_t rid = kQuads[r].id;
-    if (signOf(u, rid) != 0 || signOf(v, rid) != 0) return false;
-    if (!inExtentClosed(u, r) || !inExtentClosed(v, r) || (inSlitOpen(u, r) && !onStripRim(u, r)) ||
-        (inSlitOpen(v, r) && !onStripRim(v, r)))
-        return false;
     for (uint s = kQuads[r].firstSide; s < kQuads[r].firstSide + kQuads[r].sideCount; ++s)
         if (kSides[s].partner < 0 && signOf(u, kSides[s].id) == 0 && signOf(v, kSides[s].id) == 0) return false;
     return true;
 }
+
+/// RemeshKernel::needsMidpoint.
+bool needsMidpoint(int u, int v, int r) { return !uPrism && chordEnd(u, r) && chordEnd(v, r) && apartOnRims(u, v, r); }
 
 // ---- the piece pool: region 0 the current pieces, 1 the next, 2 a stack
 int gPieceCount[3];
@@ -1153,11 +1156,124 @@ void classifyPieces(int s)
     }
 }
 
+/// RemeshKernel::chordEnd and slitInterior of v about quad r at once: 1 a
+/// rim point (chordEnd), 2 inside r's open slit (slitInterior), 0 neither.
+int chordClass(int v, int r)
+{
+    if (signOf(v, kQuads[r].id) != 0 || !inExtentClosed(v, r)) return 0;
+    return inSlitOpen(v, r) && !onStripRim(v, r) ? 2 : 1; // the open slit lies in the closed extent
+}
+
+/// RemeshKernel::splitChord's walk: the kept pieces' edge (region 0) that
+/// goes on from `cur` along `dir` on quad r's plane, or -1.
+int chordNext(int cur, dvec3 dir, int r)
+{
+    const precise dvec3 c = gVPos(cur);
+    const double len = length3(dir);
+    for (int i = 0; i < gPieceCount[0]; ++i) {
+        if (!gKept[i]) continue;
+        const int n = pieceLen(0, i);
+        for (int k = 0; k < n; ++k) {
+            if (pieceV(0, i, k) != cur) continue;
+            for (int h = 0; h < 2; ++h) {
+                const int y = pieceV(0, i, h == 0 ? (k + 1) % n : (k + n - 1) % n);
+                const precise dvec3 e = gVPos(y) - c;
+                const double el = length3(e);
+                if (el > 0.0lf && dot3(e, dir) > 0.0lf && length3(cross3(e, dir)) <= 1e-9lf * el * len &&
+                    signOf(y, kQuads[r].id) == 0)
+                    return y;
+            }
+        }
+    }
+    return -1;
+}
+
+/// RemeshKernel::splitChord past its first tests (u -> w on r's plane,
+/// each end a rim point or inside the slit, one inside): the whole chord
+/// a -> b, false when it does not end at rim points in the tet.
+bool splitChord(int u, int w, int r, out int a, out int b)
+{
+    a = u;
+    b = w;
+    const precise dvec3 d = gVPos(w) - gVPos(u);
+    if (!(length3(d) > 0.0lf)) return false;
+    for (int hops = 0; slitInterior(a, r); ++hops) {
+        if (hops == 16) return false;
+        a = chordNext(a, -d, r);
+        if (a < 0) return false;
+    }
+    for (int hops = 0; slitInterior(b, r); ++hops) {
+        if (hops == 16) return false;
+        b = chordNext(b, d, r);
+        if (b < 0) return false;
+    }
+    return chordEnd(a, r) && chordEnd(b, r);
+}
+
+// insertSlitMidpoints' list: the (edge, quad) pairs that may take a midpoint,
+// in the CPU's order (kept piece, edge, quad up to the first that does).
+#define MID_MAX 16
+int gMidPiece[MID_MAX]; // the edge: its kept piece of region 0, and its start corner there
+int gMidCorner[MID_MAX];
+int gMidQuad[MID_MAX]; // kQuads index
+int gMidA[MID_MAX];    // the chord a -> b whose midpoint the edge takes; -1 none
+int gMidB[MID_MAX];
+int gMidCount;
+
 /// RemeshKernel::insertSlitMidpoints: a Steiner midpoint on every slit
-/// chord of a kept piece between two rim points.
+/// chord of a kept piece between two rim points, one per chord however
+/// other planes split it (splitChord). In three passes, so that no loop of
+/// the walk sits inside the loop over edges and quads (llvmpipe charges
+/// every loop an inlined call reaches, its lanes active or not, against
+/// one budget): each end classed once per quad, listing the edges that
+/// take a midpoint and the pieces of split chords; the list's chords
+/// followed; then region 1 written with the midpoints, made in the CPU's
+/// order (their vertex numbers agree).
 void insertSlitMidpoints()
 {
+    gMidCount = 0;
+    for (int i = 0; i < gPieceCount[0] && !uPrism && gFail == 0u; ++i) {
+        if (!gKept[i]) continue;
+        const int n = pieceLen(0, i);
+        for (int k = 0; k < n; ++k) {
+            const int u = pieceV(0, i, k), w = pieceV(0, i, (k + 1) % n);
+            for (int j = 0; j < gReachCount; ++j) {
+                const int r = gReachQuad[j];
+                const int cu = chordClass(u, r), cw = chordClass(w, r);
+                const bool direct = cu == 1 && cw == 1 && apartOnRims(u, w, r);
+                if (!direct && (cu == 0 || cw == 0 || (cu == 1 && cw == 1))) continue;
+                if (gMidCount == MID_MAX) {
+                    gFail |= kFailPool;
+                    return;
+                }
+                gMidPiece[gMidCount] = i;
+                gMidCorner[gMidCount] = k;
+                gMidQuad[gMidCount] = r;
+                gMidA[gMidCount] = direct ? u : -1;
+                gMidB[gMidCount] = direct ? w : -2; // -2: a piece of a split chord, to follow
+                ++gMidCount;
+                if (direct) break;
+            }
+        }
+    }
+    // The split chords' pieces: the whole chord, if it needs a midpoint that
+    // lies inside this piece.
+    for (int m = 0; m < gMidCount; ++m) {
+        if (gMidB[m] != -2) continue;
+        const int i = gMidPiece[m], k = gMidCorner[m], r = gMidQuad[m], n = pieceLen(0, i);
+        const int u = pieceV(0, i, k), w = pieceV(0, i, (k + 1) % n);
+        int a, b;
+        gMidA[m] = gMidB[m] = -1;
+        if (!splitChord(u, w, r, a, b) || !needsMidpoint(a, b, r)) continue;
+        const precise dvec3 mid = 0.5lf * (gVPos(a) + gVPos(b));
+        const precise dvec3 d = gVPos(w) - gVPos(u);
+        const double t = dot3(mid - gVPos(u), d) / dot3(d, d);
+        if (!(t > 0.0lf && t < 1.0lf)) continue;
+        gMidA[m] = a;
+        gMidB[m] = b;
+    }
     poolClear(1);
+    int m = 0;
     for (int i = 0; i < gPieceCount[0] && gFail == 0u; ++i) {
         if (!gKept[i]) {
             poolCopyPiece(0, i, 1);
@@ -1166,31 +1282,33 @@ void insertSlitMidpoints()
         if (!poolOpen(1)) return;
         const int n = pieceLen(0, i);
         for (int k = 0; k < n && gFail == 0u; ++k) {
-            const int u = pieceV(0, i, k), w = pieceV(0, i, (k + 1) % n);
             const uint64_t lab = pieceL(0, i, k);
-            poolAdd(1, u, lab);
-            for (int j = 0; j < gReachCount; ++j) {
-                const int r = gReachQuad[j];
-                if (!needsMidpoint(u, w, r)) continue;
-                const uint64_t hu = (vHash(u) >> 2) | (1ul << 62), hw = (vHash(w) >> 2) | (1ul << 62);
-                uvec2 planes[8];
-                int count = 0;
-                planes[count++] = b64(kMid);
-                planes[count++] = b64(kQuads[r].id);
-                planes[count++] = b64(min(hu, hw));
-                planes[count++] = b64(max(hu, hw));
-                const uint sup = vSupport(u) | vSupport(w);
-                if (bitCount4(sup) < 4) {
-                    const bool isoU = vPlaneCount(u) > 0 && gVPlanes(8 * u) == kIso;
-                    const bool isoW = vPlaneCount(w) > 0 && gVPlanes(8 * w) == kIso;
-                    if (isoU && isoW) planes[count++] = b64(kIso);
+            poolAdd(1, pieceV(0, i, k), lab);
+            int a = -1, b = -1, r = -1;
+            for (; m < gMidCount && gMidPiece[m] == i && gMidCorner[m] == k; ++m)
+                if (a < 0 && gMidA[m] >= 0) {
+                    a = gMidA[m];
+                    b = gMidB[m];
+                    r = gMidQuad[m];
                 }
-                precise dvec3 mid = 0.5lf * (gVPos(u) + gVPos(w));
-                const int m = makeSteiner(sup, planes, count, mid);
-                if (m < 0) return;
-                poolAdd(1, m, lab);
-                break;
+            if (a < 0) continue;
+            const uint64_t ha = (vHash(a) >> 2) | (1ul << 62), hb = (vHash(b) >> 2) | (1ul << 62);
+            uvec2 planes[8];
+            int count = 0;
+            planes[count++] = b64(kMid);
+            planes[count++] = b64(kQuads[r].id);
+            planes[count++] = b64(min(ha, hb));
+            planes[count++] = b64(max(ha, hb));
+            const uint sup = vSupport(a) | vSupport(b);
+            if (bitCount4(sup) < 4) {
+                const bool isoA = vPlaneCount(a) > 0 && gVPlanes(8 * a) == kIso;
+                const bool isoB = vPlaneCount(b) > 0 && gVPlanes(8 * b) == kIso;
+                if (isoA && isoB) planes[count++] = b64(kIso);
             }
+            precise dvec3 mid = 0.5lf * (gVPos(a) + gVPos(b));
+            const int made = makeSteiner(sup, planes, count, mid);
+            if (made < 0) return;
+            poolAdd(1, made, lab);
         }
     }
     poolTakeNext();

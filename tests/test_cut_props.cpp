@@ -1924,6 +1924,23 @@ TEST(CutPropsDefects, ThreeSlitsMeetingAtAPointAreSplitThereAtKerfZero)
     expectCleanCutUpToQuad(path, 18088, 0.0, {3, 57}, 400.0f, 1.0);
 }
 
+// The tooth at kerf 0, random strokes with sharp turns seed 18004, stroke 2
+// to quad 32 (the commonest stop of the tooth's zigzags at kerf 0, "an edge
+// used 1 time one way and 0 the other"): quad 27's slit chord from a rim
+// point to its junction with quad 28 lies in the face z = 36 between cells
+// (35, 64, 35) and (35, 64, 36). The upper cell closes it with a Steiner
+// midpoint; in the lower one a side line of quad 31 (which does not reach
+// the upper cell) split the chord inside the slit, each half had one rim
+// end, and the lower cell used the chord bare: the two sides' caps did not
+// meet. Now the chord is followed through such splits and gets the one
+// midpoint of its ends (the GPU pass alike:
+// CutKernelGpu.ASlitChordSplitByAnotherQuadGetsItsMidpointAsTheCpu).
+TEST(CutPropsDefects, ASlitChordSplitByAnotherQuadsSideLineGetsTheMidpointOfItsEnds)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanCutUpToQuad(path, 18004, 0.0, {2, 32}, 400.0f, 1.0);
+}
+
 // The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
 // three quads, the third across the first's base line. The point where it
 // crosses was one vertex for both sides of the third quad's slit (refused:

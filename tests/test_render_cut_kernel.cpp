@@ -564,17 +564,42 @@ void expectGpuCellsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& ma
     EXPECT_TRUE(got.madeByGpu[atIndex]) << "the GPU flagged the cell for the CPU";
 }
 
+/// The tets of cell `at` that the GPU arranges (no flag) arranged as the
+/// CPU arranges them, pieces, vertices and triangles; at least `tets` of
+/// them (a tet that meets llvmpipe's loop limit is left to the CPU, but its
+/// neighbours in the cell are still the GPU's).
+void expectGpuTetsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& mask, const openvdb::Coord& at, size_t tets)
+{
+    const render::GpuCutKernel& gpu = cutKernel();
+    const cutter::PackedKernelInput input = cutter::packKernelInput(vol, iso, mask, {at});
+    const std::vector<render::GpuArrangedTet> got = gpu.arrangement(input, 0, cutter::kTetsPerCell, kLanesPerTet);
+    CellKernel cpu(vol, iso);
+    cpu.skipHeldMitresForTesting(false); // as the GPU port arranges them (RemeshKernel.h)
+    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    const auto want = cpu.arrangementForTesting(at, kernelQuads.of(at), mask.kerf() > 0);
+    size_t compared = 0;
+    for (const render::GpuArrangedTet& g : got) {
+        if (g.fail != 0) continue;
+        ASSERT_LT(g.tet, want.size());
+        EXPECT_EQ(arrangementDifference(g, want[g.tet]), "") << "tet " << g.tet;
+        ++compared;
+    }
+    std::printf("  (%d, %d, %d): %zu tets arranged by the GPU as by the CPU\n", at.x(), at.y(), at.z(), compared);
+    EXPECT_GE(compared, tets);
+}
+
 /// expectGpuCellsAsTheCpu for random strokes `seed` on `file` (the first
 /// `stroke` whole, then that one to `quad`).
 void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint32_t seed, size_t stroke, size_t quad,
-                                 size_t quadsInStroke, const openvdb::Coord& at, bool heavy = false)
+                                 size_t quadsInStroke, const openvdb::Coord& at, bool heavy = false,
+                                 double turn = 0.05, size_t tetsAt = 0)
 {
     MTCUT_REQUIRE_GL();
     MTCUT_REQUIRE_DATA(path, file);
     const vdb::Volume vol = vdb::readVolume(path);
     CutMask mask(cutter::frameOf(vol), kerf);
     const auto strokes = cutter::makeRandomStrokes(mask.frame(), seed, int(stroke) + 1, 150 + 50 * int(seed % 5),
-                                                   0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
+                                                   0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4), turn);
     for (size_t s = 0; s <= stroke; ++s) {
         const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
         if (s == stroke) {
@@ -586,6 +611,7 @@ void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint3
     char what[256];
     std::snprintf(what, sizeof what, "%s seed %u, stroke %zu to quad %zu", file, seed, stroke, quad);
     expectGpuCellsAsTheCpu(vol, iso, mask, at, heavy, what);
+    if (heavy && tetsAt > 0) expectGpuTetsAsTheCpu(vol, iso, mask, at, tetsAt);
 }
 
 } // namespace
@@ -631,6 +657,18 @@ TEST(CutKernelGpu, ACapOfTheUpperQuadSplitsOnItsSide)
 TEST(CutKernelGpu, AQuadCrossingARimTwoQuadsBackSplitsThePointAsTheCpu)
 {
     expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 16929, 3, 83, 241, openvdb::Coord(76, 16, 116), true);
+}
+
+// The tooth at kerf 0, random strokes with sharp turns seed 18004, stroke 2
+// to quad 32 (CutPropsDefects.ASlitChordSplitByAnotherQuadsSideLineGetsTheMidpointOfItsEnds):
+// quad 27's slit chord, split in cell (35, 64, 35) by a side line of quad
+// 31, gets the midpoint its neighbour (35, 64, 36) gives it, on the GPU as
+// on the CPU (splitChord in cut_arrange.glsl). The cell's tet 4 meets
+// llvmpipe's loop limit, so the CPU makes that cell; its tet 3, which holds
+// the chord, is arranged by the GPU and compared with the CPU's.
+TEST(CutKernelGpu, ASlitChordSplitByAnotherQuadGetsItsMidpointAsTheCpu)
+{
+    expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 18004, 2, 32, 186, openvdb::Coord(35, 64, 35), true, 1.0, 4);
 }
 
 // The same made by hand on the sphere (TestStrokes.h: addRimCrossingStroke;
