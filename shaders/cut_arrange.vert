@@ -16,7 +16,8 @@
 // arrangeTetBegin; 1 + 2 s and 2 + 2 s: surface s split, then made
 // conforming, classified and written; kStageEnd: the vertex table and the
 // header); a stage that could have met the limit flags the tet (bit 10:
-// a probe loop at its end), never returns it truncated. Each draw runs
+// a probe loop at its very end, after its state is saved: flagLoopLimit),
+// never returns it truncated. Each draw runs
 // the slots in tetList: stage 0 all, then those with surface s (tetStatus:
 // the surface count, -1 failed, -2 no solid), the end those with solid.
 const int kStageEnd = 1 + 2 * ARR_MAX_SURFACES;
@@ -34,8 +35,8 @@ void stageBegin(uint slot, uint tet)
     put(uint64_t(tet));
     put(0ul); // vertices | surfaces << 32, at the end
     put(0ul); // nodes | triangles << 32 (cut_regions.vert)
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true);
+    flagLoopLimit();
     tetStatus[slot] = gFail == 0u ? gSurfaceCount : -1;
 }
 
@@ -46,10 +47,10 @@ void stageSplit(uint slot, uint tet, int s)
     uint at;
     if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at) || gFail != 0u || s >= gSurfaceCount) return;
     splitSurface(s);
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(at, true);
     gStateI(14) = gPieceCount[0];
     gStateI(15) = gPoolUsed[0];
+    flagLoopLimit();
 }
 
 /// Stage 2 + 2 s: surface s's pieces made conforming, classified and given
@@ -75,9 +76,9 @@ void stageFinish(uint slot, uint tet, int s)
             }
         }
     }
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true);
     savePieces(); // for cut_regions.vert's trace of surface s
+    flagLoopLimit();
 }
 
 /// The last stage: the vertex table, then the header (a failed tet: the
@@ -99,8 +100,8 @@ void stageEnd(uint slot, uint tet, uint headerAt)
         }
     }
     if (gAt > gSlotEnd) gFail |= kFailSlot; // past the slot: the header alone
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true); // its verdict, for cut_regions.vert's kStageEmit
+    flagLoopLimit();
     if (gFail != 0u) {
         outRecord[headerAt] = uint64_t(tet) | uint64_t(gFail) << 32;
         outRecord[headerAt + 1u] = 0ul;

@@ -22,8 +22,8 @@ void stageTrace(uint slot, uint tet, int s)
     restorePieces();
     if (s == 0) regionsReset();
     traceSurface(s);
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(at, true);
+    flagLoopLimit();
 }
 
 /// kStageCorners: the corners of every loop (markCorners).
@@ -33,8 +33,8 @@ void stageCorners(uint slot, uint tet)
     if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at) || gFail != 0u) return;
     markCorners();
     gRC(6) = int(at); // the triangles follow
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(at, true);
+    flagLoopLimit();
 }
 
 /// kStageCorners + 1 + s: surface s's regions triangulated into the record.
@@ -44,8 +44,8 @@ void stageTriangulate(uint slot, uint tet, int s)
     if (!restoreTetState(slot, tet / 5u, int(tet % 5u), at) || gFail != 0u || s >= gSurfaceCount) return;
     gAt = at;
     triangulateSurface(s);
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true);
+    flagLoopLimit();
 }
 
 /// kStageClose: the node table, and the header's counts.
@@ -59,8 +59,8 @@ void stageClose(uint slot, uint tet, uint headerAt)
     if (gRC(4) > 256) gFail |= kFailRegions;
     putNodes();
     outRecord[headerAt + 2u] = uint64_t(gRC(0)) | uint64_t(gRC(4)) << 32;
-    if (loopLimitHit()) gFail |= kFailLoopLimit;
     saveTetState(gAt, true);
+    flagLoopLimit();
 }
 
 /// kStageEmit, after cut_arrange.vert's last stage: the tet's triangles
