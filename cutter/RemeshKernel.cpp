@@ -19,6 +19,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 namespace mtcut::cutter::remesh_detail {
 
@@ -2344,12 +2345,23 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
         }
         return -1;
     };
+    // From prev through cur and on stays in the tet only if prev lies in the
+    // smallest face that holds cur: else the chord leaves the tet at cur.
+    auto staysIn = [&](int prev, int cur) {
+        return (mVerts[size_t(prev)].support & ~mVerts[size_t(cur)].support) == 0;
+    };
     a = u;
     b = w;
-    for (int hops = 0; slitInterior(a, r); ++hops)
-        if (hops == 16 || (a = next(a, -d)) < 0) return false;
-    for (int hops = 0; slitInterior(b, r); ++hops)
-        if (hops == 16 || (b = next(b, d)) < 0) return false;
+    for (int hops = 0, prev = w; slitInterior(a, r); ++hops) {
+        if (hops == 16 || !staysIn(prev, a)) return false;
+        prev = std::exchange(a, next(a, -d));
+        if (a < 0) return false;
+    }
+    for (int hops = 0, prev = u; slitInterior(b, r); ++hops) {
+        if (hops == 16 || !staysIn(prev, b)) return false;
+        prev = std::exchange(b, next(b, d));
+        if (b < 0) return false;
+    }
     return chordEnd(a, r) && chordEnd(b, r);
 }
 

@@ -80,7 +80,8 @@ struct GpuArrangedTet
     uint32_t tet = 0;  ///< 5 c + t for tet t of cell c
     /// 0, or why the GPU stopped (the CPU takes such a tet): a capacity of
     /// the shader (bits 0-7), the CPU's refusal (bit 8), the record past its
-    /// slot (bit 9), llvmpipe's loop limit (bit 10)
+    /// slot (bit 9), llvmpipe's loop limit (bit 10), the slit midpoints'
+    /// lists full (bit 11)
     uint32_t fail = 0;
     struct Vertex
     {

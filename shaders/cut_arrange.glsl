@@ -45,6 +45,7 @@ const uint kFailVerts = 1u, kFailPlanes = 2u, kFailSurfaces = 4u, kFailPieces = 
 // loops that do not close or cannot be triangulated: cut_regions.glsl).
 const uint kRefused = 256u;
 const uint kFailSlot = 512u, kFailLoopLimit = 1024u; // the record past its slot; llvmpipe's loop limit
+const uint kFailMidpoints = 2048u; // insertSlitMidpoints' lists full
 uint gFail;
 
 // ---- the tet's record (render/CutKernelGpu.cpp parses it): written at
@@ -1164,60 +1165,66 @@ int chordClass(int v, int r)
     return inSlitOpen(v, r) && !onStripRim(v, r) ? 2 : 1; // the open slit lies in the closed extent
 }
 
-/// RemeshKernel::splitChord's walk: the kept pieces' edge (region 0) that
-/// goes on from `cur` along `dir` on quad r's plane, or -1.
+/// RemeshKernel::splitChord's next: the kept pieces' edge (region 0) that
+/// goes on from `cur` along `dir` on quad r's plane, or -1 (-2: more such
+/// neighbours than it holds). The neighbours along dir first, in the CPU's
+/// order, then the first on r's plane: signOf's loops stay out of the loop
+/// over the pieces.
 int chordNext(int cur, dvec3 dir, int r)
 {
     const precise dvec3 c = gVPos(cur);
     const double len = length3(dir);
+    int along[4];
+    int n = 0;
+    bool more = false;
     for (int i = 0; i < gPieceCount[0]; ++i) {
         if (!gKept[i]) continue;
-        const int n = pieceLen(0, i);
-        for (int k = 0; k < n; ++k) {
+        const int m = pieceLen(0, i);
+        for (int k = 0; k < m; ++k) {
             if (pieceV(0, i, k) != cur) continue;
             for (int h = 0; h < 2; ++h) {
-                const int y = pieceV(0, i, h == 0 ? (k + 1) % n : (k + n - 1) % n);
+                const int y = pieceV(0, i, h == 0 ? (k + 1) % m : (k + m - 1) % m);
                 const precise dvec3 e = gVPos(y) - c;
                 const double el = length3(e);
-                if (el > 0.0lf && dot3(e, dir) > 0.0lf && length3(cross3(e, dir)) <= 1e-9lf * el * len &&
-                    signOf(y, kQuads[r].id) == 0)
-                    return y;
+                if (!(el > 0.0lf && dot3(e, dir) > 0.0lf && length3(cross3(e, dir)) <= 1e-9lf * el * len)) continue;
+                if (n < 4) along[n++] = y;
+                else more = true;
             }
         }
     }
-    return -1;
+    for (int f = 0; f < n; ++f)
+        if (signOf(along[f], kQuads[r].id) == 0) return along[f];
+    return more ? -2 : -1;
 }
 
-/// RemeshKernel::splitChord past its first tests (u -> w on r's plane,
-/// each end a rim point or inside the slit, one inside): the whole chord
-/// a -> b, false when it does not end at rim points in the tet.
-bool splitChord(int u, int w, int r, out int a, out int b)
+/// One end of RemeshKernel::splitChord's walk: from `from` (of chordClass
+/// `cls`, entered from `prev`) along `dir` through points inside r's open
+/// slit to a rim point; -1 when the chord leaves the tet, stops or ends
+/// elsewhere first.
+int chordWalk(int from, int prev, int cls, dvec3 dir, int r)
 {
-    a = u;
-    b = w;
-    const precise dvec3 d = gVPos(w) - gVPos(u);
-    if (!(length3(d) > 0.0lf)) return false;
-    for (int hops = 0; slitInterior(a, r); ++hops) {
-        if (hops == 16) return false;
-        a = chordNext(a, -d, r);
-        if (a < 0) return false;
+    int cur = from;
+    for (int hops = 0; cls == 2; ++hops) {
+        // (On from prev through cur stays in the tet only if prev lies in
+        // the smallest face that holds cur.)
+        if (hops == 16 || (vSupport(prev) & ~vSupport(cur)) != 0u) return -1;
+        prev = cur;
+        cur = chordNext(cur, dir, r);
+        if (cur == -2) gFail |= kFailMidpoints;
+        if (cur < 0) return -1;
+        cls = chordClass(cur, r);
     }
-    for (int hops = 0; slitInterior(b, r); ++hops) {
-        if (hops == 16) return false;
-        b = chordNext(b, d, r);
-        if (b < 0) return false;
-    }
-    return chordEnd(a, r) && chordEnd(b, r);
+    return cls == 1 ? cur : -1;
 }
 
 // insertSlitMidpoints' list: the (edge, quad) pairs that may take a midpoint,
 // in the CPU's order (kept piece, edge, quad up to the first that does).
-#define MID_MAX 16
+#define MID_MAX 24
 int gMidPiece[MID_MAX]; // the edge: its kept piece of region 0, and its start corner there
 int gMidCorner[MID_MAX];
 int gMidQuad[MID_MAX]; // kQuads index
 int gMidA[MID_MAX];    // the chord a -> b whose midpoint the edge takes; -1 none
-int gMidB[MID_MAX];
+int gMidB[MID_MAX];    // (-2 - the ends' classes (chordClass, u's times 4) while a piece of a split chord to follow)
 int gMidCount;
 
 /// RemeshKernel::insertSlitMidpoints: a Steiner midpoint on every slit
@@ -1241,16 +1248,22 @@ void insertSlitMidpoints()
                 const int r = gReachQuad[j];
                 const int cu = chordClass(u, r), cw = chordClass(w, r);
                 const bool direct = cu == 1 && cw == 1 && apartOnRims(u, w, r);
-                if (!direct && (cu == 0 || cw == 0 || (cu == 1 && cw == 1))) continue;
+                // (A piece of a split chord: each end a rim point or inside
+                // the slit, one inside, and the walk from an end inside
+                // stays in the tet there.)
+                if (!direct && (cu == 0 || cw == 0 || (cu == 1 && cw == 1) ||
+                                (cu == 2 && (vSupport(w) & ~vSupport(u)) != 0u) ||
+                                (cw == 2 && (vSupport(u) & ~vSupport(w)) != 0u)))
+                    continue;
                 if (gMidCount == MID_MAX) {
-                    gFail |= kFailPool;
+                    gFail |= kFailMidpoints;
                     return;
                 }
                 gMidPiece[gMidCount] = i;
                 gMidCorner[gMidCount] = k;
                 gMidQuad[gMidCount] = r;
                 gMidA[gMidCount] = direct ? u : -1;
-                gMidB[gMidCount] = direct ? w : -2; // -2: a piece of a split chord, to follow
+                gMidB[gMidCount] = direct ? w : -2 - (4 * cu + cw);
                 ++gMidCount;
                 if (direct) break;
             }
@@ -1259,14 +1272,17 @@ void insertSlitMidpoints()
     // The split chords' pieces: the whole chord, if it needs a midpoint that
     // lies inside this piece.
     for (int m = 0; m < gMidCount; ++m) {
-        if (gMidB[m] != -2) continue;
+        if (gMidB[m] >= 0) continue;
+        const int cls = -2 - gMidB[m];
         const int i = gMidPiece[m], k = gMidCorner[m], r = gMidQuad[m], n = pieceLen(0, i);
         const int u = pieceV(0, i, k), w = pieceV(0, i, (k + 1) % n);
-        int a, b;
         gMidA[m] = gMidB[m] = -1;
-        if (!splitChord(u, w, r, a, b) || !needsMidpoint(a, b, r)) continue;
-        const precise dvec3 mid = 0.5lf * (gVPos(a) + gVPos(b));
         const precise dvec3 d = gVPos(w) - gVPos(u);
+        if (!(length3(d) > 0.0lf)) continue;
+        const int a = chordWalk(u, w, cls / 4, -d, r);
+        const int b = chordWalk(w, u, cls % 4, d, r);
+        if (a < 0 || b < 0 || !apartOnRims(a, b, r)) continue; // (needsMidpoint(a, b): a and b rim points)
+        const precise dvec3 mid = 0.5lf * (gVPos(a) + gVPos(b));
         const double t = dot3(mid - gVPos(u), d) / dot3(d, d);
         if (!(t > 0.0lf && t < 1.0lf)) continue;
         gMidA[m] = a;

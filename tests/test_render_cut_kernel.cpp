@@ -278,9 +278,9 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
                 else if (mine->fail & 1024u) {
                     ++t.loopLimit;
                     continue;
-                } else if (mine->fail & 255u) {
+                } else if (mine->fail & (255u | 2048u)) { // (2048: the slit midpoints' lists)
                     ++t.overCapacity;
-                    t.capacityBits |= mine->fail & 255u;
+                    t.capacityBits |= mine->fail & (255u | 2048u);
                     continue;
                 } else if (mine->fail) why = "the GPU refused";
                 else why = arrangementDifference(*mine, c);
