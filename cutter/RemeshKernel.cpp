@@ -732,6 +732,11 @@ private:
             if (sd.partner >= 0 || sign(v, sd.id) != 0) continue;
             for (const QuadGeom* q : mQuads) {
                 if (q == &r || !slitInterior(v, *q) || !rimLineIn(r, sd, *q)) continue;
+                // r's corner, where its rim leaves q's plane: the end of the
+                // T, round which q's slit goes on as one sheet (a dart's
+                // successor whose rim along the shared stick ends inside
+                // the dart's hull; tooth, kerf 0, sharp turns, seed 18048).
+                if (cornerOffPlane(v, r, sd, *q)) return 0;
                 // Into r from its rim: the side's inward normal in r's plane.
                 const dvec3 in = sd.orient * (sd.plane.n - r.pi.n * glm::dot(sd.plane.n, r.pi.n));
                 const double h = glm::dot(q->pi.n, in);
@@ -743,6 +748,14 @@ private:
         return 0;
     }
     int8_t mTJunctions = -1; ///< tJunctionSide's test of the cell's quads: -1 not yet, 0 none can meet so, 1 some can
+    /// v on r's rim side sd (whose line lies in q's plane) and on another
+    /// rim side of r whose line does not: r's corner where its rim leaves q.
+    bool cornerOffPlane(int v, const QuadGeom& r, const QuadGeom::Side& sd, const QuadGeom& q)
+    {
+        for (const auto& s2 : r.sides)
+            if (&s2 != &sd && s2.partner < 0 && sign(v, s2.id) == 0 && !rimLineIn(r, s2, q)) return true;
+        return false;
+    }
     const QuadGeom* quadById(uint64_t id) const
     {
         for (const QuadGeom* q : mQuads)

@@ -188,12 +188,23 @@ int tJunctionSide(int v, int r, out int o)
     o = -1;
     if (uPrism || signOf(v, kQuads[r].id) != 0 || !inExtentClosed(v, r) || (inSlitOpen(v, r) && !onStripRim(v, r)))
         return 0;
-    for (uint sd = kQuads[r].firstSide; sd < kQuads[r].firstSide + kQuads[r].sideCount; ++sd) {
-        if (kSides[sd].partner >= 0 || signOf(v, kSides[sd].id) != 0) continue;
+    // r's rim sides through v, as bits from its first side.
+    const uint first = kQuads[r].firstSide, end = first + kQuads[r].sideCount;
+    uint rims = 0u;
+    for (uint s = first; s < end; ++s)
+        if (kSides[s].partner < 0 && signOf(v, kSides[s].id) == 0) rims |= 1u << (s - first);
+    for (uint sd = first; sd < end; ++sd) {
+        if (((rims >> (sd - first)) & 1u) == 0u) continue;
         for (int j = 0; j < gReachCount; ++j) {
             const int q = gReachQuad[j];
             if (q == r || signOf(v, kQuads[q].id) != 0 || !inSlitOpen(v, q) || onStripRim(v, q)) continue;
             if (!rimLineIn(r, sd, q)) continue;
+            // RemeshKernel::cornerOffPlane (from the bits: no signOf, whose
+            // loops llvmpipe would charge here for every j).
+            bool corner = false;
+            for (uint s2 = first; s2 < end; ++s2)
+                corner = corner || (s2 != sd && ((rims >> (s2 - first)) & 1u) != 0u && !rimLineIn(r, s2, q));
+            if (corner) return 0;
             const dvec3 n = kQuads[r].plane.xyz, sn = kSides[sd].plane.xyz;
             precise dvec3 inward = kSides[sd].orient * (sn - n * dot3(sn, n)); // precise: no fused multiply-add
             const double h = dot3(kQuads[q].plane.xyz, inward);

@@ -1941,6 +1941,23 @@ TEST(CutPropsDefects, ASlitChordSplitByAnotherQuadsSideLineGetsTheMidpointOfItsE
     expectCleanCutUpToQuad(path, 18004, 0.0, {2, 32}, 400.0f, 1.0);
 }
 
+// The tooth at kerf 0, random strokes with sharp turns, seed 18048, stroke 1
+// to quad 87: quad 86 is a dart (its corner on the stick it shares with 87
+// lies inside the hull of its other three), and 87's rim along that stick
+// lies in 86's plane inside 86's open slit, a T-junction whose points take
+// 87's side tag on 86's caps (tJunctionSide). At 87's corner, where its rim
+// leaves 86's plane, the T ends and 86's cap goes on round it as one sheet;
+// the corner took a side tag too, so the two pieces of that cap either side
+// of the line beyond it had different copies of it: an edge used once in
+// cell (46, 75, 17), refused. The corner is untagged now (cornerOffPlane).
+// Seed 18038, stroke 1 to quad 97, was refused so in cell (11, 51, 110).
+TEST(CutPropsDefects, ATJunctionEndsAtTheCornerWhereTheRimLeavesTheOtherQuadsPlane)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanCutUpToQuad(path, 18048, 0.0, {1, 87}, 400.0f, 1.0);
+    expectCleanCutUpToQuad(path, 18038, 0.0, {1, 97}, 400.0f, 1.0);
+}
+
 // The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
 // three quads, the third across the first's base line. The point where it
 // crosses was one vertex for both sides of the third quad's slit (refused:

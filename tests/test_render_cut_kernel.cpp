@@ -671,6 +671,16 @@ TEST(CutKernelGpu, ASlitChordSplitByAnotherQuadGetsItsMidpointAsTheCpu)
     expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 18004, 2, 32, 186, openvdb::Coord(35, 64, 35), true, 1.0, 4);
 }
 
+// The tooth at kerf 0, random strokes with sharp turns seed 18038, stroke 1
+// to quad 97 (CutPropsDefects.ATJunctionEndsAtTheCornerWhereTheRimLeaves...):
+// the corner where the last quad's rim leaves the plane of the dart before
+// it takes no side tag on the dart's caps, on the GPU as on the CPU
+// (tJunctionSide in cut_regions.glsl); the GPU makes the cell, (11, 51, 110).
+TEST(CutKernelGpu, ATJunctionEndsAtTheRimsCornerAsOnTheCpu)
+{
+    expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 18038, 1, 97, 245, openvdb::Coord(11, 51, 110), false, 1.0);
+}
+
 // The same made by hand on the sphere (TestStrokes.h: addRimCrossingStroke;
 // CutPropsDefects.AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim):
 // light enough for llvmpipe, so there the GPU makes the cell where the third
