@@ -443,22 +443,14 @@ bool onStripRim(int v, int r)
     return false;
 }
 
-/// RemeshKernel::slitInterior.
-bool slitInterior(int v, int r) { return signOf(v, kQuads[r].id) == 0 && inSlitOpen(v, r) && !onStripRim(v, r); }
-
-/// RemeshKernel::chordEnd.
-bool chordEnd(int v, int r) { return signOf(v, kQuads[r].id) == 0 && inExtentClosed(v, r) && !slitInterior(v, r); }
-
-/// needsMidpoint's last test: u and v not both on one rim line of r.
+/// RemeshKernel::needsMidpoint's last test: u and v not both on one rim
+/// line of r (its others: both ends rim points, chordClass 1).
 bool apartOnRims(int u, int v, int r)
 {
     for (uint s = kQuads[r].firstSide; s < kQuads[r].firstSide + kQuads[r].sideCount; ++s)
         if (kSides[s].partner < 0 && signOf(u, kSides[s].id) == 0 && signOf(v, kSides[s].id) == 0) return false;
     return true;
 }
-
-/// RemeshKernel::needsMidpoint.
-bool needsMidpoint(int u, int v, int r) { return !uPrism && chordEnd(u, r) && chordEnd(v, r) && apartOnRims(u, v, r); }
 
 // ---- the piece pool: region 0 the current pieces, 1 the next, 2 a stack
 int gPieceCount[3];
