@@ -663,9 +663,10 @@ TEST(CutKernelGpu, AQuadCrossingARimTwoQuadsBackSplitsThePointAsTheCpu)
 // to quad 32 (CutPropsDefects.ASlitChordSplitByAnotherQuadsSideLineGetsTheMidpointOfItsEnds):
 // quad 27's slit chord, split in cell (35, 64, 35) by a side line of quad
 // 31, gets the midpoint its neighbour (35, 64, 36) gives it, on the GPU as
-// on the CPU (splitChord in cut_arrange.glsl). The cell's tet 4 meets
-// llvmpipe's loop limit, so the CPU makes that cell; its tet 3, which holds
-// the chord, is arranged by the GPU and compared with the CPU's.
+// on the CPU (insertSlitMidpoints' chord walk in cut_arrange.glsl). The
+// cell's tet 4 meets llvmpipe's loop limit, so the CPU makes that cell; its
+// tet 3, which holds the chord, is arranged by the GPU and compared with the
+// CPU's.
 TEST(CutKernelGpu, ASlitChordSplitByAnotherQuadGetsItsMidpointAsTheCpu)
 {
     expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 18004, 2, 32, 186, openvdb::Coord(35, 64, 35), true, 1.0, 4);
