@@ -434,6 +434,10 @@ private:
         mVerts[vi].signs.clear();
         if (vi < mSignCap)
             for (size_t p = 0; p < mSignStride; ++p) mSignTab[p * mSignCap + vi] = 2;
+        if (vi < mSlitKnown) {
+            const size_t row = vi * mCellQuads->size() * 2;
+            std::fill(mSlitMemo.begin() + std::ptrdiff_t(row), mSlitMemo.begin() + std::ptrdiff_t(row + mCellQuads->size() * 2), int8_t(2));
+        }
     }
     // remeshTet's scratch, kept between tets for its capacity.
     std::vector<int> mNodeHead, mNodeNext, mParent, mEdgeOrder;
@@ -624,9 +628,8 @@ private:
     /// its closed extent, not inside its open slit); memoised as slitInterior.
     bool chordEnd(int v, const QuadGeom& r)
     {
-        if (size_t(v) >= mSlitKnown) return chordEndNow(v, r);
-        int8_t& e = mSlitMemo[(size_t(v) * mCellQuads->size() + size_t(&r - mCellQuads->data())) * 2 + 1];
-        if (e == 2) e = int8_t(chordEndNow(v, r));
+        int8_t e = slitMemo(v, r)[1];
+        if (e == 2) slitMemo(v, r)[1] = e = int8_t(chordEndNow(v, r)); // (a fresh lookup: the memo may have grown)
         return e != 0;
     }
     bool chordEndNow(int v, const QuadGeom& r) { return sign(v, r.id) == 0 && inExtentClosed(v, r) && !slitInterior(v, r); }
@@ -660,26 +663,31 @@ private:
     /// Zero kerf: v lies inside r's open slit, off every rim of r's strip
     /// (its sides there are the slit's two sides). Asked for every vertex of
     /// a surface's kept pieces about every quad, twice over (slit midpoints,
-    /// then each side's regions), so memoised per surface: mSlitMemo holds
-    /// the answers (and chordEnd's) for the vertices made before the
-    /// surface's midpoints (resetSlitMemo), whose signs no longer change;
-    /// later ones (the midpoints) are asked directly.
+    /// then each side's regions), and again for the next surface's, so
+    /// memoised for the tet (slitMemo).
     bool slitInterior(int v, const QuadGeom& r)
     {
-        if (size_t(v) >= mSlitKnown) return slitInteriorNow(v, r);
-        const size_t q = size_t(&r - mCellQuads->data());
-        int8_t& e = mSlitMemo[(size_t(v) * mCellQuads->size() + q) * 2];
-        if (e == 2) e = int8_t(slitInteriorNow(v, r));
+        int8_t e = slitMemo(v, r)[0];
+        if (e == 2) slitMemo(v, r)[0] = e = int8_t(slitInteriorNow(v, r));
         return e != 0;
     }
     bool slitInteriorNow(int v, const QuadGeom& r) { return sign(v, r.id) == 0 && inSlitOpen(v, r) && !onStripRim(v, r); }
-    void resetSlitMemo()
+    /// The memo of slitInterior and chordEnd for vertex v and quad r (2: not
+    /// known yet). Both are functions of v's signs alone, which sign()
+    /// memoises in turn, so an answer holds until forgetSigns(v) forgets it
+    /// with them (a vertex merged into another name); per tet, grown as
+    /// vertices are made.
+    int8_t* slitMemo(int v, const QuadGeom& r)
     {
-        mSlitKnown = mVerts.size();
-        mSlitMemo.assign(mSlitKnown * mCellQuads->size() * 2, int8_t(2)); // (slitInterior, chordEnd) per vertex and quad
+        const size_t quads = mCellQuads->size();
+        if (size_t(v) >= mSlitKnown) {
+            mSlitKnown = std::max<size_t>(std::max<size_t>(32, 2 * mSlitKnown), size_t(v) + 1);
+            mSlitMemo.resize(mSlitKnown * quads * 2, int8_t(2));
+        }
+        return &mSlitMemo[(size_t(v) * quads + size_t(&r - mCellQuads->data())) * 2];
     }
-    std::vector<int8_t> mSlitMemo;
-    size_t mSlitKnown = 0;
+    std::vector<int8_t> mSlitMemo; ///< (slitInterior, chordEnd) per vertex and cell quad
+    size_t mSlitKnown = 0;         ///< vertices mSlitMemo has room for
     /// On the rim of a neighbouring quad of r's strip (a strip corner that r
     /// touches only at a point)? Then the point is rim for r too. Such a
     /// corner lies on one of r's junctions; a point inside r's quad, off its
@@ -1649,7 +1657,6 @@ void RemeshKernel::remeshTet(CutCellGeometry& out)
         splitSurface(s);
         conformPieces();
         classifyPieces(s, kept);
-        if (!mPrism) resetSlitMemo();
         insertSlitMidpoints(kept);
         if (mArrangeCapture) {
             ArrangementProbe::Surface& probe = (*mArrangeCapture)[size_t(mTet)].surfaces.emplace_back();
@@ -1676,7 +1683,8 @@ void RemeshKernel::remeshTet(CutCellGeometry& out)
 void RemeshKernel::resetTet()
 {
     memoReset();
-    mSlitKnown = 0; // (resetSlitMemo per surface)
+    mSlitKnown = 0; // the slit memo, per tet
+    mSlitMemo.clear();
     mVerts.clear();
     mVertHash.clear();
     if (mHashIndexed) {
