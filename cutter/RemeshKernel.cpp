@@ -2347,6 +2347,15 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
     const dvec3 d = mVerts[size_t(w)].pos - mVerts[size_t(u)].pos;
     const double len = glm::length(d);
     if (!(len > 0.0)) return false;
+    // A chord along the isosurface stays on it: where the tet's two iso
+    // triangles fold, the plane of the one it runs on goes on as a line of
+    // the caps' arrangement that is not the isosurface, which a walk on the
+    // isosurface's own pieces cannot follow (tooth, kerf 0, sharp turns,
+    // seed 18008: quad 120's chord in cell (74, 20, 83), tet 4, split at the
+    // fold; the cap's walk passed it and took a midpoint, the isosurface's
+    // did not: an edge used once). Every surface that holds a piece of the
+    // chord must end it at the same points.
+    const bool onIso = member(u) == 0 && member(w) == 0;
     // The kept pieces' edge that goes on from `cur` along `dir`, or -1.
     auto next = [&](int cur, const dvec3& dir) {
         const dvec3& c = mVerts[size_t(cur)].pos;
@@ -2359,7 +2368,7 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
                     const dvec3 e = mVerts[size_t(y)].pos - c;
                     const double el = glm::length(e);
                     if (el > 0.0 && glm::dot(e, dir) > 0.0 && glm::length(glm::cross(e, dir)) <= 1e-9 * el * len &&
-                        sign(y, r.id) == 0)
+                        sign(y, r.id) == 0 && (!onIso || member(y) == 0))
                         return y;
                 }
             }

@@ -1958,6 +1958,21 @@ TEST(CutPropsDefects, ATJunctionEndsAtTheCornerWhereTheRimLeavesTheOtherQuadsPla
     expectCleanCutUpToQuad(path, 18038, 0.0, {1, 97}, 400.0f, 1.0);
 }
 
+// The tooth at kerf 0, sharp turns, seed 18008, stroke 2, quad 127: quad
+// 120's slit chord in tet 4 of cell (74, 20, 83) runs along the tet's iso
+// triangle A (split by the planes of quads 119 and 121) to the fold between
+// the tet's two iso triangles, where it leaves the isosurface. A's plane goes
+// on past the fold as a line of the caps' arrangement; the cap's walk
+// (splitChord) followed it to a rim point of 120 and gave the chord a
+// midpoint, while the isosurface's pieces end at the fold, so theirs could
+// not: an edge used once (the live stroke stepped round it). A chord along
+// the isosurface now stays on it in every surface's walk.
+TEST(CutPropsDefects, AChordAlongTheIsosurfaceEndsWhereTheIsosurfaceFolds)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanCutUpToQuad(path, 18008, 0.0, {2, 127}, 400.0f, 1.0);
+}
+
 // The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
 // three quads, the third across the first's base line. The point where it
 // crosses was one vertex for both sides of the third quad's slit (refused:

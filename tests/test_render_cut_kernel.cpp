@@ -578,13 +578,16 @@ void expectGpuTetsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& mas
     cutter::remesh_detail::KernelQuads kernelQuads(mask);
     const auto want = cpu.arrangementForTesting(at, kernelQuads.of(at), mask.kerf() > 0);
     size_t compared = 0;
+    std::string which;
     for (const render::GpuArrangedTet& g : got) {
         if (g.fail != 0) continue;
         ASSERT_LT(g.tet, want.size());
         EXPECT_EQ(arrangementDifference(g, want[g.tet]), "") << "tet " << g.tet;
         ++compared;
+        which += " " + std::to_string(g.tet);
     }
-    std::printf("  (%d, %d, %d): %zu tets arranged by the GPU as by the CPU\n", at.x(), at.y(), at.z(), compared);
+    std::printf("  (%d, %d, %d): %zu tets arranged by the GPU as by the CPU (tets%s)\n", at.x(), at.y(), at.z(), compared,
+                which.c_str());
     EXPECT_GE(compared, tets);
 }
 
@@ -680,6 +683,29 @@ TEST(CutKernelGpu, ASlitChordSplitByAnotherQuadGetsItsMidpointAsTheCpu)
 TEST(CutKernelGpu, ATJunctionEndsAtTheRimsCornerAsOnTheCpu)
 {
     expectGpuCellsRoundAsTheCpu("tooth.nhdr", 400.0f, 0.0, 18038, 1, 97, 245, openvdb::Coord(11, 51, 110), false, 1.0);
+}
+
+// The tooth at kerf 0, random strokes with sharp turns seed 18008
+// (CutPropsDefects.AChordAlongTheIsosurfaceEndsWhereTheIsosurfaceFolds),
+// quad 120 of stroke 2 alone: in tet 4 of cell (74, 20, 83) its chord along
+// iso triangle A runs past the fold between the tet's iso triangles to its
+// rim, and every surface's walk ends it at the fold, on the GPU as on the
+// CPU (chordWalk in cut_arrange.glsl). With the whole stroke the cell is
+// past llvmpipe's loop limit; with the quad alone the GPU makes it, and it
+// differs from the CPU's without the change in the shader.
+TEST(CutKernelGpu, AChordAlongTheIsosurfaceEndsAtTheFoldAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    CutMask mask(cutter::frameOf(vol), 0.0);
+    const auto strokes = cutter::makeRandomStrokes(mask.frame(), 18008, 3, 150 + 50 * int(18008 % 5), 0.4 + 0.2 * (18008 % 4),
+                                                   20.0 + 10.0 * (18008 % 4), 1.0);
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[2], mask.frame());
+    ASSERT_EQ(quads.size(), 144u);
+    mask.beginStroke();
+    mask.addQuad(quads[120]);
+    expectGpuCellsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(74, 20, 83), false, "tooth, seed 18008's quad 120 alone");
 }
 
 // The same made by hand on the sphere (TestStrokes.h: addRimCrossingStroke;
