@@ -2347,16 +2347,8 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
     const dvec3 d = mVerts[size_t(w)].pos - mVerts[size_t(u)].pos;
     const double len = glm::length(d);
     if (!(len > 0.0)) return false;
-    // A chord along the isosurface stays on it: where the tet's two iso
-    // triangles fold, the plane of the one it runs on goes on as a line of
-    // the caps' arrangement that is not the isosurface, which a walk on the
-    // isosurface's own pieces cannot follow (tooth, kerf 0, sharp turns,
-    // seed 18008: quad 120's chord in cell (74, 20, 83), tet 4, split at the
-    // fold; the cap's walk passed it and took a midpoint, the isosurface's
-    // did not: an edge used once). Every surface that holds a piece of the
-    // chord must end it at the same points.
-    const bool onIso = member(u) == 0 && member(w) == 0;
-    // The kept pieces' edge that goes on from `cur` along `dir`, or -1.
+    // The kept pieces' edge that goes on from `cur` along `dir`, or -1 (the
+    // pieces conform, so any two such edges end at one vertex).
     auto next = [&](int cur, const dvec3& dir) {
         const dvec3& c = mVerts[size_t(cur)].pos;
         for (size_t i = 0; i < mPieces.size(); ++i) {
@@ -2368,12 +2360,34 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
                     const dvec3 e = mVerts[size_t(y)].pos - c;
                     const double el = glm::length(e);
                     if (el > 0.0 && glm::dot(e, dir) > 0.0 && glm::length(glm::cross(e, dir)) <= 1e-9 * el * len &&
-                        sign(y, r.id) == 0 && (!onIso || member(y) == 0))
+                        sign(y, r.id) == 0)
                         return y;
                 }
             }
         }
         return -1;
+    };
+    // The chord is where another surface crosses r's slit, and ends where
+    // that surface does: every surface that holds a piece of it must walk
+    // it to the same ends, though a line of the arrangement may go on
+    // beyond. A chord along the isosurface stays on it: past the fold
+    // between the tet's two iso triangles, the plane of the one it runs on
+    // goes on as a line of the caps' arrangement (tooth, kerf 0, sharp
+    // turns, seed 18008: quad 120's chord in cell (74, 20, 83), tet 4; the
+    // cap's walk passed the fold and took a midpoint, the isosurface's could
+    // not: an edge used once). A chord along another quad's plane stays in
+    // that quad's closed extent: past its rim that quad's cap has no piece
+    // (seed 18018: quad 37's chord along quad 39's plane in cell (28, 31,
+    // 111), tet 1).
+    const bool onIso = member(u) == 0 && member(w) == 0;
+    SmallVector<const QuadGeom*, 4> along;
+    for (const QuadGeom* q : mQuads)
+        if (q != &r && sign(u, q->id) == 0 && sign(w, q->id) == 0) along.push_back(q);
+    auto keeps = [&](int y) {
+        if (onIso && member(y) != 0) return false;
+        for (const QuadGeom* q : along)
+            if (!inExtentClosed(y, *q)) return false;
+        return true;
     };
     // From prev through cur and on stays in the tet only if prev lies in the
     // smallest face that holds cur: else the chord leaves the tet at cur.
@@ -2385,12 +2399,12 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
     for (int hops = 0, prev = w; slitInterior(a, r); ++hops) {
         if (hops == 16 || !staysIn(prev, a)) return false;
         prev = std::exchange(a, next(a, -d));
-        if (a < 0) return false;
+        if (a < 0 || !keeps(a)) return false;
     }
     for (int hops = 0, prev = u; slitInterior(b, r); ++hops) {
         if (hops == 16 || !staysIn(prev, b)) return false;
         prev = std::exchange(b, next(b, d));
-        if (b < 0) return false;
+        if (b < 0 || !keeps(b)) return false;
     }
     return chordEnd(a, r) && chordEnd(b, r);
 }

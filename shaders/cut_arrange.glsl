@@ -1158,11 +1158,11 @@ int chordClass(int v, int r)
 }
 
 /// RemeshKernel::splitChord's next: the kept pieces' edge (region 0) that
-/// goes on from `cur` along `dir` on quad r's plane (on the isosurface too
-/// when `onIso`), or -1 (-2: more such neighbours than it holds). The
-/// neighbours along dir first, in the CPU's order, then the first on r's
-/// plane: signOf's loops stay out of the loop over the pieces.
-int chordNext(int cur, dvec3 dir, int r, bool onIso)
+/// goes on from `cur` along `dir` on quad r's plane, or -1 (-2: more such
+/// neighbours than it holds). The neighbours along dir first, in the CPU's
+/// order, then the first on r's plane: signOf's loops stay out of the loop
+/// over the pieces.
+int chordNext(int cur, dvec3 dir, int r)
 {
     const precise dvec3 c = gVPos(cur);
     const double len = length3(dir);
@@ -1185,16 +1185,28 @@ int chordNext(int cur, dvec3 dir, int r, bool onIso)
         }
     }
     for (int f = 0; f < n; ++f)
-        if (signOf(along[f], kQuads[r].id) == 0 && (!onIso || memberOf(along[f]) == 0)) return along[f];
+        if (signOf(along[f], kQuads[r].id) == 0) return along[f];
     return more ? -2 : -1;
+}
+
+// splitChord's keeps: the surface whose line with r's plane the chord is
+// (the isosurface when gChordOnIso; the quads gChordAlong) holds the point.
+bool gChordOnIso;
+int gChordAlong[4];
+int gChordAlongCount;
+bool chordKeeps(int y)
+{
+    if (gChordOnIso && memberOf(y) != 0) return false;
+    for (int k = 0; k < gChordAlongCount; ++k)
+        if (!inExtentClosed(y, gChordAlong[k])) return false;
+    return true;
 }
 
 /// One end of RemeshKernel::splitChord's walk: from `from` (of chordClass
 /// `cls`, entered from `prev`) along `dir` through points inside r's open
-/// slit (on the isosurface when `onIso`: a chord along it stays on it) to
-/// a rim point; -1 when the chord leaves the tet, stops or ends elsewhere
-/// first.
-int chordWalk(int from, int prev, int cls, dvec3 dir, int r, bool onIso)
+/// slit that the chord's other surface holds (chordKeeps) to a rim point;
+/// -1 when the chord leaves the tet, stops or ends elsewhere first.
+int chordWalk(int from, int prev, int cls, dvec3 dir, int r)
 {
     int cur = from;
     for (int hops = 0; cls == 2; ++hops) {
@@ -1202,9 +1214,9 @@ int chordWalk(int from, int prev, int cls, dvec3 dir, int r, bool onIso)
         // the smallest face that holds cur.)
         if (hops == 16 || (vSupport(prev) & ~vSupport(cur)) != 0u) return -1;
         prev = cur;
-        cur = chordNext(cur, dir, r, onIso);
+        cur = chordNext(cur, dir, r);
         if (cur == -2) gFail |= kFailMidpoints;
-        if (cur < 0) return -1;
+        if (cur < 0 || !chordKeeps(cur)) return -1;
         cls = chordClass(cur, r);
     }
     return cls == 1 ? cur : -1;
@@ -1272,9 +1284,19 @@ void insertSlitMidpoints()
         gMidA[m] = gMidB[m] = -1;
         const precise dvec3 d = gVPos(w) - gVPos(u);
         if (!(length3(d) > 0.0lf)) continue;
-        const bool onIso = memberOf(u) == 0 && memberOf(w) == 0;
-        const int a = chordWalk(u, w, cls / 4, -d, r, onIso);
-        const int b = chordWalk(w, u, cls % 4, d, r, onIso);
+        gChordOnIso = memberOf(u) == 0 && memberOf(w) == 0;
+        gChordAlongCount = 0;
+        for (int j = 0; j < gReachCount; ++j) {
+            const int q = gReachQuad[j];
+            if (q == r || signOf(u, kQuads[q].id) != 0 || signOf(w, kQuads[q].id) != 0) continue;
+            if (gChordAlongCount == 4) {
+                gFail |= kFailMidpoints;
+                return;
+            }
+            gChordAlong[gChordAlongCount++] = q;
+        }
+        const int a = chordWalk(u, w, cls / 4, -d, r);
+        const int b = chordWalk(w, u, cls % 4, d, r);
         if (a < 0 || b < 0 || !apartOnRims(a, b, r)) continue; // (needsMidpoint(a, b): a and b rim points)
         const precise dvec3 mid = 0.5lf * (gVPos(a) + gVPos(b));
         const double t = dot3(mid - gVPos(u), d) / dot3(d, d);

@@ -1973,6 +1973,19 @@ TEST(CutPropsDefects, AChordAlongTheIsosurfaceEndsWhereTheIsosurfaceFolds)
     expectCleanCutUpToQuad(path, 18008, 0.0, {2, 127}, 400.0f, 1.0);
 }
 
+// The tooth at kerf 0, sharp turns, seed 18018, stroke 3, quad 46: quad 37's
+// slit chord in tet 1 of cell (28, 31, 111) runs along quad 39's plane, split
+// inside 37's slit by the side of quad 36 and by 39's rim. Past 39's rim the
+// line goes on only as a line of 37's cap's arrangement: 37's cap walked it
+// to 37's rim and took a midpoint, 39's cap, which ends at its rim, could
+// not: an edge used once (the live stroke stepped round it). A chord along
+// another quad's plane now stays in that quad's closed extent.
+TEST(CutPropsDefects, AChordAlongAnotherQuadEndsAtThatQuadsRim)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanCutUpToQuad(path, 18018, 0.0, {3, 46}, 400.0f, 1.0);
+}
+
 // The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
 // three quads, the third across the first's base line. The point where it
 // crosses was one vertex for both sides of the third quad's slit (refused:

@@ -708,6 +708,26 @@ TEST(CutKernelGpu, AChordAlongTheIsosurfaceEndsAtTheFoldAsTheCpu)
     expectGpuCellsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(74, 20, 83), false, "tooth, seed 18008's quad 120 alone");
 }
 
+// The tooth at kerf 0, random strokes with sharp turns seed 18018
+// (CutPropsDefects.AChordAlongAnotherQuadEndsAtThatQuadsRim), quads 37 to 39
+// of stroke 3 alone: in tet 1 of cell (28, 31, 111) quad 37's chord along
+// quad 39's plane ends at 39's rim in every surface's walk, on the GPU as on
+// the CPU (chordKeeps in cut_arrange.glsl).
+TEST(CutKernelGpu, AChordAlongAnotherQuadEndsAtItsRimAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    CutMask mask(cutter::frameOf(vol), 0.0);
+    const auto strokes = cutter::makeRandomStrokes(mask.frame(), 18018, 4, 150 + 50 * int(18018 % 5), 0.4 + 0.2 * (18018 % 4),
+                                                   20.0 + 10.0 * (18018 % 4), 1.0);
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[3], mask.frame());
+    ASSERT_EQ(quads.size(), 262u);
+    mask.beginStroke();
+    for (size_t q = 37; q <= 39; ++q) mask.addQuad(quads[q]);
+    expectGpuCellsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(28, 31, 111), false, "tooth, seed 18018's quads 37-39 alone");
+}
+
 // The same made by hand on the sphere (TestStrokes.h: addRimCrossingStroke;
 // CutPropsDefects.AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim):
 // light enough for llvmpipe, so there the GPU makes the cell where the third
