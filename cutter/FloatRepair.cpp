@@ -376,6 +376,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                         CutCellGeometry& out, bool crossings)
 {
     const size_t nv = out.indexPositions.size(), nt = out.indices.size() / 3;
+    out.crossFree = false;
     if (nt == 0) return 0;
     // Exact (double) and written (float) world positions, as fusedMesh.
     // Held as float: GCC 12.2 at -O2 and above folded the round trip
@@ -586,7 +587,10 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         if (onePoint) findSpikes(spikes);
         any = any || !spikes.empty();
     }
-    if (!any) return 0;
+    if (!any) {
+        out.crossFree = crossings; // (crossingTriangles found none)
+        return 0;
+    }
 
     knowFaces();
     auto canMove = [&](uint32_t v) { return faces[v] == 0; };

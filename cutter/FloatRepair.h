@@ -147,6 +147,8 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 /// mended in a whole cut was left as it was when a step re-meshed it and
 /// the check passed, and the live cut of a stroke differed from the cut of
 /// the same mask from scratch; 1 mm head, kerf 3, seed 14123.)
+/// out.crossFree is set when that pass finds nothing to mend (no crossing,
+/// nothing else), and cleared otherwise.
 /// Returns the vertices removed.
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
                         CutCellGeometry& out, bool crossings = false);

@@ -233,6 +233,10 @@ struct LocalRegion
     bool debug = false;                          ///< MTCUT_REMESH_DEBUG
     bool kerf = false;                           ///< the cut has a width (pinches are split in fusion)
     bool anyIntoFace = false;                    ///< a triangle has intoFace set
+    /// Per cell of `cells`: a changed cell whose own pairs of triangles need
+    /// not be asked again (CutCellGeometry::crossFree, and snap rounding
+    /// left every vertex of it where the float repair judged it).
+    std::vector<char> ownPairsClear;
     /// The changed cells' box [lo, lo + dim) as a bitmap, when it is small
     /// next to the region (a haptic step's, a straight cut's); else empty,
     /// and isChanged() searches `changed`.
@@ -433,6 +437,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
             std::array<glm::vec3, 3> pa{world[a.v[0]], world[a.v[1]], world[a.v[2]]};
             std::array<uint32_t, 3> ia{vertex[a.v[0]], vertex[a.v[1]], vertex[a.v[2]]};
             for (const Neighbour& n : around) {
+                if (n.region == r && !reg.ownPairsClear.empty() && reg.ownPairsClear[r]) continue; // (ownPairsClear)
                 bool needed = true;
                 for (int k = 0; k < 3 && needed; ++k)
                     needed = n.offset[k] == 0 || reach[k][n.offset[k] > 0 ? 1 : 0];
@@ -1070,6 +1075,28 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
         }
     }
     snapRound(*mVolume, reg);
+    if (kerf) {
+        // The float repair asked the pairs of a crossFree cell's triangles
+        // at these float points with these vertices (trianglesCross, the
+        // pinch copies of a name one vertex); where snap rounding joined or
+        // moved none of the cell's vertices, the self-contact test would ask
+        // the same again (nearly half its pairs in a haptic step).
+        std::vector<char> joinedName(ids.size(), 0);
+        for (const auto& [root, v] : reg.joined) joinedName[root] = joinedName[v] = 1;
+        reg.ownPairsClear.assign(region.size(), 0);
+        for (size_t i = 0; i < region.size(); ++i) {
+            if (!reg.cellChanged[i] || !cutOf[i] || !cutOf[i]->crossFree) continue;
+            const CutCellGeometry& g = *cutOf[i];
+            bool same = true;
+            for (size_t v = 0; v < g.vertexIds.size() && same; ++v) {
+                const uint32_t name = localNames[localStart[i] + v];
+                const glm::vec3 at = worldPosition(*mVolume, g.indexPositions[v]);
+                same = !joinedName[name] && known[name] && world[name].x == at.x && world[name].y == at.y &&
+                       world[name].z == at.z;
+            }
+            reg.ownPairsClear[i] = same;
+        }
+    }
     reg.debug = std::getenv("MTCUT_REMESH_DEBUG") != nullptr;
     reg.kerf = kerf;
     auto closedManifold = [&] {

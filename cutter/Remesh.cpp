@@ -1197,7 +1197,9 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         sourcedCells = sourced.load();
         for (CellJob& job : jobs) {
             if (job.error) std::rethrow_exception(job.error);
-            if (mCellHook) mCellHook(job.cell, *job.out);
+            if (!mCellHook) continue;
+            mCellHook(job.cell, *job.out);
+            job.out->crossFree = false; // (what the hook did, the float repair did not judge)
         }
         count = jobs.size();
         std::sort(changedCells.begin(), changedCells.end());

@@ -138,12 +138,18 @@ struct CutCellGeometry
     /// make the same one facing the other way, a pair that bounds nothing
     /// and goes in fusion and the local check (markCancellingPairs).
     std::vector<uint32_t> intoFace;
+    /// kerf > 0: the float repair's last look found no two of these
+    /// triangles crossing or touching once written (trianglesCross, as the
+    /// local check judges them), so the local check asks a pair of them
+    /// again only where snap rounding moved or joined a vertex of the cell.
+    bool crossFree = false;
     void clear()
     {
         vertexIds.clear();
         indexPositions.clear();
         indices.clear();
         intoFace.clear();
+        crossFree = false;
     }
 };
 
@@ -247,7 +253,8 @@ public:
     void setVerifyKeptCellsForTesting(bool on) { mVerifyKept = on; }
 
     /// For tests only: called on each cell's new geometry right after the
-    /// kernel made it (e.g. to corrupt it and see the check fire). Empty: none.
+    /// kernel made it (e.g. to corrupt it and see the check fire; the
+    /// geometry's crossFree is cleared after it). Empty: none.
     void setCellHookForTesting(std::function<void(const openvdb::Coord&, CutCellGeometry&)> hook)
     {
         mCellHook = std::move(hook);

@@ -2,6 +2,7 @@
 // checkMesh defects, the right shells, volumes against the uncut surface,
 // nothing changed outside the cut cells, exact undo.
 #include "cutter/CutMask.h"
+#include "cutter/FloatRepair.h"
 #include "cutter/Fusion.h"
 #include "cutter/Isosurface.h"
 #include "cutter/MeshCheck.h"
@@ -913,6 +914,54 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
         EXPECT_NE(message.find("remesh: the surface crosses or touches itself"), std::string::npos) << message;
         EXPECT_NE(message.find(where), std::string::npos) << message << " (expected " << where << ")";
         EXPECT_TRUE(sameMesh(remesher.fusedMesh(), good));
+    }
+}
+
+// With a width, the float repair's last look at a cell asks every pair of
+// its triangles as the local check would (trianglesCross at the written
+// float points), and marks the cell crossFree when it finds none; the
+// local check then asks those pairs again only where snap rounding moved
+// or joined one of the cell's vertices. The mark must be given only to
+// what the repair found apart: not at kerf 0 (no such look), not to a cell
+// with a tetrahedron poked through its triangles, and not to geometry a
+// test hook changed after the repair (AKerfCutWhoseSurfaceCrossesItselfIsRefused
+// lets the poke through when the hook's geometry keeps the mark).
+TEST(Remesh, TheFloatRepairVouchesOnlyForCellsItFoundApart)
+{
+    const BallAndTwoStrokes ball;
+    for (double kerf : {0.0, 0.5}) {
+        CutMask mask(frameOf(ball.vol), kerf);
+        addStroke(mask, ball.first);
+        addStroke(mask, ball.second);
+        CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+        remesher.update(mask);
+        size_t withTriangles = 0, vouched = 0;
+        const CutCellGeometry* sample = nullptr;
+        Coord at(0);
+        for (const auto& [c, g] : remesher.cells()) {
+            if (g.indices.empty()) continue;
+            ++withTriangles;
+            vouched += g.crossFree;
+            if (g.crossFree && !sample) {
+                sample = &g;
+                at = c;
+            }
+        }
+        ASSERT_GT(withTriangles, 60u);
+        if (kerf == 0.0) {
+            EXPECT_EQ(vouched, 0u);
+            continue;
+        }
+        EXPECT_GT(vouched, withTriangles * 9 / 10) << withTriangles;
+        ASSERT_NE(sample, nullptr);
+        CutCellGeometry again = *sample;
+        remesh_detail::repairFloatFolds(at, ball.vol.origin(), ball.vol.spacing(), again, true);
+        EXPECT_TRUE(again.crossFree);
+        EXPECT_EQ(again.indices, sample->indices);
+        CutCellGeometry poked = *sample;
+        addTetrahedronThroughFirstTriangle(poked, 7);
+        remesh_detail::repairFloatFolds(at, ball.vol.origin(), ball.vol.spacing(), poked, true);
+        EXPECT_FALSE(poked.crossFree);
     }
 }
 
