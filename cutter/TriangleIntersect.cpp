@@ -239,14 +239,26 @@ struct Judge
     }
 
     /// A coordinate plane (i, j) onto which triangle t projects with
-    /// non-zero area (false when it has zero area: collinear points).
-    bool projection(const std::array<glm::vec3, 3>& t, int& i, int& j, int& sign)
+    /// non-zero area (false when it has zero area: collinear points), and
+    /// t's orientation there; `plane`: t's, when the caller has it.
+    bool projection(const std::array<glm::vec3, 3>& t, const TrianglePlane* plane, int& i, int& j, int& sign)
     {
         // The plane across the normal's largest component first (a guess in
         // double; the exact orient2d decides).
-        const glm::dvec3 n = glm::cross(glm::dvec3(t[1]) - glm::dvec3(t[0]), glm::dvec3(t[2]) - glm::dvec3(t[0]));
+        const glm::dvec3 n = plane ? glm::dvec3(plane->n[0], plane->n[1], plane->n[2])
+                                   : glm::cross(glm::dvec3(t[1]) - glm::dvec3(t[0]), glm::dvec3(t[2]) - glm::dvec3(t[0]));
         const glm::dvec3 an = glm::abs(n);
         const int first = an.x >= an.y && an.x >= an.z ? 0 : an.y >= an.z ? 1 : 2;
+        // The plane's component across (i, j) is orient2d's determinant
+        // there, the same products of the same differences, and its perm
+        // the terms of orient2d's bound: where that filter decides, so does
+        // this (no exact fallback: then orient2d is asked below).
+        if (plane && std::abs(plane->n[first]) > kCcwErrBound * plane->perm[first]) {
+            i = (first + 1) % 3;
+            j = (first + 2) % 3;
+            sign = plane->n[first] > 0 ? 1 : -1;
+            return true;
+        }
         for (int k = 0; k < 3; ++k) {
             const int drop = (first + k) % 3;
             const int pi = (drop + 1) % 3, pj = (drop + 2) % 3;
@@ -296,13 +308,13 @@ struct Judge
     /// Closed segment [s, t] and closed triangle tri (non-zero area) meet;
     /// os, ot: the sides of s and t to tri's plane, o3(tri[0], tri[1],
     /// tri[2], s) and of t (the callers have them already).
-    bool segmentMeetsTriangle(const glm::vec3& s, const glm::vec3& t, const std::array<glm::vec3, 3>& tri, int os,
-                              int ot)
+    bool segmentMeetsTriangle(const glm::vec3& s, const glm::vec3& t, const std::array<glm::vec3, 3>& tri,
+                              const TrianglePlane* triPlane, int os, int ot)
     {
         if (os * ot > 0) return false; // both strictly on one side
         if (os == 0 && ot == 0) {
             int i = 0, j = 1, sign = 0;
-            if (!projection(tri, i, j, sign)) {
+            if (!projection(tri, triPlane, i, j, sign)) {
                 unknown = true; // tri has zero area: not judged
                 return false;
             }
@@ -343,7 +355,7 @@ Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 
         // (e0, e1, pa) is a's corners rotated: the side of pb to a's plane.
         if (judge.side(a, planeA, pb) == 0 && !judge.unknown) {
             int pi = 0, pj = 1, signP = 0;
-            if (!judge.projection(a, pi, pj, signP)) return Contact::Undecided; // a has zero area
+            if (!judge.projection(a, planeA, pi, pj, signP)) return Contact::Undecided; // a has zero area
             const int sideA = judge.o2(e0, e1, pa, pi, pj), sideB = judge.o2(e0, e1, pb, pi, pj);
             hit = sideA != 0 && sideA == sideB;
         }
@@ -364,7 +376,7 @@ Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 
             // (convex, under 180 degrees) share a direction, i.e. an edge
             // of one at v points into the other's closed corner.
             int pi = 0, pj = 1, sign = 0;
-            if (!judge.projection(a, pi, pj, sign)) return Contact::Undecided;
+            if (!judge.projection(a, planeA, pi, pj, sign)) return Contact::Undecided;
             const glm::vec3& v = a[size_t(ka)];
             const int signB = judge.o2(v, b1, b2, pi, pj);
             if (signB == 0) return Contact::Undecided; // b has zero area
@@ -386,7 +398,8 @@ Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 
         } else {
             const int t1 = judge.side(b, planeB, a1), t2 = judge.side(b, planeB, a2);
             if (t1 * t2 > 0) return judge.unknown ? Contact::Undecided : Contact::None;
-            hit = judge.segmentMeetsTriangle(a1, a2, b, t1, t2) || judge.segmentMeetsTriangle(b1, b2, a, s1, s2);
+            hit = judge.segmentMeetsTriangle(a1, a2, b, planeB, t1, t2) ||
+                  judge.segmentMeetsTriangle(b1, b2, a, planeA, s1, s2);
         }
     } else {
         // Quick: one strictly on one side of the other's plane.
@@ -401,7 +414,7 @@ Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 
             // Coplanar: apart exactly when an edge of one has the other
             // strictly outside its line (separating axes of two triangles).
             int pi = 0, pj = 1, sign = 0;
-            if (!judge.projection(a, pi, pj, sign)) return Contact::Undecided;
+            if (!judge.projection(a, planeA, pi, pj, sign)) return Contact::Undecided;
             const int signB = judge.o2(b[0], b[1], b[2], pi, pj);
             if (signB == 0) return Contact::Undecided; // b has zero area
             auto separates = [&](const std::array<glm::vec3, 3>& t, int orient, const std::array<glm::vec3, 3>& o) {
@@ -420,8 +433,8 @@ Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 
             // (Each end's side of the other's plane is known from above.)
             for (int k = 0; k < 3 && !hit; ++k) {
                 const int n = (k + 1) % 3;
-                hit = judge.segmentMeetsTriangle(a[size_t(k)], a[size_t(n)], b, side[1][k], side[1][n]) ||
-                      judge.segmentMeetsTriangle(b[size_t(k)], b[size_t(n)], a, side[0][k], side[0][n]);
+                hit = judge.segmentMeetsTriangle(a[size_t(k)], a[size_t(n)], b, planeB, side[1][k], side[1][n]) ||
+                      judge.segmentMeetsTriangle(b[size_t(k)], b[size_t(n)], a, planeA, side[0][k], side[0][n]);
             }
         }
     }
