@@ -19,6 +19,7 @@
 #include "cutter/Mesh.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
@@ -45,26 +46,20 @@ namespace detail {
 using SiKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using SiMesh = CGAL::Surface_mesh<SiKernel::Point_3>;
 
-/// The CGAL mesh of `mesh`, face i = triangle i. Throws std::invalid_argument
-/// when the triangles do not form an oriented 2-manifold (with or without
-/// boundary): run checkMesh first, self-intersection is only asked of meshes
-/// that pass it.
-inline SiMesh toCgal(const cutter::Mesh& mesh)
+/// The CGAL mesh of a triangle soup, face i = faces[i]. Throws
+/// std::invalid_argument when the triangles do not form an oriented
+/// 2-manifold (with or without boundary): run checkMesh first,
+/// self-intersection is only asked of meshes that pass it.
+inline SiMesh toCgal(const std::vector<SiKernel::Point_3>& points, const std::vector<std::array<std::size_t, 3>>& faces)
 {
     namespace PMP = CGAL::Polygon_mesh_processing;
-    std::vector<SiKernel::Point_3> points;
-    points.reserve(mesh.positions.size());
-    for (const glm::vec3& p : mesh.positions) points.emplace_back(double(p.x), double(p.y), double(p.z));
-    std::vector<std::array<std::size_t, 3>> faces(mesh.triangleCount());
-    for (size_t t = 0; t < faces.size(); ++t)
-        for (int j = 0; j < 3; ++j) faces[t][size_t(j)] = mesh.indices[3 * t + size_t(j)];
     if (!PMP::is_polygon_soup_a_polygon_mesh(faces))
         throw std::invalid_argument("selfIntersections: the triangles are not an oriented 2-manifold");
     SiMesh sm;
     PMP::polygon_soup_to_polygon_mesh(points, faces, sm);
     if (sm.number_of_faces() != faces.size())
         throw std::invalid_argument("selfIntersections: CGAL mesh has a different face count");
-    // The converter adds the faces in order into a fresh mesh: face i is triangle i.
+    // The converter adds the faces in order into a fresh mesh: face i is faces[i].
     for (size_t t = 0; t < faces.size(); t += std::max<size_t>(1, faces.size() / 64)) {
         const SiMesh::Face_index f(static_cast<SiMesh::size_type>(t));
         std::array<std::size_t, 3> got{};
@@ -78,29 +73,109 @@ inline SiMesh toCgal(const cutter::Mesh& mesh)
     return sm;
 }
 
+inline SiKernel::Point_3 toPoint(const glm::vec3& p) { return {double(p.x), double(p.y), double(p.z)}; }
+
+/// The whole mesh, face i = triangle i.
+inline SiMesh toCgal(const cutter::Mesh& mesh)
+{
+    std::vector<SiKernel::Point_3> points;
+    points.reserve(mesh.positions.size());
+    for (const glm::vec3& p : mesh.positions) points.push_back(toPoint(p));
+    std::vector<std::array<std::size_t, 3>> faces(mesh.triangleCount());
+    for (size_t t = 0; t < faces.size(); ++t)
+        for (int j = 0; j < 3; ++j) faces[t][size_t(j)] = mesh.indices[3 * t + size_t(j)];
+    return toCgal(points, faces);
+}
+
+/// The part of `mesh` that decides which pairs of the triangles `only`
+/// intersect, so that a local check does not convert millions of triangles
+/// it never asks about: the triangles `only` (faces 0 .. n-1, in that order,
+/// each once; `keep` maps every face back to its triangle) and every other
+/// triangle with a vertex of theirs (face n on). A vertex of a triangle in
+/// `only` keeps its whole fan and is shared as in `mesh`, so two triangles of
+/// `only` share an edge, a vertex or nothing exactly as there, and the
+/// adjacency rules above give the same answer for them. The part's outer
+/// rim can pinch at a vertex no triangle of `only` has (two pieces of its fan
+/// kept, the piece between them not); CGAL's orient_polygon_soup gives each
+/// piece a copy of such a vertex, which changes no pair that is asked.
+inline SiMesh localCgal(const cutter::Mesh& mesh, const std::vector<uint32_t>& only, std::vector<uint32_t>& keep,
+                        size_t& n)
+{
+    constexpr std::size_t kOutside = ~std::size_t(0);
+    const size_t triangles = mesh.triangleCount();
+    std::vector<std::size_t> id(mesh.positions.size(), kOutside);
+    std::vector<char> kept(triangles, 0);
+    std::vector<SiKernel::Point_3> points;
+    keep.clear();
+    for (uint32_t t : only) {
+        if (t >= triangles) throw std::invalid_argument("selfIntersections: triangle index out of range");
+        if (kept[t]) continue;
+        kept[t] = 1;
+        keep.push_back(t);
+        for (int j = 0; j < 3; ++j) {
+            const uint32_t v = mesh.indices[3 * size_t(t) + size_t(j)];
+            if (id[v] == kOutside) {
+                id[v] = points.size();
+                points.push_back(toPoint(mesh.positions[v]));
+            }
+        }
+    }
+    n = keep.size();
+    for (size_t t = 0; t < triangles; ++t) {
+        if (kept[t]) continue;
+        const uint32_t* v = &mesh.indices[3 * t];
+        if (id[v[0]] != kOutside || id[v[1]] != kOutside || id[v[2]] != kOutside) keep.push_back(uint32_t(t));
+    }
+    std::vector<std::array<std::size_t, 3>> faces(keep.size());
+    for (size_t f = 0; f < keep.size(); ++f)
+        for (int j = 0; j < 3; ++j) {
+            const uint32_t v = mesh.indices[3 * size_t(keep[f]) + size_t(j)];
+            if (id[v] == kOutside) {
+                id[v] = points.size();
+                points.push_back(toPoint(mesh.positions[v]));
+            }
+            faces[f][size_t(j)] = id[v];
+        }
+    const std::vector<std::array<std::size_t, 3>> asked(faces.begin(), faces.begin() + std::ptrdiff_t(n));
+    CGAL::Polygon_mesh_processing::orient_polygon_soup(points, faces);
+    for (size_t f = 0; f < n; ++f) {
+        std::array<std::size_t, 3> a = asked[f], b = faces[f];
+        std::sort(a.begin(), a.end());
+        std::sort(b.begin(), b.end());
+        if (a != b) throw std::invalid_argument("selfIntersections: a vertex of an asked triangle is not a 2-manifold's");
+    }
+    return toCgal(points, faces);
+}
+
 } // namespace detail
 
 /// Every pair of intersecting triangles of `mesh` (an oriented 2-manifold,
 /// closed or not). When `only` is given, only pairs of triangles both in
-/// `only` are tested (a local check; CGAL's box intersection keeps it
-/// O(|only| log |only|) after the O(mesh) conversion).
+/// `only` are tested (a local check: one O(mesh) pass picks the part that
+/// decides them, `detail::localCgal`, and only that part is converted; CGAL's
+/// box intersection keeps the rest O(|only| log |only|)).
 inline SelfIntersectResult selfIntersections(const cutter::Mesh& mesh, const std::vector<uint32_t>* only = nullptr)
 {
     namespace PMP = CGAL::Polygon_mesh_processing;
-    const detail::SiMesh sm = detail::toCgal(mesh);
-    std::vector<std::pair<detail::SiMesh::Face_index, detail::SiMesh::Face_index>> found;
+    using Face = detail::SiMesh::Face_index;
+    std::vector<std::pair<Face, Face>> found;
+    std::vector<uint32_t> keep; // face -> triangle of mesh, for a local check
     if (only) {
-        std::vector<detail::SiMesh::Face_index> range;
-        range.reserve(only->size());
-        for (uint32_t t : *only) range.emplace_back(static_cast<detail::SiMesh::size_type>(t));
+        size_t n = 0;
+        const detail::SiMesh sm = detail::localCgal(mesh, *only, keep, n);
+        std::vector<Face> range;
+        range.reserve(n);
+        for (size_t f = 0; f < n; ++f) range.emplace_back(static_cast<detail::SiMesh::size_type>(f));
         PMP::self_intersections(range, sm, std::back_inserter(found));
     } else {
+        const detail::SiMesh sm = detail::toCgal(mesh);
         PMP::self_intersections(sm, std::back_inserter(found));
     }
     SelfIntersectResult r;
     r.pairs.reserve(found.size());
     for (const auto& fp : found) {
         uint32_t a = uint32_t(std::size_t(fp.first)), b = uint32_t(std::size_t(fp.second));
+        if (only) a = keep[a], b = keep[b];
         if (a > b) std::swap(a, b);
         r.pairs.emplace_back(a, b);
     }

@@ -666,6 +666,30 @@ TEST(SelfIntersect, CheckerSeesWhatItShould)
     t.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 0}, {-1, 0, 0.5f}, {0, -1, 0.25f}};
     t.indices = {0, 1, 2, 3, 4, 5};
     EXPECT_GT(selfIntersections(t).count(), 0u);
+
+    // A local check (pairs within `only`) converts only the part of the mesh
+    // around `only`, and answers as the whole mesh does for those pairs: two
+    // triangles that share just a vertex still share it there.
+    auto within = [](const Mesh& m, const std::vector<uint32_t>& only) {
+        std::vector<std::pair<uint32_t, uint32_t>> want;
+        for (const auto& p : selfIntersections(m).pairs)
+            if (std::count(only.begin(), only.end(), p.first) && std::count(only.begin(), only.end(), p.second))
+                want.push_back(p);
+        return want;
+    };
+    const Mesh apartFan = fan({glm::vec3(1, 0, 0), {0, 1, 0.5f}, {-1, 0, 0}, {0, -1, 0.5f}});
+    const Mesh crossingFan = fan({glm::vec3(1, 0, 0), {0, 1, 0}, {0.5f, 0.2f, -1}, {0.2f, 0.5f, 1}});
+    const std::vector<uint32_t> firstAndThird{2, 0};
+    EXPECT_EQ(selfIntersections(apartFan, &firstAndThird).count(), 0u);
+    EXPECT_EQ(selfIntersections(crossingFan, &firstAndThird).pairs, within(crossingFan, firstAndThird));
+    EXPECT_EQ(selfIntersections(crossingFan, &firstAndThird).count(), 1u);
+    std::vector<uint32_t> someOfTwo; // the first box's triangles and half the second's
+    for (uint32_t tri = 0; tri < 24; ++tri)
+        if (tri < 12 || tri % 2) someOfTwo.push_back(tri);
+    const auto local = selfIntersections(two, &someOfTwo);
+    EXPECT_GT(local.count(), 0u);
+    EXPECT_EQ(local.pairs, within(two, someOfTwo));
+    EXPECT_THROW(selfIntersections(f, &firstAndThird), std::invalid_argument) << "f has 2 triangles";
 }
 
 // The uncut 4 mm head's isosurface has no self-intersection (exactly, with
