@@ -32,11 +32,14 @@ deps() {
   local sudo=""
   [ "$(id -u)" -eq 0 ] || sudo=sudo
   echo "setup: installing ${missing[*]}"
+  local start=$SECONDS
   $sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  echo "setup: installed in $((SECONDS - start)) s"
 }
 
 build() {
+  local start=$SECONDS
   if [ ! -f "$BUILD/CMakeCache.txt" ]; then
     cmake -S "$ROOT" -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
   fi
@@ -51,6 +54,7 @@ build() {
   fi
   grep -iE 'warning' "$log" >&2 || true
   rm -f "$log"
+  echo "setup: built in $((SECONDS - start)) s"
 }
 
 demo() {
@@ -66,7 +70,9 @@ demo() {
 run_tests() {
   # ctest, then the libFuzzer targets and the ThreadSanitizer hand-off test;
   # the last line sums them up ("N passed, N failed").
-  local log passed failed skipped extra_pass=0 extra_fail=0 status=0
+  # The test command must stay under 30 minutes on 2 cores: each part's
+  # time is printed, so a slow part shows in the CI log.
+  local log passed failed skipped extra_pass=0 extra_fail=0 status=0 start=$SECONDS
   log=$(mktemp)
   ctest --test-dir "$BUILD" --output-on-failure -j "$JOBS" --timeout 1200 | tee "$log" || status=1
   passed=$(sed -nE 's/.* tests passed, ([0-9]+) tests failed out of ([0-9]+).*/\2 \1/p' "$log" | awk '{print $1-$2}')
@@ -76,12 +82,17 @@ run_tests() {
   skipped=$(grep -c '(Skipped)$' "$log" || true)
   passed=$(( ${passed:-0} - skipped ))
   rm -f "$log"
+  echo "tests: ctest took $((SECONDS - start)) s"
+  start=$SECONDS
   if [ -f "$ROOT/tests/fuzz/run.sh" ]; then
     if FUZZ_RUNS="${FUZZ_RUNS:-200000}" bash "$ROOT/tests/fuzz/run.sh" "$BUILD/fuzz"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
   fi
+  echo "tests: the fuzz targets took $((SECONDS - start)) s"
+  start=$SECONDS
   if [ -f "$ROOT/tests/tsan/run.sh" ]; then
     if bash "$ROOT/tests/tsan/run.sh" "$BUILD/tsan"; then extra_pass=$((extra_pass + 1)); else extra_fail=$((extra_fail + 1)); status=1; fi
   fi
+  echo "tests: the ThreadSanitizer test took $((SECONDS - start)) s"
   if [ "$skipped" -gt 0 ]; then
     echo "note: $skipped test(s) skipped (shared data not found: set MTCUT_DATA; or xvfb-run missing); see above"
   fi
