@@ -631,6 +631,14 @@ struct BallAndTwoStrokes
     Mesh uncut = extractIsosurface(vol, 0.0f);
     std::vector<Pose> first = straightStroke(dvec3(-25, 0.37, 22), dvec3(25, 0.37, 22), dvec3(0, 0, -1), 45.0, 200);
     std::vector<Pose> second = straightStroke(dvec3(3.21, -25, 22), dvec3(3.21, 25, 22), dvec3(0, 0, -1), 45.0, 200);
+    /// A mask of both strokes, the first then the second, with kerf w.
+    CutMask bothStrokes(double kerf) const
+    {
+        CutMask mask(frameOf(vol), kerf);
+        addStroke(mask, first);
+        addStroke(mask, second);
+        return mask;
+    }
     /// The cells that a whole update of `mask` gives two or more triangles, sorted.
     std::vector<Coord> cellsWithGeometry(const CutMask& mask) const
     {
@@ -821,9 +829,7 @@ TEST(Remesh, ACellSourceIsFusedAndCheckedAsTheKernelsCells)
 {
     const BallAndTwoStrokes ball;
     for (double kerf : {0.0, 0.5}) {
-        CutMask mask(frameOf(ball.vol), kerf);
-        addStroke(mask, ball.first);
-        addStroke(mask, ball.second);
+        const CutMask mask = ball.bothStrokes(kerf);
         CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
         const size_t meshed = cpu.update(mask); // the cut cells but air cells (never asked)
         ASSERT_GT(meshed, 10u);
@@ -930,9 +936,7 @@ TEST(Remesh, TheFloatRepairVouchesOnlyForCellsItFoundApart)
 {
     const BallAndTwoStrokes ball;
     for (double kerf : {0.0, 0.5}) {
-        CutMask mask(frameOf(ball.vol), kerf);
-        addStroke(mask, ball.first);
-        addStroke(mask, ball.second);
+        const CutMask mask = ball.bothStrokes(kerf);
         CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
         remesher.update(mask);
         size_t withTriangles = 0, vouched = 0;
@@ -973,9 +977,7 @@ TEST(Remesh, TheFloatRepairVouchesOnlyForCellsItFoundApart)
 TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
 {
     const BallAndTwoStrokes ball;
-    CutMask mask(frameOf(ball.vol), 0.5);
-    addStroke(mask, ball.first);
-    addStroke(mask, ball.second);
+    const CutMask mask = ball.bothStrokes(0.5);
     // Every third cell with new geometry (past the first third) is broken.
     const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
     ASSERT_GT(withGeometry.size(), 60u);
@@ -1004,9 +1006,7 @@ TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
 TEST(Remesh, AnOpenEdgeIsReportedBeforeAContactOnAnyThreadCount)
 {
     const BallAndTwoStrokes ball;
-    CutMask mask(frameOf(ball.vol), 0.5);
-    addStroke(mask, ball.first);
-    addStroke(mask, ball.second);
+    const CutMask mask = ball.bothStrokes(0.5);
     const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
     ASSERT_GT(withGeometry.size(), 60u);
     const Coord poked = withGeometry[withGeometry.size() / 4], opened = withGeometry[withGeometry.size() * 3 / 4];
@@ -1036,9 +1036,7 @@ TEST(Remesh, ChunkedLocalCheckGivesTheSerialVerdict)
 {
     const BallAndTwoStrokes ball;
     for (double kerf : {0.0, 0.5}) {
-        CutMask mask(frameOf(ball.vol), kerf);
-        addStroke(mask, ball.first);
-        addStroke(mask, ball.second);
+        CutMask mask = ball.bothStrokes(kerf);
         addStroke(mask, straightStroke(dvec3(-25, -22, 3.3), dvec3(25, -22, 3.3), dvec3(0, 1, 0), 45.0, 200));
         // The cells with new geometry, to pick a victim far along the cut.
         const std::vector<Coord> withGeometry = ball.cellsWithGeometry(mask);
