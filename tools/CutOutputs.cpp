@@ -7,7 +7,11 @@
 #include "vdb/CutOutputs.h"
 #include "vdb/SliceExr.h"
 
+#include <atomic>
 #include <chrono>
+#include <exception>
+#include <functional>
+#include <future>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -182,12 +186,13 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         notWritten.withCutFaces += fragments[i].cutArea > 0.0;
     }
     static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "glm::vec3 must be three packed floats");
+    std::vector<std::string> names(fragments.size());
     for (size_t i = 0; i < fragments.size(); ++i) {
         if (!isSelected(i)) continue;
         const cutter::Fragment& f = fragments[i];
         char name[64];
         std::snprintf(name, sizeof name, "fragment_%03zu.%s", i, request.format.c_str());
-        cutter::writeMesh(f.mesh, (fs::path(outDir) / name).string());
+        names[i] = name;
         written.insert(name);
         records.push_back({name, f.mesh.triangleCount(), f.volume, f.area, f.cavities, f.cutArea});
         vdb::FragmentMesh fm;
@@ -198,9 +203,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         fm.index = i; // its level set is named as its file, also when only some are written
         fragmentMeshes.push_back(fm);
     }
-    removeStaleFragments(outDir, written);
     const auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
-    timings.writeMeshes = since(t0);
 
     // Carved volume: voxels whose centre lies in the removed region (the
     // kerf's prisms). With kerf 0 the blade removes nothing.
@@ -215,12 +218,88 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
     const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
     const std::string jsonPath = (fs::path(outDir) / "summary.json").string();
-    const auto tVdb = Clock::now();
-    vdb::writeCutVdb(vdbPath, volume, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, interrupter);
-    timings.writeVdb = since(tVdb);
-    const auto tSlices = Clock::now();
-    vdb::writeSliceStack(exrPath, carved, cutMaskGrid, request.isovalue, interrupter);
-    timings.writeSlices = since(tSlices);
+
+    // The fragment files, cut.vdb and slices.exr are independent: the files
+    // and the slice stack are written on threads of their own while this
+    // one makes the level sets (most of the write), so where cores are free
+    // the write takes about as long as its longest part. The progress bar
+    // follows the level sets; every part stops at its next poll when the
+    // user cancels or another part has failed, and the first error that is
+    // not such a stop is the one reported.
+    std::atomic<bool> failed{false};
+    struct Shared : Interrupter
+    {
+        Interrupter* outer = nullptr;
+        const std::atomic<bool>* failed = nullptr;
+        bool forwardProgress = false; ///< the level sets': start, end and percentages reach the bar
+        void start(const char* name) override
+        {
+            if (forwardProgress && outer) outer->start(name);
+        }
+        void end() override
+        {
+            if (forwardProgress && outer) outer->end();
+        }
+        bool wasInterrupted(int percent) override
+        {
+            return failed->load() || (outer && outer->wasInterrupted(forwardProgress ? percent : -1));
+        }
+    };
+    Shared levelSets, sideJobs;
+    levelSets.outer = sideJobs.outer = interrupter;
+    levelSets.failed = sideJobs.failed = &failed;
+    levelSets.forwardProgress = true;
+    auto timed = [&](double& seconds, const std::function<void()>& work) {
+        const auto t = Clock::now();
+        try {
+            work();
+        } catch (...) {
+            failed = true;
+            seconds = since(t);
+            throw;
+        }
+        seconds = since(t);
+    };
+    std::future<void> meshesDone = std::async(std::launch::async, [&] {
+        timed(timings.writeMeshes, [&] {
+            for (size_t i = 0; i < fragments.size(); ++i) {
+                if (names[i].empty()) continue;
+                pollInterrupter(&sideJobs);
+                cutter::writeMesh(fragments[i].mesh, (fs::path(outDir) / names[i]).string());
+            }
+        });
+    });
+    std::future<void> slicesDone = std::async(std::launch::async, [&] {
+        timed(timings.writeSlices,
+              [&] { vdb::writeSliceStack(exrPath, carved, cutMaskGrid, request.isovalue, &sideJobs); });
+    });
+    std::exception_ptr error, stopped;
+    auto keep = [&](std::exception_ptr e) {
+        try {
+            std::rethrow_exception(e);
+        } catch (const Cancelled&) {
+            if (!stopped) stopped = e;
+        } catch (...) {
+            if (!error) error = e;
+        }
+    };
+    try {
+        timed(timings.writeVdb, [&] {
+            vdb::writeCutVdb(vdbPath, volume, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, &levelSets);
+        });
+    } catch (...) {
+        keep(std::current_exception());
+    }
+    for (std::future<void>* done : {&meshesDone, &slicesDone}) {
+        try {
+            done->get();
+        } catch (...) {
+            keep(std::current_exception());
+        }
+    }
+    if (error) std::rethrow_exception(error);
+    if (stopped) std::rethrow_exception(stopped);
+    removeStaleFragments(outDir, written);
     const std::string strokePath = (fs::path(outDir) / "stroke.csv").string();
     if (!request.strokesWithoutFile.empty()) {
         writeFileAtomically(strokePath, [&](const std::string& tmp) {

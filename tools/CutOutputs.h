@@ -23,8 +23,10 @@ namespace mtcut::cli {
 struct CutTimings
 {
     double read = 0, extract = 0, mask = 0, remesh = 0, check = 0, write = 0;
-    /// Parts of write: the fragment mesh files; cut.vdb (mostly the
-    /// fragments' level sets); slices.exr. The rest of write is the carving.
+    /// Parts of write, each its own time: the fragment mesh files; cut.vdb
+    /// (mostly the fragments' level sets); slices.exr. The three are written
+    /// at once (writeCutOutputs), so they overlap; the rest of write is the
+    /// carving.
     double writeMeshes = 0, writeVdb = 0, writeSlices = 0;
 };
 
@@ -78,7 +80,11 @@ void checkMeshFormat(const std::string& format);
 /// report of the whole fused mesh, and `timings`, whose write time is set
 /// here). Returns the fragment files written. Throws InputError (bad format,
 /// an unwritable folder, nothing selected) or Cancelled (interrupter).
-/// Cost: the level sets and the slice stack dominate (seconds on a 1 mm head).
+/// Cost: the level sets and the slice stack dominate (seconds on a 1 mm head);
+/// the fragment files and the slice stack are written on threads of their own
+/// while the level sets are made. The interrupter sees the level sets' start,
+/// end and percentages, and is polled for cancellation from all three (it
+/// must be thread-safe, as Interrupter says).
 std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, const vdb::Volume& volume,
                                             const cutter::CutMask& mask,
                                             const std::vector<cutter::Fragment>& fragments,

@@ -249,7 +249,8 @@ int runCut(const Args& args)
     if (records.size() > listed)
         std::printf("  ... and %zu smaller fragment(s), listed in summary.json\n", records.size() - listed);
     std::printf("time:       read %.2f s, extract %.2f s, mask %.2f s, remesh %.2f s, check %.2f s, write %.2f s\n"
-                "            (write: fragment files %.2f s, cut.vdb with the level sets %.2f s, slices.exr %.2f s)\n",
+                "            (write, the parts at once: fragment files %.2f s, cut.vdb with the level sets %.2f s,\n"
+                "            slices.exr %.2f s)\n",
                 t.read, t.extract, t.mask, t.remesh, t.check, t.write, t.writeMeshes, t.writeVdb, t.writeSlices);
     std::printf("wrote:      %s/{fragment_000..%03zu.%s, cut.vdb, slices.exr, %ssummary.json}\n", outDir.c_str(),
                 records.size() - 1, ext.c_str(), pathFile.empty() ? "stroke.csv, " : "");
