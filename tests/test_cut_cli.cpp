@@ -729,6 +729,43 @@ TEST(CutCli, AnOutputThatCannotBeWrittenIsNamedAndStopsTheOthers)
     }
 }
 
+// --level-set-voxel sets the voxel size of cut.vdb's level sets (default:
+// the scan's smallest spacing, 1 mm for the ball), and summary.json gives the
+// size used. A size that is no size, past 100 mm or finer than a quarter of
+// the scan's spacing fails at once, writing nothing.
+TEST(CutCli, LevelSetVoxelSizeIsChosenAndChecked)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = writeStraightPath(dir);
+    auto levelSetVoxel = [](const std::string& out) {
+        openvdb::io::File file(out + "/cut.vdb");
+        file.open();
+        const openvdb::GridBase::Ptr grid = file.readGridMetadata("fragment_000");
+        file.close();
+        return grid->voxelSize();
+    };
+    for (const char* size : {"", "0.5", "2.5"}) {
+        const std::string out = dir.file(std::string("out_") + size);
+        const std::string option = *size ? std::string(" --level-set-voxel ") + size : std::string();
+        const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + path + option + " -o " + out);
+        ASSERT_EQ(r.exitCode, 0) << r.output;
+        const double want = *size ? std::stod(size) : 1.0;
+        EXPECT_EQ(levelSetVoxel(out), openvdb::Vec3d(want)) << size;
+        EXPECT_EQ(jsonValue(readText(out + "/summary.json"), "level_set_voxel_mm"), want) << size;
+    }
+    const std::string out = dir.file("bad");
+    for (const char* size : {"0", "-1", "nan", "100.5", "0.2"}) {
+        const test::RunResult r =
+            runMtcut("cut " + ball + " --iso 0 --path " + path + " --level-set-voxel " + size + " -o " + out);
+        EXPECT_EQ(r.exitCode, 1) << r.output;
+        EXPECT_EQ(r.output.rfind(std::string("mtcut: error: --level-set-voxel ") + size + ": expected ", 0), 0u)
+            << r.output;
+        EXPECT_TRUE(filesIn(out).empty()) << size;
+    }
+}
+
 // A saw width that is not a width (negative, not a number) or wider than any
 // saw (past cutter::kMaxKerfMm, 20 mm: a 1e9 mm kerf made every cell a cut
 // cell and ran for minutes without a word) fails at once, writing nothing.

@@ -7,6 +7,7 @@
 #include "vdb/CutOutputs.h"
 #include "vdb/SliceExr.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <exception>
@@ -72,7 +73,8 @@ struct NotWritten
 };
 
 std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::vector<FragmentRecord>& fragments,
-                        const NotWritten& notWritten, const cutter::MeshCheck& c, const CutTimings& t)
+                        const NotWritten& notWritten, double levelSetVoxelMm, const cutter::MeshCheck& c,
+                        const CutTimings& t)
 {
     const std::string stroke =
         !r.strokeLabel.empty() ? r.strokeLabel : r.pathFile.empty() ? "built-in LeFort I" : "path file";
@@ -105,6 +107,7 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
     }
     os << (fragments.empty() ? "],\n" : "\n  ],\n");
     os << "  \"min_volume_mm3\": " << jsonNumber(r.minVolumeMm3) << ",\n";
+    os << "  \"level_set_voxel_mm\": " << jsonNumber(levelSetVoxelMm) << ",\n";
     os << "  \"not_written\": {\"fragments\": " << notWritten.fragments
        << ", \"volume_mm3\": " << jsonNumber(notWritten.volume) << ", \"with_cut_faces\": " << notWritten.withCutFaces
        << "},\n";
@@ -215,6 +218,12 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     info.isovalue = request.isovalue;
     info.kerfMm = float(request.kerfMm);
     info.pathFile = request.pathFile;
+    vdb::CutVdbOptions vdbOptions;
+    vdbOptions.levelSetVoxelMm = request.levelSetVoxelMm;
+    const openvdb::Vec3d spacing = volume.spacing();
+    const double levelSetVoxelMm = request.levelSetVoxelMm > 0.0
+                                       ? request.levelSetVoxelMm
+                                       : std::min({spacing.x(), spacing.y(), spacing.z()});
     const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
     const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
     const std::string jsonPath = (fs::path(outDir) / "summary.json").string();
@@ -285,7 +294,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     };
     try {
         timed(timings.writeVdb, [&] {
-            vdb::writeCutVdb(vdbPath, volume, *carved.grid, cutMaskGrid, fragmentMeshes, info, {}, &levelSets);
+            vdb::writeCutVdb(vdbPath, volume, *carved.grid, cutMaskGrid, fragmentMeshes, info, vdbOptions, &levelSets);
         });
     } catch (...) {
         keep(std::current_exception());
@@ -312,7 +321,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         fs::remove(strokePath, ec); // an earlier run's built-in stroke: not this cut's
     }
     timings.write = since(t0);
-    const std::string json = summaryJson(request, mask.cutCellCount(), records, notWritten, check, timings);
+    const std::string json = summaryJson(request, mask.cutCellCount(), records, notWritten, levelSetVoxelMm, check, timings);
     writeFileAtomically(jsonPath, [&](const std::string& tmp) {
         std::ofstream out(tmp, std::ios::binary);
         out << json;

@@ -57,6 +57,10 @@ struct CutOutputRequest
     /// summary's "min_volume_mm3" (mtcut cut --min-volume: the fragments
     /// below it are the ones not selected); 0 when every one is asked for.
     double minVolumeMm3 = 0.0;
+    /// The fragments' level sets' voxel size in cut.vdb, mm (mtcut cut
+    /// --level-set-voxel); 0: the scan's smallest spacing. summary's
+    /// "level_set_voxel_mm" gives the size used.
+    double levelSetVoxelMm = 0.0;
     /// Strokes cut only in part (summary's "refused"; empty: every stroke whole).
     std::vector<RefusedStroke> refused;
     /// Strokes (1-based) whose live cut stepped round a refusal (summary's "stepped_round").

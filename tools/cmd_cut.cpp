@@ -94,6 +94,14 @@ int runCut(const Args& args)
     const double minVolume = args.getDouble("min-volume", 0.0);
     if (!(std::isfinite(minVolume) && minVolume >= 0.0))
         throw InputError("--min-volume " + args.get("min-volume") + ": expected a volume in mm^3, 0 or more");
+    // --level-set-voxel: cut.vdb's level sets' voxel size (default: the
+    // scan's smallest spacing). Checked against that spacing once the scan
+    // is read: finer than a quarter of it adds nothing the scan holds and
+    // grows the level sets as the square of the ratio.
+    const double levelSetVoxel = args.getDouble("level-set-voxel", 0.0);
+    const std::string levelSetVoxelText = "--level-set-voxel " + args.get("level-set-voxel");
+    if (args.has("level-set-voxel") && !(std::isfinite(levelSetVoxel) && levelSetVoxel > 0.0 && levelSetVoxel <= 100.0))
+        throw InputError(levelSetVoxelText + ": expected a voxel size in mm, above 0 and at most 100");
     const std::string pathFile = args.get("path");
     std::vector<std::vector<cutter::Pose>> strokes;
     if (!pathFile.empty()) strokes = readStrokes(pathFile);
@@ -102,6 +110,16 @@ int runCut(const Args& args)
     auto t0 = Clock::now();
     const vdb::Volume vol = readInput(args.positional[0], args);
     t.read = secondsSince(t0);
+    if (args.has("level-set-voxel")) {
+        const openvdb::Vec3d spacing = vol.spacing();
+        const double finest = std::min({spacing.x(), spacing.y(), spacing.z()});
+        if (levelSetVoxel < 0.25 * finest) {
+            char text[96];
+            std::snprintf(text, sizeof text, ": expected at least a quarter of the scan's smallest spacing (%g mm)",
+                          0.25 * finest);
+            throw InputError(levelSetVoxelText + text);
+        }
+    }
 
     // -- isosurface -------------------------------------------------------------
     t0 = Clock::now();
@@ -202,6 +220,7 @@ int runCut(const Args& args)
     request.steppedRound = stepped;
     request.selected = selected;
     request.minVolumeMm3 = minVolume;
+    request.levelSetVoxelMm = levelSetVoxel;
     if (pathFile.empty()) request.strokesWithoutFile = strokes;
     std::vector<FragmentRecord> records;
     {
@@ -287,17 +306,19 @@ int runCut(const Args& args)
 std::vector<std::string> cutOptions()
 {
     std::vector<std::string> o = kInputOptions;
-    for (const char* name : {"iso", "path", "kerf", "output", "format", "min-volume"}) o.push_back(name);
+    for (const char* name : {"iso", "path", "kerf", "output", "format", "min-volume", "level-set-voxel"}) o.push_back(name);
     return o;
 }
 
-const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--check] [--keep-going]",
+const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--level-set-voxel MM] [--check] [--keep-going]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
                             "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
                             "going back into the cut adds nothing there. --kerf: saw width in mm, 0 to 20 (0: a zero-width blade, the "
                             "carved volume equals the input); --min-volume: write no file or level set for a fragment "
-                            "smaller than MM3 (loose specks; summary.json counts them; default 0: every fragment); --check: "
+                            "smaller than MM3 (loose specks; summary.json counts them; default 0: every fragment); --level-set-voxel: the "
+                            "voxel size in mm of cut.vdb's level sets (default: the scan's smallest spacing; at least a "
+                            "quarter of it); --check: "
                             "exit 1 on any mesh defect; --keep-going: when the re-mesher refuses a "
                             "stroke, cut it up to where it is refused, drop the rest, say so and go on (default: exit 1, "
                             "nothing written)",
