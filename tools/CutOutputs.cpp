@@ -220,10 +220,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     info.pathFile = request.pathFile;
     vdb::CutVdbOptions vdbOptions;
     vdbOptions.levelSetVoxelMm = request.levelSetVoxelMm;
-    const openvdb::Vec3d spacing = volume.spacing();
-    const double levelSetVoxelMm = request.levelSetVoxelMm > 0.0
-                                       ? request.levelSetVoxelMm
-                                       : std::min({spacing.x(), spacing.y(), spacing.z()});
+    const double levelSetVoxelMm = vdbOptions.voxelMmFor(volume);
     const std::string vdbPath = (fs::path(outDir) / "cut.vdb").string();
     const std::string exrPath = (fs::path(outDir) / "slices.exr").string();
     const std::string jsonPath = (fs::path(outDir) / "summary.json").string();

@@ -10,6 +10,7 @@
 #include "cutter/Remesh.h"
 #include "tools/Cli.h"
 #include "tools/CutOutputs.h"
+#include "vdb/CutOutputs.h"
 #include "vdb/Phantom.h"
 
 #include <algorithm>
@@ -111,8 +112,7 @@ int runCut(const Args& args)
     const vdb::Volume vol = readInput(args.positional[0], args);
     t.read = secondsSince(t0);
     if (args.has("level-set-voxel")) {
-        const openvdb::Vec3d spacing = vol.spacing();
-        const double finest = std::min({spacing.x(), spacing.y(), spacing.z()});
+        const double finest = vdb::CutVdbOptions{}.voxelMmFor(vol); // the default: the smallest spacing
         if (levelSetVoxel < 0.25 * finest) {
             char text[96];
             std::snprintf(text, sizeof text, ": expected at least a quarter of the scan's smallest spacing (%g mm)",

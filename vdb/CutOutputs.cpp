@@ -158,6 +158,12 @@ openvdb::FloatGrid::Ptr carveVolume(const Volume& volume, const openvdb::MaskGri
     return carved;
 }
 
+double CutVdbOptions::voxelMmFor(const Volume& volume) const
+{
+    const openvdb::Vec3d spacing = volume.spacing();
+    return levelSetVoxelMm == 0.0 ? std::min({spacing.x(), spacing.y(), spacing.z()}) : levelSetVoxelMm;
+}
+
 void writeCutVdb(const std::string& path, const Volume& volume, const openvdb::FloatGrid& carved,
                  const openvdb::Int32Grid& cutMask, const std::vector<FragmentMesh>& fragments,
                  const CutInfo& info, const CutVdbOptions& options, Interrupter* interrupter)
@@ -172,9 +178,7 @@ void writeCutVdb(const std::string& path, const Volume& volume, const openvdb::F
         throw InputError("level-set half-width must be at least 1 voxel, got " +
                          std::to_string(options.halfWidthVoxels));
     }
-    const openvdb::Vec3d spacing = volume.spacing();
-    const double voxelMm = options.levelSetVoxelMm == 0.0 ? std::min({spacing.x(), spacing.y(), spacing.z()})
-                                                          : options.levelSetVoxelMm;
+    const double voxelMm = options.voxelMmFor(volume);
     // Check every fragment before the (long) level sets are made.
     std::vector<FragmentStats> stats;
     stats.reserve(fragments.size());

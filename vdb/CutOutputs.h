@@ -84,6 +84,9 @@ struct CutVdbOptions
     /// Narrow-band half-width in voxels of the level sets (>= 1). Values inside
     /// the band are signed distances in mm (< 0 inside); beyond it +-halfWidth*voxel.
     float halfWidthVoxels = 3.0f;
+    /// The level sets' voxel size for `volume`: levelSetVoxelMm, or the
+    /// volume's smallest spacing when that is 0.
+    double voxelMmFor(const Volume& volume) const;
 };
 
 /// Mesh figures recorded per fragment. Cost: one pass over the triangles.
