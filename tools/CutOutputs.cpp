@@ -7,7 +7,6 @@
 #include "vdb/CutOutputs.h"
 #include "vdb/SliceExr.h"
 
-#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <exception>
