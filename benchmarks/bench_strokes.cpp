@@ -19,16 +19,28 @@
 //   stroke  one update() per stroke; a refused stroke is undone
 //           (CutMask::undoStroke), as a user would.
 // Prints a line per seed (`seed=...`: strokes stopped, updates deferred or
-// refused, checkMesh defects of the fused mesh, and each stroke's first
-// refusal), then a summary line (`summary ...`). Exit status 1 when a fused
+// refused, checkMesh defects of the fused mesh, the live updates and the
+// slowest one's time, and each stroke's first refusal), then a summary line
+// (`summary ...`). Exit status 1 when a fused
 // mesh has a defect (a refusal is not one: the re-mesher refuses rather
 // than write a broken surface).
 //
 // Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
-//                      [--turn W] [--mode live|quad|stroke] [--threads N]
+//                      [--turn W] [--saw across|slide|both] [--tremor MM]
+//                      [--mode live|quad|stroke] [--threads N]
 // VOLUME is anything `mtcut` reads (a DICOM folder, .nhdr, .nii.gz, ...).
 // Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, turn 0.05, live,
 // one thread.
+//
+// --saw: instead of random walks, each stroke is a saw worked back and
+// forth through a random vertex of the uncut isosurface
+// (cutter::makeSawingStroke, 400 poses): `across` swings the blade across
+// itself while pushing it deeper, `slide` slides it along its own line while
+// it advances, `both` alternates them stroke by stroke. By seed: amplitude
+// 2, 4 or 6 mm, feed 0.01, 0.03 or 0.05 mm a pose, 16, 24 or 32 poses a
+// cycle, blade 10 or 20 mm. --tremor (default 0.05 mm; 0: a scripted saw,
+// every pose in one plane) sets the hand's tremor, and 0.08 rad a mm of it
+// the blade's. Each line then also gives the slowest update (worst_ms).
 #include "benchmarks/BenchUtil.h"
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
@@ -40,7 +52,9 @@
 
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -59,13 +73,15 @@ enum class Mode { Live, Quad, Stroke };
 struct Totals
 {
     size_t seeds = 0, strokes = 0, stopped = 0, stepped = 0, deferred = 0, refused = 0, defects = 0, dirtySeeds = 0;
+    size_t updates = 0;   // live updates
+    double worstMs = 0.0; // the slowest of them
 };
 
 [[noreturn]] void usage(const char* why)
 {
     std::fprintf(stderr,
                  "bench_strokes: %s\nusage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N] "
-                 "[--turn W] [--mode live|quad|stroke] [--threads N]\n",
+                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--mode live|quad|stroke] [--threads N]\n",
                  why);
     std::exit(2);
 }
@@ -82,6 +98,8 @@ int main(int argc, char** argv)
     int strokes = 4, threads = 1;
     double turn = 0.05;
     Mode mode = Mode::Live;
+    int saw = 0; // 0: random strokes; 1 across, 2 slide, 3 both (cutter::makeSawingStroke)
+    double tremor = 0.05;
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
         if (i + 1 >= argc) usage(("missing value after " + a).c_str());
@@ -108,6 +126,16 @@ int main(int argc, char** argv)
         } else if (a == "--threads") {
             threads = int(std::strtol(v, &end, 10));
             if (threads < 1) usage("--threads wants a positive count");
+        } else if (a == "--saw") {
+            const std::string m = v;
+            if (m == "across") saw = 1;
+            else if (m == "slide") saw = 2;
+            else if (m == "both") saw = 3;
+            else usage("--saw wants across, slide or both");
+            continue;
+        } else if (a == "--tremor") {
+            tremor = std::strtod(v, &end);
+            if (!(tremor >= 0.0 && tremor <= 10.0)) usage("--tremor wants 0 to 10 mm");
         } else if (a == "--mode") {
             const std::string m = v;
             if (m == "live") mode = Mode::Live;
@@ -142,9 +170,27 @@ int main(int argc, char** argv)
         const uint32_t s32 = uint32_t(seed);
         CutMask mask(frame, kerf);
         CutRemesher remesher(vol, iso, uncut);
-        const auto all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
-                                           20.0 + 10.0 * (s32 % 4), turn);
-        size_t stopped = 0, deferred = 0, refused = 0, stepped = 0;
+        std::vector<std::vector<Pose>> all;
+        if (saw == 0) {
+            all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
+                                    20.0 + 10.0 * (s32 % 4), turn);
+        } else {
+            std::mt19937_64 pick(s32);
+            for (int k = 0; k < strokes; ++k) {
+                const size_t v = size_t(pick() % uncut.vertexCount());
+                SawingOptions o;
+                o.slide = saw == 3 ? (s32 + uint32_t(k)) % 2 == 1 : saw == 2;
+                o.amplitudeMm = 2.0 + 2.0 * double((s32 + uint32_t(k)) % 3);
+                o.feedMm = 0.01 + 0.02 * double(s32 % 3);
+                o.posesPerCycle = 16.0 + 8.0 * double((s32 / 3) % 3);
+                o.bladeLength = 10.0 + 10.0 * double(s32 % 2);
+                o.tremorMm = tremor;
+                o.tremorRad = 0.08 * tremor; // 0.004 rad at the default 0.05 mm
+                all.push_back(makeSawingStroke(glm::dvec3(uncut.positions[v]), s32 * 16u + uint32_t(k), o));
+            }
+        }
+        size_t stopped = 0, deferred = 0, refused = 0, stepped = 0, updates = 0;
+        double worstMs = 0.0; // the slowest live update
         std::string notes;
         for (size_t s = 0; s < all.size(); ++s) {
             const std::vector<Quad> quads = filterStroke(all[s], frame);
@@ -153,7 +199,10 @@ int main(int argc, char** argv)
                 LiveStroke live(mask, remesher);
                 LiveStroke::Result r;
                 for (size_t q = 0; q < quads.size() && live.add(quads[q]); ++q) {
+                    const auto tu = bench::Clock::now();
                     r = q + 1 < quads.size() ? live.update() : live.finish();
+                    worstMs = std::max(worstMs, bench::msSince(tu));
+                    ++updates;
                     deferred += r.outcome == LiveStroke::Outcome::Deferred;
                     if (r.steppedRound)
                         notes += " | stroke " + std::to_string(s) + " stepped round at quad " + std::to_string(q) + " of " +
@@ -197,14 +246,17 @@ int main(int argc, char** argv)
         total.stepped += stepped;
         total.defects += check.defects();
         total.dirtySeeds += check.defects() != 0;
-        std::printf("seed=%ld stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f%s\n", seed, stopped,
-                    stepped, deferred, refused, check.defects(), bench::msSince(ts), notes.c_str());
+        total.updates += updates;
+        total.worstMs = std::max(total.worstMs, worstMs);
+        std::printf("seed=%ld stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f updates=%zu worst_ms=%.1f%s\n",
+                    seed, stopped, stepped, deferred, refused, check.defects(), bench::msSince(ts), updates, worstMs,
+                    notes.c_str());
         if (check.defects() != 0) std::printf("%s\n", check.report().c_str());
         std::fflush(stdout);
     }
     std::printf("summary seeds=%zu strokes=%zu stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu "
-                "seeds_with_defects=%zu s=%.1f\n",
+                "seeds_with_defects=%zu s=%.1f updates=%zu worst_ms=%.1f\n",
                 total.seeds, total.strokes, total.stopped, total.stepped, total.deferred, total.refused, total.defects,
-                total.dirtySeeds, bench::msSince(t0) / 1e3);
+                total.dirtySeeds, bench::msSince(t0) / 1e3, total.updates, total.worstMs);
     return total.defects != 0 ? 1 : 0;
 }

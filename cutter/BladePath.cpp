@@ -941,4 +941,41 @@ std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32
     return out;
 }
 
+std::vector<Pose> makeSawingStroke(const glm::dvec3& centre, uint32_t seed, const SawingOptions& o)
+{
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    auto randomUnit = [&] {
+        glm::dvec3 v(gauss(rng), gauss(rng), gauss(rng));
+        const double l = glm::length(v);
+        return l > 1e-9 ? v / l : glm::dvec3(0, 0, 1);
+    };
+    const glm::dvec3 d = randomUnit();
+    glm::dvec3 across = glm::cross(d, randomUnit());
+    across = glm::length(across) > 1e-9 ? glm::normalize(across) : glm::normalize(glm::cross(d, glm::dvec3(1, 0, 0)) + 1e-9);
+    // Across: swing along `across`, feed along d. Slide: swing along d, feed along `across`.
+    const glm::dvec3 swing = o.slide ? d : across;
+    const glm::dvec3 feed = o.slide ? across : d;
+    // The tremor: Ornstein-Uhlenbeck walks (each step keeps 90 % of the last
+    // offset), scaled so their spread is about tremorMm and tremorRad.
+    const double keep = 0.9, kick = std::sqrt(1.0 - keep * keep);
+    glm::dvec3 offset(0.0), tilt(0.0);
+    const double pi = 3.14159265358979323846;
+    const glm::dvec3 start = centre - 0.5 * o.bladeLength * d - 0.5 * o.feedMm * double(o.poses) * feed;
+    std::vector<Pose> out;
+    out.reserve(size_t(std::max(o.poses, 0)));
+    for (int i = 0; i < o.poses; ++i) {
+        offset = keep * offset + kick * o.tremorMm * glm::dvec3(gauss(rng), gauss(rng), gauss(rng));
+        tilt = keep * tilt + kick * o.tremorRad * glm::dvec3(gauss(rng), gauss(rng), gauss(rng));
+        Pose pose;
+        pose.time = 0.001 * i;
+        pose.base = start + o.amplitudeMm * std::sin(2.0 * pi * i / o.posesPerCycle) * swing +
+                    o.feedMm * double(i) * feed + offset;
+        pose.direction = glm::normalize(d + tilt);
+        pose.length = o.bladeLength;
+        out.push_back(pose);
+    }
+    return out;
+}
+
 } // namespace mtcut::cutter

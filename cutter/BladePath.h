@@ -512,4 +512,32 @@ std::vector<std::vector<Pose>> makeRandomStrokes(const IndexFrame& frame, uint32
                                                  int strokes, int steps, double stepMm = 0.3,
                                                  double bladeLength = 20.0, double turn = 0.05);
 
+/// A saw worked back and forth the way a hand does, for sweeps and tests:
+/// the blade reciprocates through `centre` (world mm) while it advances,
+/// so most of each pass goes back over the cut (the path filter's rule 2b)
+/// and the rest deepens it. Two motions, as saws are held:
+/// - Across (`slide` false): the blade points along a random direction d,
+///   its base swings +-amplitudeMm across it (perpendicular to d) and moves
+///   feedMm a pose along d: a keyhole saw pushed deeper each pass; the cut
+///   grows at the blade's tip.
+/// - Slide (`slide` true): the blade slides +-amplitudeMm along its own
+///   line (a reciprocating saw's edge) and moves feedMm a pose across it,
+///   in the cut's plane: the cut grows at the blade's side.
+/// On top, a hand's tremor: the base wanders by a smoothed random walk of
+/// about tremorMm and the direction by about tremorRad (both 0: the poses
+/// lie exactly in one plane, a scripted saw). `posesPerCycle` poses make one
+/// back-and-forth. Deterministic in `seed`.
+struct SawingOptions
+{
+    int poses = 400;
+    double amplitudeMm = 4.0;
+    double feedMm = 0.02;
+    double posesPerCycle = 24.0;
+    double bladeLength = 15.0;
+    double tremorMm = 0.05;
+    double tremorRad = 0.004;
+    bool slide = false;
+};
+std::vector<Pose> makeSawingStroke(const glm::dvec3& centre, uint32_t seed, const SawingOptions& options = {});
+
 } // namespace mtcut::cutter

@@ -1082,3 +1082,74 @@ TEST(Generators, FittedLeFortStrokeCrossesTheWholeBoxToItsReach)
     // No bone, no box: the phantom's half ellipse, as before.
     EXPECT_EQ(leFortOptionsFittedTo({}).path, LeFortOptions::Path::HalfEllipse);
 }
+
+// A saw worked back and forth (benchmarks' `bench_strokes --saw`): without
+// tremor every blade lies in one plane, the blade swings exactly the
+// amplitude each way and advances the feed a pose, and the middle pose's
+// blade is centred on the given point; with tremor the poses stay within a
+// few tremors of that and are a function of the seed alone.
+TEST(Generators, SawingStrokeWorksBackAndForthInOnePlane)
+{
+    IndexFrame head;
+    head.dims = ivec3(128, 128, 128);
+    head.spacing = dvec3(2.0);
+    const dvec3 centre(120.0, 130.0, 110.0);
+    for (bool slide : {false, true}) {
+        SCOPED_TRACE(slide ? "slide" : "across");
+        SawingOptions o;
+        o.slide = slide;
+        o.poses = 400;
+        o.amplitudeMm = 4.0;
+        o.feedMm = 0.03;
+        o.posesPerCycle = 16.0;
+        o.bladeLength = 20.0;
+        o.tremorMm = o.tremorRad = 0.0;
+        const std::vector<Pose> poses = makeSawingStroke(centre, 5, o);
+        ASSERT_EQ(poses.size(), 400u);
+        const dvec3 d = poses[0].direction;
+        // The first step, less its part along the blade, is across it: the
+        // swing (across) or the feed (slide).
+        const dvec3 step = poses[1].base - poses[0].base;
+        const dvec3 off = glm::normalize(step - glm::dot(step, d) * d);
+        const dvec3 swing = slide ? d : off, feed = slide ? off : d;
+        const dvec3 n = glm::cross(d, off); // the cut's plane
+        double swingLo = 1e300, swingHi = -1e300;
+        for (size_t i = 0; i < poses.size(); ++i) {
+            const Pose& p = poses[i];
+            ASSERT_EQ(p.direction, d) << i;
+            ASSERT_EQ(p.length, 20.0) << i;
+            ASSERT_NEAR(glm::dot(n, p.base - poses[0].base), 0.0, 1e-9) << i;
+            ASSERT_NEAR(glm::dot(n, p.base + p.length * p.direction - poses[0].base), 0.0, 1e-9) << i;
+            if (i > 0) ASSERT_GT(p.time, poses[i - 1].time) << i;
+            // Less the feed, the base only swings.
+            const dvec3 moved = p.base - 0.03 * double(i) * feed - poses[0].base;
+            ASSERT_NEAR(glm::dot(moved, feed), 0.0, 1e-9) << i;
+            swingLo = std::min(swingLo, glm::dot(moved, swing));
+            swingHi = std::max(swingHi, glm::dot(moved, swing));
+        }
+        EXPECT_NEAR(swingHi - swingLo, 8.0, 1e-9);
+        // The middle pose (a whole number of half cycles in): the blade's middle on the centre.
+        const Pose& mid = poses[200];
+        EXPECT_NEAR(glm::length(mid.base + 0.5 * mid.length * mid.direction - centre), 0.0, 1e-9);
+        EXPECT_NO_THROW(filterStroke(poses, head));
+    }
+    // With tremor: the same seed, the same poses; another seed, others.
+    SawingOptions o;
+    const std::vector<Pose> a = makeSawingStroke(centre, 9, o), b = makeSawingStroke(centre, 9, o),
+                            c = makeSawingStroke(centre, 10, o);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+        ASSERT_EQ(a[i].base, b[i].base) << i;
+        ASSERT_EQ(a[i].direction, b[i].direction) << i;
+    }
+    EXPECT_NE(a[5].base, c[5].base);
+    double worst = 0.0;
+    for (const Pose& p : a) {
+        // Distance of the blade's middle from the line the centre feeds along, less the swing.
+        const dvec3 m = p.base + 0.5 * p.length * p.direction - centre;
+        worst = std::max(worst, glm::length(m));
+    }
+    // Amplitude 4 mm, feed 0.02 mm x 200 poses each way, tremor 0.05 mm and 0.004 rad over half the blade.
+    EXPECT_LT(worst, std::hypot(4.0, 4.0) + 10 * 0.05 + 7.5 * 10 * 0.004);
+    EXPECT_NO_THROW(filterStroke(a, head));
+}
