@@ -1120,7 +1120,9 @@ TEST(Generators, SawingStrokeWorksBackAndForthInOnePlane)
             ASSERT_EQ(p.length, 20.0) << i;
             ASSERT_NEAR(glm::dot(n, p.base - poses[0].base), 0.0, 1e-9) << i;
             ASSERT_NEAR(glm::dot(n, p.base + p.length * p.direction - poses[0].base), 0.0, 1e-9) << i;
-            if (i > 0) ASSERT_GT(p.time, poses[i - 1].time) << i;
+            if (i > 0) {
+                ASSERT_GT(p.time, poses[i - 1].time) << i;
+            }
             // Less the feed, the base only swings.
             const dvec3 moved = p.base - 0.03 * double(i) * feed - poses[0].base;
             ASSERT_NEAR(glm::dot(moved, feed), 0.0, 1e-9) << i;
