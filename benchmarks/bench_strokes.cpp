@@ -54,7 +54,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -175,19 +174,8 @@ int main(int argc, char** argv)
             all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
                                     20.0 + 10.0 * (s32 % 4), turn);
         } else {
-            std::mt19937_64 pick(s32);
-            for (int k = 0; k < strokes; ++k) {
-                const size_t v = size_t(pick() % uncut.vertexCount());
-                SawingOptions o;
-                o.slide = saw == 3 ? (s32 + uint32_t(k)) % 2 == 1 : saw == 2;
-                o.amplitudeMm = 2.0 + 2.0 * double((s32 + uint32_t(k)) % 3);
-                o.feedMm = 0.01 + 0.02 * double(s32 % 3);
-                o.posesPerCycle = 16.0 + 8.0 * double((s32 / 3) % 3);
-                o.bladeLength = 10.0 + 10.0 * double(s32 % 2);
-                o.tremorMm = tremor;
-                o.tremorRad = 0.08 * tremor; // 0.004 rad at the default 0.05 mm
-                all.push_back(makeSawingStroke(glm::dvec3(uncut.positions[v]), s32 * 16u + uint32_t(k), o));
-            }
+            all = makeSawingStrokes(uncut.positions, s32, strokes,
+                                    saw == 1 ? SawMotion::Across : saw == 2 ? SawMotion::Slide : SawMotion::Both, tremor);
         }
         size_t stopped = 0, deferred = 0, refused = 0, stepped = 0, updates = 0;
         double worstMs = 0.0; // the slowest live update

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 namespace mtcut::cutter {
 
@@ -974,6 +975,28 @@ std::vector<Pose> makeSawingStroke(const glm::dvec3& centre, uint32_t seed, cons
         pose.direction = glm::normalize(d + tilt);
         pose.length = o.bladeLength;
         out.push_back(pose);
+    }
+    return out;
+}
+
+std::vector<std::vector<Pose>> makeSawingStrokes(const std::vector<glm::vec3>& bone, uint32_t seed, int strokes,
+                                                 SawMotion motion, double tremorMm)
+{
+    if (bone.empty()) throw std::invalid_argument("makeSawingStrokes: no bone points");
+    std::mt19937_64 pick(seed);
+    std::vector<std::vector<Pose>> out;
+    for (int k = 0; k < strokes; ++k) {
+        const size_t v = size_t(pick() % bone.size());
+        const uint32_t sk = seed + uint32_t(k);
+        SawingOptions o;
+        o.slide = motion == SawMotion::Both ? sk % 2 == 1 : motion == SawMotion::Slide;
+        o.amplitudeMm = 2.0 + 2.0 * double(sk % 3);
+        o.feedMm = 0.01 + 0.02 * double(seed % 3);
+        o.posesPerCycle = 16.0 + 8.0 * double((seed / 3) % 3);
+        o.bladeLength = 10.0 + 10.0 * double(seed % 2);
+        o.tremorMm = tremorMm;
+        o.tremorRad = 0.08 * tremorMm;
+        out.push_back(makeSawingStroke(glm::dvec3(bone[v]), seed * 16u + uint32_t(k), o));
     }
     return out;
 }

@@ -539,5 +539,16 @@ struct SawingOptions
     bool slide = false;
 };
 std::vector<Pose> makeSawingStroke(const glm::dvec3& centre, uint32_t seed, const SawingOptions& options = {});
+/// Which motion makeSawingStrokes gives its strokes: all Across, all Slide,
+/// or Both, stroke by stroke (seed + stroke odd: Slide).
+enum class SawMotion { Across, Slide, Both };
+/// `strokes` sawing strokes (makeSawingStroke, 400 poses) for the sweeps
+/// and tests, each through a vertex of `bone` (world mm, e.g. the uncut
+/// isosurface's; not empty) that the seed picks. By seed: amplitude 2, 4 or
+/// 6 mm (also by stroke), feed 0.01, 0.03 or 0.05 mm a pose, 16, 24 or 32
+/// poses a cycle, blade 10 or 20 mm; tremor `tremorMm` and 0.08 rad a mm of
+/// it. Throws std::invalid_argument when `bone` is empty.
+std::vector<std::vector<Pose>> makeSawingStrokes(const std::vector<glm::vec3>& bone, uint32_t seed, int strokes,
+                                                 SawMotion motion, double tremorMm = 0.05);
 
 } // namespace mtcut::cutter
