@@ -59,6 +59,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -97,7 +98,7 @@ int main(int argc, char** argv)
     int strokes = 4, threads = 1;
     double turn = 0.05;
     Mode mode = Mode::Live;
-    int saw = 0; // 0: random strokes; 1 across, 2 slide, 3 both (cutter::makeSawingStroke)
+    std::optional<SawMotion> saw; // none: random strokes
     double tremor = 0.05;
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
@@ -127,9 +128,9 @@ int main(int argc, char** argv)
             if (threads < 1) usage("--threads wants a positive count");
         } else if (a == "--saw") {
             const std::string m = v;
-            if (m == "across") saw = 1;
-            else if (m == "slide") saw = 2;
-            else if (m == "both") saw = 3;
+            if (m == "across") saw = SawMotion::Across;
+            else if (m == "slide") saw = SawMotion::Slide;
+            else if (m == "both") saw = SawMotion::Both;
             else usage("--saw wants across, slide or both");
             continue;
         } else if (a == "--tremor") {
@@ -170,12 +171,11 @@ int main(int argc, char** argv)
         CutMask mask(frame, kerf);
         CutRemesher remesher(vol, iso, uncut);
         std::vector<std::vector<Pose>> all;
-        if (saw == 0) {
+        if (saw) {
+            all = makeSawingStrokes(uncut.positions, s32, strokes, *saw, tremor);
+        } else {
             all = makeRandomStrokes(frame, s32, strokes, 150 + 50 * int(s32 % 5), 0.4 + 0.2 * (s32 % 4),
                                     20.0 + 10.0 * (s32 % 4), turn);
-        } else {
-            all = makeSawingStrokes(uncut.positions, s32, strokes,
-                                    saw == 1 ? SawMotion::Across : saw == 2 ? SawMotion::Slide : SawMotion::Both, tremor);
         }
         size_t stopped = 0, deferred = 0, refused = 0, stepped = 0, updates = 0;
         double worstMs = 0.0; // the slowest live update

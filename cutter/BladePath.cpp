@@ -953,7 +953,8 @@ std::vector<Pose> makeSawingStroke(const glm::dvec3& centre, uint32_t seed, cons
     };
     const glm::dvec3 d = randomUnit();
     glm::dvec3 across = glm::cross(d, randomUnit());
-    across = glm::length(across) > 1e-9 ? glm::normalize(across) : glm::normalize(glm::cross(d, glm::dvec3(1, 0, 0)) + 1e-9);
+    if (!(glm::length(across) > 1e-9)) across = glm::cross(d, std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0));
+    across = glm::normalize(across);
     // Across: swing along `across`, feed along d. Slide: swing along d, feed along `across`.
     const glm::dvec3 swing = o.slide ? d : across;
     const glm::dvec3 feed = o.slide ? across : d;

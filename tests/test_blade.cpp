@@ -1154,4 +1154,25 @@ TEST(Generators, SawingStrokeWorksBackAndForthInOnePlane)
     // Amplitude 4 mm, feed 0.02 mm x 200 poses each way, tremor 0.05 mm and 0.004 rad over half the blade.
     EXPECT_LT(worst, std::hypot(4.0, 4.0) + 10 * 0.05 + 7.5 * 10 * 0.004);
     EXPECT_NO_THROW(filterStroke(a, head));
+
+    // A seed's worth (the sweeps' and tests'): the motion asked for, through
+    // the given points; none to go through is an error.
+    const std::vector<glm::vec3> bone{glm::vec3(centre), glm::vec3(centre + dvec3(5.0))};
+    for (SawMotion m : {SawMotion::Across, SawMotion::Slide, SawMotion::Both}) {
+        const uint32_t seed = 41;
+        const auto strokes = makeSawingStrokes(bone, seed, 4, m, 0.0);
+        ASSERT_EQ(strokes.size(), 4u);
+        for (size_t k = 0; k < strokes.size(); ++k) {
+            const std::vector<Pose>& p = strokes[k];
+            ASSERT_EQ(p.size(), 400u);
+            // Without tremor the first step is the swing's: along the blade when it slides.
+            const dvec3 step = p[1].base - p[0].base;
+            const bool slides = std::abs(glm::dot(step, p[0].direction)) > 0.5 * glm::length(step);
+            EXPECT_EQ(slides, m == SawMotion::Slide || (m == SawMotion::Both && (seed + k) % 2 == 1)) << k;
+            // The middle pose's blade is centred on one of the points, but for the swing (at most 6 mm).
+            const dvec3 mid = p[200].base + 0.5 * p[200].length * p[200].direction;
+            EXPECT_LE(std::min(glm::length(mid - dvec3(bone[0])), glm::length(mid - dvec3(bone[1]))), 6.0 + 1e-9) << k;
+        }
+    }
+    EXPECT_THROW(makeSawingStrokes({}, 1, 4, SawMotion::Both), std::invalid_argument);
 }
