@@ -27,7 +27,7 @@
 //
 // Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
 //                      [--turn W] [--saw across|slide|both] [--tremor MM]
-//                      [--mode live|quad|stroke] [--threads N]
+//                      [--retrace VOXELS] [--mode live|quad|stroke] [--threads N]
 // VOLUME is anything `mtcut` reads (a DICOM folder, .nhdr, .nii.gz, ...).
 // Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, turn 0.05, live,
 // one thread.
@@ -41,6 +41,9 @@
 // cycle, blade 10 or 20 mm. --tremor (default 0.05 mm; 0: a scripted saw,
 // every pose in one plane) sets the hand's tremor, and 0.08 rad a mm of it
 // the blade's. Each line then also gives the slowest update (worst_ms).
+//
+// --retrace: the path filter's retrace tolerance in voxels
+// (PathFilterOptions::retraceTolerance, default 0.25; `mtcut cut --retrace`).
 #include "benchmarks/BenchUtil.h"
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
@@ -81,7 +84,8 @@ struct Totals
 {
     std::fprintf(stderr,
                  "bench_strokes: %s\nusage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N] "
-                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--mode live|quad|stroke] [--threads N]\n",
+                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--retrace VOXELS] [--mode live|quad|stroke] "
+                 "[--threads N]\n",
                  why);
     std::exit(2);
 }
@@ -100,6 +104,7 @@ int main(int argc, char** argv)
     Mode mode = Mode::Live;
     std::optional<SawMotion> saw; // none: random strokes
     double tremor = 0.05;
+    PathFilterOptions filterOptions;
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
         if (i + 1 >= argc) usage(("missing value after " + a).c_str());
@@ -136,6 +141,10 @@ int main(int argc, char** argv)
         } else if (a == "--tremor") {
             tremor = std::strtod(v, &end);
             if (!(tremor >= 0.0 && tremor <= 10.0)) usage("--tremor wants 0 to 10 mm");
+        } else if (a == "--retrace") {
+            filterOptions.retraceTolerance = std::strtod(v, &end);
+            if (!(filterOptions.retraceTolerance >= 0.0 && filterOptions.retraceTolerance <= kMaxRetraceTolerance))
+                usage("--retrace wants 0 to 4 voxels");
         } else if (a == "--mode") {
             const std::string m = v;
             if (m == "live") mode = Mode::Live;
@@ -160,8 +169,9 @@ int main(int argc, char** argv)
     const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
     const IndexFrame frame = frameOf(vol);
     const char* modeName = mode == Mode::Live ? "live" : mode == Mode::Quad ? "quad" : "stroke";
-    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g mode=%s threads=%d uncut_tris=%zu\n",
-                path.c_str(), double(iso), kerf, seedLo, seedHi, strokes, turn, modeName, threads, uncut.triangleCount());
+    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g retrace=%g mode=%s threads=%d uncut_tris=%zu\n",
+                path.c_str(), double(iso), kerf, seedLo, seedHi, strokes, turn, filterOptions.retraceTolerance, modeName,
+                threads, uncut.triangleCount());
     std::fflush(stdout);
     Totals total;
     const auto t0 = bench::Clock::now();
@@ -181,7 +191,7 @@ int main(int argc, char** argv)
         double worstMs = 0.0; // the slowest live update
         std::string notes;
         for (size_t s = 0; s < all.size(); ++s) {
-            const std::vector<Quad> quads = filterStroke(all[s], frame);
+            const std::vector<Quad> quads = filterStroke(all[s], frame, filterOptions);
             if (quads.empty()) continue;
             if (mode == Mode::Live) {
                 LiveStroke live(mask, remesher);

@@ -102,6 +102,13 @@ Quad makeQuad(const glm::dvec3* corners, uint32_t count, uint32_t stick)
 PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options)
     : mFrame(frame), mOptions(options)
 {
+    if (!std::isfinite(options.maxTwist) || options.maxTwist < 0.0)
+        throw std::invalid_argument("PathFilterOptions::maxTwist must be finite and >= 0");
+    if (!std::isfinite(options.planarTolerance) || options.planarTolerance < 0.0)
+        throw std::invalid_argument("PathFilterOptions::planarTolerance must be finite and >= 0");
+    if (std::isnan(options.retraceTolerance) || options.retraceTolerance > kMaxRetraceTolerance)
+        throw std::invalid_argument("PathFilterOptions::retraceTolerance must be at most " +
+                                    std::to_string(kMaxRetraceTolerance) + " voxels (negative: off)");
 }
 
 void PathFilter::finishStroke(std::vector<Quad>& quads)

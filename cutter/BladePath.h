@@ -130,9 +130,18 @@ struct PathFilterOptions
     double planarTolerance = 1e-9;
     /// Retracing (rule 2b): a stick whose base and tip lie within this many
     /// voxels of one of the stroke's quads (of its plane, and inside its
-    /// outline) is dropped. Negative: never dropped.
+    /// outline) is dropped. Negative: never dropped. At most
+    /// kMaxRetraceTolerance. The bound it sets: the cut lags the blade by at
+    /// most this much (a pose dropped lies within it of the swept surface).
+    /// Raising it trades that lag for speed where a saw goes back and forth
+    /// over its cut: each pass that deepens the cut by more than the
+    /// tolerance lays a new quad over the whole blade, and the cells along
+    /// the blade gather them (benchmarks/RESULTS.md, "A saw worked back and
+    /// forth" and "The retrace tolerance").
     double retraceTolerance = 0.25;
 };
+/// The largest PathFilterOptions::retraceTolerance a PathFilter accepts, voxels.
+constexpr double kMaxRetraceTolerance = 4.0;
 
 /// The paper's path filter, for one stroke at a time (section 3), exactly:
 ///
@@ -235,6 +244,8 @@ public:
     /// the last kept stick's base adds nothing.
     static constexpr double kMinFinalStep = 0.01;
 
+    /// Throws std::invalid_argument on options out of range (a tolerance
+    /// or twist not finite, retraceTolerance above kMaxRetraceTolerance).
     explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
 
     /// Feeds the next pose of the current stroke; appends the quads it makes

@@ -24,6 +24,22 @@ inline std::vector<cutter::Pose> straightStroke(glm::dvec3 from, glm::dvec3 to, 
     return poses;
 }
 
+/// A saw worked back and forth through the tests' 15 mm balls (centred on
+/// the origin, 1 mm voxels), with a hand's tremor: 240 poses, swung 5 mm
+/// each way across a 20 mm blade and pushed 0.04 mm deeper a pose
+/// (cutter::makeSawingStroke, seed 3). Each pass deepens the cut a little,
+/// so the quads it makes depend much on the path filter's retrace tolerance.
+inline std::vector<cutter::Pose> sawThroughTheBall()
+{
+    cutter::SawingOptions o;
+    o.poses = 240;
+    o.amplitudeMm = 5.0;
+    o.feedMm = 0.04;
+    o.posesPerCycle = 16.0;
+    o.bladeLength = 20.0;
+    return cutter::makeSawingStroke(glm::dvec3(0.0, 0.37, 0.0), 3, o);
+}
+
 /// A stroke that turns back across its own start, as one new stroke of
 /// `mask`: three quads from four vertical sticks round (0.31, 0.27, 0.13)
 /// mm, the third crossing the first's base line at (1.31, 0.27, 0.13),

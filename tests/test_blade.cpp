@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 #include <tuple>
@@ -459,6 +460,31 @@ std::vector<Pose> twistingStroke(std::mt19937_64& rng, const IndexFrame& f, int 
     return poses;
 }
 
+/// Rule 2b's bound, checked independently: do the base and tip of `pose`
+/// lie within `tol` voxels of one of `quads` (of its plane, and inside its
+/// outline's bounding box grown by `tol`)?
+bool nearOneQuad(const IndexFrame& f, const std::vector<Quad>& quads, const Pose& pose, double tol)
+{
+    const dvec3 b = f.toIndex(pose.base);
+    const dvec3 tip = f.toIndex(pose.base + pose.length * glm::normalize(pose.direction));
+    for (const Quad& quad : quads) {
+        dvec3 c[4], nrm(0.0), lo(1e300), hi(-1e300);
+        for (uint32_t j = 0; j < quad.cornerCount; ++j) c[j] = f.toIndex(quad.corners[j]);
+        for (uint32_t j = 0; j < quad.cornerCount; ++j) {
+            nrm += glm::cross(c[j], c[(j + 1) % quad.cornerCount]);
+            lo = glm::min(lo, c[j] - tol);
+            hi = glm::max(hi, c[j] + tol);
+        }
+        nrm = glm::normalize(nrm);
+        auto ok = [&](const dvec3& x) {
+            return std::abs(glm::dot(nrm, x - c[0])) <= tol + 1e-9 && glm::all(glm::greaterThanEqual(x, lo)) &&
+                   glm::all(glm::lessThanEqual(x, hi));
+        };
+        if (ok(b) && ok(tip)) return true;
+    }
+    return false;
+}
+
 } // namespace
 
 TEST(PathFilter, GuaranteesOnThousandsOfPoses)
@@ -494,26 +520,8 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
                 // and the outline's bounding box grown by the tolerance).
                 if (f.cellOf(f.toIndex(poses[i].base)) == f.cellOf(f.toIndex(filter.sticks().back().base))) continue;
                 ++retraced;
-                const double tol = opt.retraceTolerance;
-                const dvec3 b = f.toIndex(poses[i].base);
-                const dvec3 tip = f.toIndex(poses[i].base + poses[i].length * glm::normalize(poses[i].direction));
-                bool near = false;
-                for (size_t q = 0; q < quads.size() && !near; ++q) {
-                    dvec3 c[4], nrm(0.0), lo(1e300), hi(-1e300);
-                    for (uint32_t j = 0; j < quads[q].cornerCount; ++j) c[j] = f.toIndex(quads[q].corners[j]);
-                    for (uint32_t j = 0; j < quads[q].cornerCount; ++j) {
-                        nrm += glm::cross(c[j], c[(j + 1) % quads[q].cornerCount]);
-                        lo = glm::min(lo, c[j] - tol);
-                        hi = glm::max(hi, c[j] + tol);
-                    }
-                    nrm = glm::normalize(nrm);
-                    auto ok = [&](const dvec3& x) {
-                        return std::abs(glm::dot(nrm, x - c[0])) <= tol + 1e-9 && glm::all(glm::greaterThanEqual(x, lo)) &&
-                               glm::all(glm::lessThanEqual(x, hi));
-                    };
-                    near = ok(b) && ok(tip);
-                }
-                ASSERT_TRUE(near) << "pose " << i << " dropped but neither in the last stick's cell nor retracing";
+                ASSERT_TRUE(nearOneQuad(f, quads, poses[i], opt.retraceTolerance))
+                    << "pose " << i << " dropped but neither in the last stick's cell nor retracing";
                 continue;
             }
             ++kept;
@@ -1025,6 +1033,59 @@ TEST(PathFilter, NoGapsAlongTheSweptSurface)
         }
         EXPECT_GT(checked, 5000u);
     }
+}
+
+// The retrace tolerance is the user's trade (mtcut cut --retrace): a pose
+// dropped for going back over the cut lies within it of the swept surface,
+// whatever it is, and a saw worked back and forth, whose passes each deepen
+// the cut a little and would lay a quad over the whole blade, makes far
+// fewer quads with a wider one (benchmarks/RESULTS.md, "The retrace
+// tolerance"). Options out of range are refused when the filter is made.
+TEST(PathFilter, AWiderRetraceToleranceBoundsTheLagAndSawsWithFewerQuads)
+{
+    IndexFrame head;
+    head.dims = ivec3(128, 128, 128);
+    head.spacing = dvec3(2.0);
+    const std::vector<glm::vec3> bone{glm::vec3(120.0f, 130.0f, 110.0f), glm::vec3(100.0f, 90.0f, 140.0f)};
+    size_t quadsAt[2] = {0, 0}, droppedNear = 0;
+    for (uint32_t seed = 100; seed < 112; ++seed) {
+        for (const std::vector<Pose>& poses : makeSawingStrokes(bone, seed, 2, SawMotion::Both)) {
+            for (int wide = 0; wide < 2; ++wide) {
+                PathFilterOptions opt;
+                opt.retraceTolerance = wide ? 1.0 : 0.25;
+                PathFilter filter(head, opt);
+                std::vector<Quad> quads;
+                for (size_t i = 0; i < poses.size(); ++i) {
+                    const size_t before = quads.size();
+                    if (filter.push(poses[i], quads)) continue;
+                    ASSERT_EQ(quads.size(), before);
+                    if (head.cellOf(head.toIndex(poses[i].base)) == head.cellOf(head.toIndex(filter.sticks().back().base)))
+                        continue; // rule 2: one stick a cell
+                    ++droppedNear;
+                    ASSERT_TRUE(nearOneQuad(head, quads, poses[i], opt.retraceTolerance))
+                        << "seed " << seed << " tolerance " << opt.retraceTolerance << " pose " << i;
+                }
+                for (const Quad& q : filter.endStroke()) quads.push_back(q);
+                quadsAt[wide] += quads.size();
+            }
+        }
+    }
+    EXPECT_GT(droppedNear, 4000u);
+    EXPECT_LT(quadsAt[1] * 3, quadsAt[0]) << quadsAt[1] << " quads with 1 voxel, " << quadsAt[0] << " with 0.25";
+
+    for (const double bad : {std::nan(""), 4.5, std::numeric_limits<double>::infinity()}) {
+        PathFilterOptions opt;
+        opt.retraceTolerance = bad;
+        EXPECT_THROW(PathFilter(head, opt), std::invalid_argument) << bad;
+    }
+    for (const double good : {-1.0, 0.0, kMaxRetraceTolerance}) {
+        PathFilterOptions opt;
+        opt.retraceTolerance = good;
+        EXPECT_NO_THROW(PathFilter(head, opt)) << good;
+    }
+    PathFilterOptions twist;
+    twist.maxTwist = std::nan("");
+    EXPECT_THROW(PathFilter(head, twist), std::invalid_argument);
 }
 
 TEST(Generators, LeFortAndRandomStrokesAreValidPaths)

@@ -1,6 +1,7 @@
 // `mtcut cut` end to end: a ball cut straight through by a path file gives two
 // closed fragments whose volumes add up to the uncut one, cut.vdb, slices.exr
 // and summary.json; a saw of width > 0 removes its slab; a bad path file fails cleanly.
+#include "TestStrokes.h"
 #include "TestUtil.h"
 
 #include "cutter/CutMask.h"
@@ -785,6 +786,48 @@ TEST(CutCli, AKerfOutOfRangeFailsAtOnce)
     frame.dims = glm::ivec3(8);
     EXPECT_THROW(cutter::CutMask(frame, 20.5), InputError);
     EXPECT_NO_THROW(cutter::CutMask(frame, 20.0));
+}
+
+// --retrace sets the path filter's retrace tolerance: out of range it fails
+// at once, nothing written; in range summary.json records it, and a saw
+// worked back and forth through the ball (each pass deepening the cut a
+// little) makes fewer quads with a wider one, and both cuts come out clean.
+TEST(CutCli, ARetraceToleranceIsCheckedUsedAndRecorded)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string out = dir.file("out");
+    for (const char* retrace : {"-1", "nan", "4.5"}) {
+        const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --retrace " + retrace + " -o " + out);
+        EXPECT_EQ(r.exitCode, 1) << r.output;
+        EXPECT_EQ(r.output, std::string("mtcut: error: --retrace ") + retrace +
+                                ": expected a tolerance from 0 to 4 voxels (default 0.25)\n");
+        EXPECT_TRUE(filesIn(out).empty());
+    }
+    const test::RunResult word = runMtcut("cut " + ball + " --iso 0 --retrace wide -o " + out);
+    EXPECT_EQ(word.output, "mtcut: error: --retrace wide: expected a number\n");
+
+    const std::string saw = dir.file("saw.csv");
+    {
+        std::ofstream file(saw);
+        cutter::writePath(file, {test::sawThroughTheBall()});
+    }
+    size_t quads[2] = {0, 0};
+    for (int wide = 0; wide < 2; ++wide) {
+        const std::string outDir = dir.file(wide ? "wide" : "fine");
+        const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --kerf 0.5 --path " + saw +
+                                           (wide ? " --retrace 1" : "") + " -o " + outDir + " --check");
+        ASSERT_EQ(r.exitCode, 0) << r.output;
+        std::smatch m;
+        ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(1 stroke\(s\), (\d+) quads, kerf 0.5 mm, retrace ([0-9.]+) voxels)")))
+            << r.output;
+        quads[wide] = std::stoul(m[1]);
+        EXPECT_EQ(m[2], wide ? "1" : "0.25");
+        const std::string json = readText(outDir + "/summary.json");
+        EXPECT_NE(json.find(wide ? "\"retrace_voxels\": 1,\n" : "\"retrace_voxels\": 0.25,\n"), std::string::npos) << json;
+    }
+    EXPECT_LT(2 * quads[1], quads[0]) << quads[1] << " quads with --retrace 1, " << quads[0] << " without";
 }
 
 // The README demo's cut: the phantom's LeFort I plane, cut by tools/phantom_lefort.csv, must

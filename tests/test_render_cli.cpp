@@ -207,6 +207,9 @@ TEST_F(RenderCli, BadArgumentsFailWithOneLineAndNoFile)
     expectError(base + "-o " + out + " --kerf 0.5", "--kerf needs --path", out);
     expectError(base + "-o " + out + " --kerf -1 --path " + lefortPath(), "--kerf -1", out);
     expectError(base + "-o " + out + " --kerf 21 --path " + lefortPath(), "--kerf 21: expected a saw width from 0 to 20 mm", out);
+    expectError(base + "-o " + out + " --retrace 1", "--retrace needs --path", out);
+    expectError(base + "-o " + out + " --retrace 5 --path " + lefortPath(),
+                "--retrace 5: expected a tolerance from 0 to 4 voxels (default 0.25)", out);
     expectError("render " + sPhantom + " -o " + out, "needs --iso", out);
     expectError("render " + sDir->file("nope.vdb") + " --iso 400 -o " + out, "nope.vdb", out);
     expectError(base + "-o " + out + " --path " + sDir->file("nope.csv"), "nope.csv", out);

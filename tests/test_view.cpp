@@ -437,6 +437,43 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
     EXPECT_EQ(refusedOf(dir.file("out/summary.json")), listed);
 }
 
+// The retrace tolerance in the viewer: a script sets it (out of range, the
+// script stops at that line before anything opens), and a saw worked back and forth
+// through the ball is then cut as `mtcut cut --retrace` cuts it, file for
+// file, summary.json recording it; out of range on the command line, the
+// viewer does not start.
+TEST(ViewPath, ASawPathWithAWiderRetraceIsCutAsTheCommandLineCutsIt)
+{
+    if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
+    test::TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string path = dir.file("saw.csv");
+    {
+        std::ofstream f(path);
+        cutter::writePath(f, {test::sawThroughTheBall()});
+    }
+    writeText(dir.file("s.txt"), "iso 0\nkerf 0.5\nretrace 1\npath " + path + "\nexport " + dir.file("out") + "\nquit\n");
+    const test::RunResult r = runView(ball + " --size 320x240 --script " + dir.file("s.txt"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("saw.csv: 1 stroke(s), "), std::string::npos) << r.output;
+    const test::RunResult cut = test::runMtcut("cut " + ball + " --iso 0 --kerf 0.5 --retrace 1 --path " + path +
+                                               " -o " + dir.file("cut") + " --check");
+    ASSERT_EQ(cut.exitCode, 0) << cut.output;
+    EXPECT_GE(sameFragments(dir.file("out"), dir.file("cut")), 1u);
+    EXPECT_NE(readBytes(dir.file("out/summary.json")).find("\"retrace_voxels\": 1,\n"), std::string::npos);
+
+    const test::RunResult bad = runView(ball + " --retrace 9");
+    EXPECT_EQ(bad.exitCode, 2) << bad.output;
+    EXPECT_NE(bad.output.find("mtcut-view: error: --retrace 9: expected a tolerance from 0 to 4 voxels"), std::string::npos)
+        << bad.output;
+    writeText(dir.file("bad.txt"), "iso 0\nretrace 9\nquit\n");
+    const test::RunResult badLine = runView(ball + " --script " + dir.file("bad.txt"));
+    EXPECT_EQ(badLine.exitCode, 2) << badLine.output;
+    EXPECT_NE(badLine.output.find("bad.txt:2: retrace 9: expected a tolerance from 0 to 4 voxels"), std::string::npos)
+        << badLine.output;
+    EXPECT_EQ(badLine.output.find("opened"), std::string::npos) << "stops before opening anything:\n" << badLine.output;
+}
+
 // A haptic device's stream (--poses stdin), its strokes cut live: the ball
 // cut in two by a stroke at kerf 0, then by the tilted-blade stroke above,
 // whose quads overlap the first's inside the ball. Its first poses (in air,

@@ -59,6 +59,19 @@ double Args::kerfMm() const
     return kerf;
 }
 
+cutter::PathFilterOptions Args::pathFilterOptions() const
+{
+    cutter::PathFilterOptions o;
+    o.retraceTolerance = getDouble("retrace", o.retraceTolerance);
+    if (!(o.retraceTolerance >= 0.0 && o.retraceTolerance <= cutter::kMaxRetraceTolerance)) {
+        char text[128];
+        std::snprintf(text, sizeof text, ": expected a tolerance from 0 to %g voxels (default %g)",
+                      cutter::kMaxRetraceTolerance, cutter::PathFilterOptions{}.retraceTolerance);
+        throw InputError("--retrace " + get("retrace") + text);
+    }
+    return o;
+}
+
 float Args::isoValue(const std::string& command) const
 {
     if (!has("iso"))
@@ -121,12 +134,13 @@ std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile)
     return strokes;
 }
 
-size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes)
+size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes,
+                  const cutter::PathFilterOptions& filterOptions)
 {
     size_t count = 0;
     // One filter for all strokes, knowing the cut so far: a stroke that goes
     // back into the cut adds nothing there (rule 2b).
-    cutter::PathFilter filter(mask.frame());
+    cutter::PathFilter filter(mask.frame(), filterOptions);
     cutter::setEarlierQuads(mask, filter);
     for (const std::vector<cutter::Pose>& stroke : strokes) {
         const std::vector<cutter::Quad> quads = filter.pushStroke(stroke);
@@ -142,12 +156,13 @@ size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::P
 }
 
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
-                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
+                         const std::vector<std::vector<cutter::Pose>>& strokes,
+                         const cutter::PathFilterOptions& filterOptions, std::vector<RefusedStroke>& refused,
                          std::vector<size_t>* steppedRound, std::vector<uint32_t>* maskStrokes)
 {
     size_t count = 0;
     if (maskStrokes) maskStrokes->assign(strokes.size(), 0);
-    cutter::PathFilter filter(mask.frame());
+    cutter::PathFilter filter(mask.frame(), filterOptions);
     cutter::setEarlierQuads(mask, filter); // a stroke going back into the cut so far adds nothing there
     for (size_t i = 0; i < strokes.size(); ++i) {
         // As filter.pushStroke, knowing which pose made each quad.

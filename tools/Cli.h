@@ -32,6 +32,9 @@ struct Args
     double getDouble(const std::string& name, double fallback) const;
     /// --kerf in mm (default 0); InputError outside 0..cutter::kMaxKerfMm.
     double kerfMm() const;
+    /// The path filter's options: --retrace VOXELS (the retrace tolerance,
+    /// default PathFilterOptions' 0.25); InputError outside 0..cutter::kMaxRetraceTolerance.
+    cutter::PathFilterOptions pathFilterOptions() const;
     /// --iso, which `command` (mesh, cut, render) needs; InputError when it
     /// is missing or not a finite number.
     float isoValue(const std::string& command) const;
@@ -104,8 +107,10 @@ std::vector<std::vector<cutter::Pose>> readStrokes(const std::string& pathFile);
 /// that never leaves its first cell, or only retraces the cut so far, adds
 /// nothing). One path filter runs over all strokes and knows the cut (the
 /// mask's quads, then each stroke's), so a stroke going back into the cut
-/// adds nothing there (PathFilter rule 2b). Returns the quads added.
-size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes);
+/// adds nothing there (PathFilter rule 2b, within filterOptions'
+/// retraceTolerance). Returns the quads added.
+size_t addStrokes(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes,
+                  const cutter::PathFilterOptions& filterOptions);
 
 /// A stroke the re-mesher refused part of (mtcut cut --keep-going): it was
 /// cut up to the quad before the refused one, and the rest of it dropped.
@@ -133,10 +138,11 @@ using cutter::refusalOf; // the re-mesher's refusal of an update, or ""
 /// hundredth of a voxel at most) is listed (1-based) in `steppedRound`
 /// when given. `maskStrokes`, when given, gets per stroke the mask's
 /// number of it (1-based; 0: nothing of it kept). The path filter sees only
-/// the quads kept. Returns the quads kept. Throws what update() throws
-/// other than a refusal (InputError, Cancelled).
+/// the quads kept (with `filterOptions`). Returns the quads kept. Throws
+/// what update() throws other than a refusal (InputError, Cancelled).
 size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
-                         const std::vector<std::vector<cutter::Pose>>& strokes, std::vector<RefusedStroke>& refused,
+                         const std::vector<std::vector<cutter::Pose>>& strokes,
+                         const cutter::PathFilterOptions& filterOptions, std::vector<RefusedStroke>& refused,
                          std::vector<size_t>* steppedRound = nullptr, std::vector<uint32_t>* maskStrokes = nullptr);
 
 /// The report lines of a cut made stroke by stroke (--keep-going): one

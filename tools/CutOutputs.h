@@ -50,6 +50,9 @@ struct CutOutputRequest
     std::string strokeLabel;     ///< summary's "stroke"; "" = "path file" / "built-in LeFort I"
     float isovalue = 0.0f;
     double kerfMm = 0.0;
+    /// The path filter's retrace tolerance the strokes were filtered with
+    /// (voxels; mtcut cut --retrace): summary's "retrace_voxels".
+    double retraceVoxels = cutter::PathFilterOptions{}.retraceTolerance;
     /// Which fragments (by index in the fragment list) to write as mesh files
     /// and level sets; empty = all. Files keep their index in the full list
     /// (fragment_003.stl stays fragment 3), so a partial save is unambiguous.

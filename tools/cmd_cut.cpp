@@ -82,6 +82,7 @@ int runCut(const Args& args)
     const float iso = args.isoValue("cut");
     if (!args.has("output")) throw InputError("mtcut cut needs -o OUTDIR");
     const double kerf = args.kerfMm();
+    const cutter::PathFilterOptions filterOptions = args.pathFilterOptions();
     const std::string ext = args.get("format", "stl");
     checkMeshFormat(ext);
     const std::string outDir = args.get("output");
@@ -133,7 +134,7 @@ int runCut(const Args& args)
     bool onPhantom = false;
     if (strokes.empty()) strokes.push_back(builtinStroke(vol, frame, uncut, &onPhantom));
     cutter::CutMask mask(frame, kerf);
-    size_t quadCount = addStrokes(mask, strokes);
+    size_t quadCount = addStrokes(mask, strokes, filterOptions);
     t.mask = secondsSince(t0);
 
     // -- re-mesh and fuse ---------------------------------------------------------
@@ -162,7 +163,7 @@ int runCut(const Args& args)
         if (!whole) {
             std::fprintf(stderr, "mtcut: the re-mesher refused the cut; --keep-going: cutting stroke by stroke\n");
             mask = cutter::CutMask(frame, kerf);
-            quadCount = cutStrokeByStroke(remesher, mask, strokes, refused, &stepped);
+            quadCount = cutStrokeByStroke(remesher, mask, strokes, filterOptions, refused, &stepped);
         }
         for (const auto& [cell, geometry] : remesher.cells()) surfaceCells += geometry.indices.empty() ? 0 : 1;
         std::vector<uint32_t> source;
@@ -216,6 +217,7 @@ int runCut(const Args& args)
     request.pathFile = pathFile;
     request.isovalue = iso;
     request.kerfMm = kerf;
+    request.retraceVoxels = filterOptions.retraceTolerance;
     request.refused = refused;
     request.steppedRound = stepped;
     request.selected = selected;
@@ -229,10 +231,11 @@ int runCut(const Args& args)
     }
 
     // -- report -------------------------------------------------------------------
-    std::printf("stroke:     %s, %zu stroke(s), %zu quads, kerf %g mm%s\n",
+    std::printf("stroke:     %s, %zu stroke(s), %zu quads, kerf %g mm%s, retrace %g voxels\n",
                 pathFile.empty() ? (onPhantom ? "built-in LeFort I (phantom's LeFort plane)" : "built-in LeFort I")
                                  : pathFile.c_str(),
-                strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "");
+                strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "",
+                filterOptions.retraceTolerance);
     printStrokeByStroke(refused, stepped);
     std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
@@ -306,16 +309,19 @@ int runCut(const Args& args)
 std::vector<std::string> cutOptions()
 {
     std::vector<std::string> o = kInputOptions;
-    for (const char* name : {"iso", "path", "kerf", "output", "format", "min-volume", "level-set-voxel"}) o.push_back(name);
+    for (const char* name : {"iso", "path", "kerf", "retrace", "output", "format", "min-volume", "level-set-voxel"}) o.push_back(name);
     return o;
 }
 
-const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--level-set-voxel MM] [--check] [--keep-going]",
+const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] [--retrace VOXELS] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--level-set-voxel MM] [--check] [--keep-going]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
                             "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
                             "going back into the cut adds nothing there. --kerf: saw width in mm, 0 to 20 (0: a zero-width blade, the "
-                            "carved volume equals the input); --min-volume: write no file or level set for a fragment "
+                            "carved volume equals the input); --retrace: a pose within this many voxels of the cut so far is "
+                            "dropped as going back over it (the path filter's tolerance, 0 to 4, default 0.25; 1 makes a "
+                            "saw worked back and forth many times faster to cut, and the cut may stop short of where the "
+                            "blade went by up to that much); --min-volume: write no file or level set for a fragment "
                             "smaller than MM3 (loose specks; summary.json counts them; default 0: every fragment); --level-set-voxel: the "
                             "voxel size in mm of cut.vdb's level sets (default: the scan's smallest spacing; at least a "
                             "quarter of it); --check: "

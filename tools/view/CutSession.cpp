@@ -82,6 +82,7 @@ struct CutSession::State
     std::unique_ptr<cutter::CutRemesher> remesher;
 
     // The live stroke.
+    cutter::PathFilterOptions filterOptions;  ///< setRetrace; for the strokes to come
     std::unique_ptr<cutter::PathFilter> filter;
     bool live = false;                          ///< between beginStroke and endStroke
     std::unique_ptr<cutter::LiveStroke> stroke; ///< the live stroke's quads and its refusals
@@ -358,7 +359,7 @@ void CutSession::resetCut()
     State& s = *mState;
     s.mask = std::make_unique<cutter::CutMask>(s.frame, s.kerf);
     s.remesher = std::make_unique<cutter::CutRemesher>(*s.volume, s.iso, *s.surface);
-    s.filter = std::make_unique<cutter::PathFilter>(s.frame);
+    s.filter = std::make_unique<cutter::PathFilter>(s.frame, s.filterOptions);
     s.live = s.haveBlade = false;
     s.stroke.reset();
     s.cutDirty = false;
@@ -481,14 +482,29 @@ void CutSession::setKerf(double kerfMm)
           }});
 }
 
+void CutSession::setRetrace(double voxels)
+{
+    post({"retrace", false, [this, voxels] {
+              if (!(voxels >= 0.0 && voxels <= cutter::kMaxRetraceTolerance)) {
+                  char text[96];
+                  std::snprintf(text, sizeof text, "retrace: expected a tolerance from 0 to %g voxels",
+                                cutter::kMaxRetraceTolerance);
+                  throw InputError(text);
+              }
+              mState->filterOptions.retraceTolerance = voxels; // the next stroke's filter takes it
+          }});
+}
+
 void CutSession::beginStroke()
 {
     post({"stroke", false, [this] {
               State& s = *mState;
               if (!s.remesher) return;
               endLiveStroke();
-              (void)s.filter->endStroke(); // already ended: nothing pending
-              cutter::setEarlierQuads(*s.mask, *s.filter); // the cut as it is now (after any undo)
+              // A filter for the stroke (with the retrace tolerance set now)
+              // that knows the cut as it is (after any undo).
+              s.filter = std::make_unique<cutter::PathFilter>(s.frame, s.filterOptions);
+              cutter::setEarlierQuads(*s.mask, *s.filter);
               s.live = true;
               s.haveBlade = false;
               s.stroke = std::make_unique<cutter::LiveStroke>(*s.mask, *s.remesher);
@@ -541,7 +557,8 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
               std::vector<cli::RefusedStroke> refused;
               std::vector<size_t> stepped;
               std::vector<uint32_t> maskStroke; // per stroke of the file: its number in the mask, 0 if none
-              const size_t quads = cli::cutStrokeByStroke(*s.remesher, *s.mask, strokes, refused, &stepped, &maskStroke);
+              const size_t quads = cli::cutStrokeByStroke(*s.remesher, *s.mask, strokes, s.filterOptions, refused, &stepped,
+                                                            &maskStroke);
               const size_t added = s.mask->strokeCount() - before;
               if (added) s.strokeEntered(before + 1);
               for (const cli::RefusedStroke& r : refused) {
@@ -644,6 +661,7 @@ void CutSession::save(SaveRequest request)
               r.strokeLabel = "mtcut-view, " + std::to_string(s.mask->strokeCount()) + " stroke(s)";
               r.isovalue = s.iso;
               r.kerfMm = s.kerf;
+              r.retraceVoxels = s.filterOptions.retraceTolerance; // as set now
               r.selected = request.selected;
               // The strokes of the cut now (after any undo) that were cut
               // only in part, as they still are, or stepped round a refusal.

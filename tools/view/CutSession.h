@@ -104,6 +104,10 @@ public:
     void setIsovalue(float isovalue);
     /// Saw width (mm, >= 0); re-cuts every stroke of the mask at it.
     void setKerf(double kerfMm);
+    /// The path filter's retrace tolerance (voxels, 0 to
+    /// cutter::kMaxRetraceTolerance) for the strokes to come (live and path
+    /// files); the cut so far stays as it is.
+    void setRetrace(double voxels);
     /// A live stroke: begin, poses (world mm, seconds; filtered by the path
     /// filter, re-meshed as they come), end (then the fragments are updated).
     void beginStroke();

@@ -1,9 +1,11 @@
 #include "tools/view/Script.h"
 
+#include "cutter/BladePath.h"
 #include "vdb/Error.h"
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -44,7 +46,8 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
     };
     static const Spec kSpecs[] = {
         {"iso", ScriptAction::Kind::Iso, true},       {"view", ScriptAction::Kind::View, true},
-        {"kerf", ScriptAction::Kind::Kerf, true},     {"path", ScriptAction::Kind::Path, true},
+        {"kerf", ScriptAction::Kind::Kerf, true},     {"retrace", ScriptAction::Kind::Retrace, true},
+        {"path", ScriptAction::Kind::Path, true},
         {"drag", ScriptAction::Kind::Drag, true},     {"pick", ScriptAction::Kind::Pick, true},
         {"undo", ScriptAction::Kind::Undo, false},    {"redo", ScriptAction::Kind::Redo, false},
         {"screenshot", ScriptAction::Kind::Screenshot, true}, {"window", ScriptAction::Kind::Window, true},
@@ -67,7 +70,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         }
         if (!spec) {
             throw InputError(where + ": unknown action '" + word +
-                             "' (expected iso, view, kerf, path, drag, pick, undo, redo, screenshot, window, export, export-selected, wait or quit)");
+                             "' (expected iso, view, kerf, retrace, path, drag, pick, undo, redo, screenshot, window, export, export-selected, wait or quit)");
         }
         if (spec->takesArgument && rest.empty()) throw InputError(where + ": " + word + " needs an argument");
         if (!spec->takesArgument && !rest.empty()) {
@@ -79,6 +82,14 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         a.line = lineNo;
         if (a.kind == ScriptAction::Kind::Iso) a.number = numberOf(rest, where + ": iso", false);
         if (a.kind == ScriptAction::Kind::Kerf) a.number = numberOf(rest, where + ": kerf", true);
+        if (a.kind == ScriptAction::Kind::Retrace) {
+            a.number = numberOf(rest, where + ": retrace", true);
+            if (a.number > cutter::kMaxRetraceTolerance) {
+                char range[64];
+                std::snprintf(range, sizeof range, ": expected a tolerance from 0 to %g voxels", cutter::kMaxRetraceTolerance);
+                throw InputError(where + ": retrace " + rest + range);
+            }
+        }
         if (a.kind == ScriptAction::Kind::Wait) {
             if (rest == "poses") a.kind = ScriptAction::Kind::WaitPoses;
             else a.number = numberOf(rest, where + ": wait (seconds, or 'poses')", true);

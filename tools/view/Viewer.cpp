@@ -211,6 +211,7 @@ private:
     // panel state
     float mIso = 0.0f;
     float mKerf = 0.0f;
+    float mRetrace = 0.25f; ///< the path filter's retrace tolerance, voxels (panel)
     float mBladeLength = 60.0f;   ///< mm
     double mScriptWaitUntil = 0.0; ///< glfwGetTime() before which the script waits (`wait`)
     bool mScriptWaitPoses = false; ///< the script waits for the --poses stream to end (`wait poses`)
@@ -277,6 +278,8 @@ Viewer::Viewer(const ViewerOptions& options)
         if (!ec) mBrowseDir = (fs::is_directory(p, ec) ? p.parent_path() : p.parent_path()).string();
     }
     mSession.open(options.input, options.isovalue);
+    mRetrace = float(options.retrace);
+    if (options.retrace != cutter::PathFilterOptions{}.retraceTolerance) mSession.setRetrace(options.retrace);
     if (!options.poseStream.empty()) {
         try {
             mPoses = std::make_unique<PoseStreamReader>(options.poseStream, mSession);
@@ -642,6 +645,10 @@ void Viewer::stepScript()
         case ScriptAction::Kind::Iso: mSession.setIsovalue(float(a.number)); break;
         case ScriptAction::Kind::View: setPreset(a.argument); break;
         case ScriptAction::Kind::Kerf: mSession.setKerf(a.number); break;
+        case ScriptAction::Kind::Retrace:
+            mSession.setRetrace(a.number);
+            mRetrace = float(a.number);
+            break;
         case ScriptAction::Kind::Path: mSession.addStrokes(cli::readStrokes(a.argument), a.argument); break;
         case ScriptAction::Kind::Drag: scriptDrag(a.argument); break;
         case ScriptAction::Kind::Undo: mSession.undo(); break;
@@ -745,6 +752,11 @@ void Viewer::panel()
         ImGui::SliderFloat("tilt (deg)", &mBladeAngle, -80.0f, 80.0f, "%.0f");
         ImGui::SliderFloat("kerf (mm)", &mKerf, 0.0f, 2.0f, "%.2f");
         if (ImGui::IsItemDeactivatedAfterEdit()) mSession.setKerf(mKerf);
+        ImGui::SliderFloat("retrace (voxels)", &mRetrace, 0.0f, float(cutter::kMaxRetraceTolerance), "%.2f");
+        if (ImGui::IsItemHovered())
+            ImGui::SetTooltip("A pose this close to the cut is taken as going back over it. 1: a saw worked back and\n"
+                              "forth cuts many times faster, and the cut may lag the blade by up to that much.");
+        if (ImGui::IsItemDeactivatedAfterEdit()) mSession.setRetrace(mRetrace);
         ImGui::Text("%u stroke(s), %zu cut voxels", s->strokes, s->cutCells);
         if (ImGui::Button("Undo")) mSession.undo();
         ImGui::SameLine();

@@ -5,6 +5,7 @@
 // its snapshots and queues commands, so it never waits for a re-mesh.
 #pragma once
 
+#include "cutter/BladePath.h"
 #include "tools/view/Script.h"
 #include "vdb/VolumeIO.h"
 
@@ -27,6 +28,8 @@ struct ViewerOptions
     /// Live blade poses in the path format from "stdin" or "udp:PORT"
     /// (cutter/PoseStream.h), read on their own thread; "" = none.
     std::string poseStream;
+    /// The path filter's retrace tolerance, voxels (mtcut-view --retrace).
+    double retrace = cutter::PathFilterOptions{}.retraceTolerance;
 };
 
 /// Opens the window and runs until the user closes it or a script says

@@ -19,20 +19,23 @@ using namespace mtcut;
 namespace {
 
 const char* const kUsage =
-    "usage: mtcut-view [INPUT] [--iso V] [--script FILE] [--size WxH] [--poses stdin|udp:PORT] [input options]\n"
+    "usage: mtcut-view [INPUT] [--iso V] [--script FILE] [--size WxH] [--poses stdin|udp:PORT] [--retrace VOXELS]\n"
+    "                  [input options]\n"
     "  INPUT            a scan (DICOM folder, .nrrd/.nhdr, .nii, .mha, .vdb, raw); none: the built-in phantom\n"
     "  --iso V          isovalue (default: the suggested bone isovalue, as `mtcut info` prints it)\n"
     "  --script FILE    run the actions in FILE, one per line (iso V, view NAME, kerf MM, path FILE,\n"
     "                   undo, redo, screenshot FILE.png|.exr, export DIR, quit); see README\n"
     "  --size WxH       window size in pixels (default 1280x800)\n"
-    "  --poses SOURCE   drive the blade from a pose stream in the path format (stdin or udp:PORT)\n"
+"  --poses SOURCE   drive the blade from a pose stream in the path format (stdin or udp:PORT)\n"
+    "  --retrace V      the path filter's retrace tolerance in voxels, 0 to 4 (default 0.25; 1: sawing back\n"
+    "                   and forth cuts many times faster, the cut lagging the blade by up to 1 voxel)\n"
     "  input options    as mtcut's: --series --grid --air --dims --type --endian --spacing --origin --offset\n";
 
 view::ViewerOptions parseArgs(int argc, char** argv, std::string& scriptPath)
 {
     cli::Args args;
     std::vector<std::string> valueOptions = cli::kInputOptions;
-    for (const char* name : {"iso", "script", "size", "poses"}) valueOptions.push_back(name);
+    for (const char* name : {"iso", "script", "size", "poses", "retrace"}) valueOptions.push_back(name);
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a.rfind("--", 0) != 0 || a.size() <= 2) {
@@ -74,6 +77,7 @@ view::ViewerOptions parseArgs(int argc, char** argv, std::string& scriptPath)
         o.height = h;
     }
     o.poseStream = args.get("poses");
+    o.retrace = args.pathFilterOptions().retraceTolerance; // --retrace, checked as mtcut's
     scriptPath = args.get("script");
     return o;
 }
