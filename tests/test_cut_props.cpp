@@ -1212,6 +1212,8 @@ TEST_P(CutProps, RandomStrokesOnThe4mmHead)
 // back the mesh before each exactly. The eight seeds are ones the re-mesher
 // takes today at both widths (benchmarks/RESULTS.md, "A saw worked back and
 // forth", has the sweep and the strokes it stops); they guard what works.
+// The same with the path filter's retrace tolerance at a voxel (`--retrace
+// 1`, "The retrace tolerance"): a third of the quads or fewer, the same checks.
 TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
@@ -1219,16 +1221,20 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
     const vdb::Volume vol = vdb::readVolume(path);
     const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
     StateStats st;
-    size_t updates = 0, quads = 0, stepped = 0;
+    size_t updates = 0, quads = 0, stepped = 0, quadsWide = 0;
+    for (const double retrace : {PathFilterOptions{}.retraceTolerance, 1.0})
     for (uint32_t seed : {102u, 104u, 105u, 106u, 108u, 111u, 115u, 117u}) {
-        const std::string what = "sawing seed " + std::to_string(seed) + ", " + kerfName(w);
+        const std::string what =
+            "sawing seed " + std::to_string(seed) + ", " + kerfName(w) + ", retrace " + std::to_string(retrace);
         SCOPED_TRACE(what);
+        PathFilterOptions filterOptions;
+        filterOptions.retraceTolerance = retrace;
         CutMask mask(frameOf(vol), w);
         CutRemesher remesher(vol, 400.0f, uncut);
         std::vector<Mesh> before{remesher.fusedMesh()};
         for (const std::vector<Pose>& poses : makeSawingStrokes(uncut.positions, seed, 4, SawMotion::Both)) {
             LiveStroke live(mask, remesher);
-            const std::vector<Quad> stroke = filterStroke(poses, mask.frame());
+            const std::vector<Quad> stroke = filterStroke(poses, mask.frame(), filterOptions);
             for (size_t q = 0; q < stroke.size() && live.add(stroke[q]); ++q) {
                 const LiveStroke::Result r = q + 1 < stroke.size() ? live.update() : live.finish();
                 ++updates;
@@ -1236,7 +1242,7 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
             }
             ASSERT_FALSE(live.stopped());
             EXPECT_EQ(live.acceptedQuads(), stroke.size());
-            quads += stroke.size();
+            (retrace == 1.0 ? quadsWide : quads) += stroke.size();
             stepped += live.steppedRound();
             before.push_back(remesher.fusedMesh());
         }
@@ -1253,10 +1259,11 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
             EXPECT_TRUE(sameMesh(remesher.fusedMesh(), before[k])) << "undo of stroke " << k;
         }
     }
-    std::printf("4 mm head, sawing, %s: %zu quads, %zu live updates, %zu stepped round\n", kerfName(w).c_str(), quads,
-                updates, stepped);
+    std::printf("4 mm head, sawing, %s: %zu quads (%zu with retrace 1), %zu live updates, %zu stepped round\n",
+                kerfName(w).c_str(), quads, quadsWide, updates, stepped);
     printState(("4 mm head, sawing, " + kerfName(w)).c_str(), st);
     EXPECT_GT(quads, 600u);
+    EXPECT_LT(3 * quadsWide, quads);
 }
 
 // Hand-made strokes on the 4 mm and 2 mm heads (straight, curved, a figure
