@@ -792,6 +792,7 @@ TEST(CutCli, AKerfOutOfRangeFailsAtOnce)
 // at once, nothing written; in range summary.json records it, and a saw
 // worked back and forth through the ball (each pass deepening the cut a
 // little) makes fewer quads with a wider one, and both cuts come out clean.
+// At the default, the quads the passes pile in a cell get a note saying so.
 TEST(CutCli, ARetraceToleranceIsCheckedUsedAndRecorded)
 {
     openvdb::initialize();
@@ -824,6 +825,12 @@ TEST(CutCli, ARetraceToleranceIsCheckedUsedAndRecorded)
             << r.output;
         quads[wide] = std::stoul(m[1]);
         EXPECT_EQ(m[2], wide ? "1" : "0.25");
+        // At the default the passes pile quads in the cells, and the note says what to do.
+        std::smatch note;
+        const bool noted = std::regex_search(
+            r.output, note, std::regex(R"(mtcut: note: up to (\d+) quads cross one cut cell .*; --retrace 1 lays one only)"));
+        EXPECT_EQ(noted, !wide) << r.output;
+        if (noted) EXPECT_GE(std::stoul(note[1]), 12u); // cli::kManyQuadsPerCell
         const std::string json = readText(outDir + "/summary.json");
         EXPECT_NE(json.find(wide ? "\"retrace_voxels\": 1,\n" : "\"retrace_voxels\": 0.25,\n"), std::string::npos) << json;
     }

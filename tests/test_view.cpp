@@ -441,7 +441,7 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
 // script stops at that line before anything opens), and a saw worked back and forth
 // through the ball is then cut as `mtcut cut --retrace` cuts it, file for
 // file, summary.json recording it; out of range on the command line, the
-// viewer does not start.
+// viewer does not start. At the default a note says the cells gather quads.
 TEST(ViewPath, ASawPathWithAWiderRetraceIsCutAsTheCommandLineCutsIt)
 {
     if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
@@ -461,6 +461,14 @@ TEST(ViewPath, ASawPathWithAWiderRetraceIsCutAsTheCommandLineCutsIt)
     ASSERT_EQ(cut.exitCode, 0) << cut.output;
     EXPECT_GE(sameFragments(dir.file("out"), dir.file("cut")), 1u);
     EXPECT_NE(readBytes(dir.file("out/summary.json")).find("\"retrace_voxels\": 1,\n"), std::string::npos);
+    EXPECT_EQ(r.output.find("note: up to"), std::string::npos) << r.output;
+    // At the default tolerance the passes pile quads in the cells: a note
+    // says so, and what the slider does.
+    writeText(dir.file("fine.txt"), "iso 0\nkerf 0.5\npath " + path + "\nquit\n");
+    const test::RunResult fine = runView(ball + " --size 320x240 --script " + dir.file("fine.txt"));
+    ASSERT_EQ(fine.exitCode, 0) << fine.output;
+    EXPECT_TRUE(std::regex_search(fine.output, std::regex(R"(note: up to \d+ quads cross one cut cell .*; the retrace slider at 1 \(--retrace 1\) lays one only)")))
+        << fine.output;
 
     const test::RunResult bad = runView(ball + " --retrace 9");
     EXPECT_EQ(bad.exitCode, 2) << bad.output;

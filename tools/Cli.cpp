@@ -7,6 +7,7 @@
 #include "cutter/Remesh.h"
 #include "vdb/Error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -230,6 +231,26 @@ void printStrokeByStroke(const std::vector<RefusedStroke>& refused, const std::v
         std::printf("stepped:    stroke %zu stepped round a refusal below a float step (its blade moved by at most "
                     "%g voxel there)\n",
                     s, cutter::LiveStroke::kStepRoundMostVoxels);
+}
+
+size_t mostQuadsInACell(const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells)
+{
+    size_t most = 0;
+    for (const openvdb::Coord& c : cells)
+        if (const std::vector<cutter::QuadRef>* list = mask.quadsAt(c)) most = std::max(most, list->size());
+    return most;
+}
+
+std::string manyQuadsNote(size_t most, double retraceVoxels, const std::string& how)
+{
+    if (most < kManyQuadsPerCell || retraceVoxels >= 1.0) return {};
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "up to %zu quads cross one cut cell (a saw worked back and forth over its cut lays one over the "
+                  "whole blade each time it goes %g voxel deeper), and each makes the cell slower to re-mesh; %s "
+                  "lays one only once it goes a voxel deeper (the cut may then lag the blade by up to a voxel)",
+                  most, retraceVoxels, how.c_str());
+    return text;
 }
 
 std::string describeRefusalWithHint(const std::string& what, const cutter::IndexFrame& frame, double kerf,

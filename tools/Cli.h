@@ -150,6 +150,17 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
 /// stroke that stepped round a refusal below a float step; on stdout.
 void printStrokeByStroke(const std::vector<RefusedStroke>& refused, const std::vector<size_t>& steppedRound);
 
+/// Quads crossing one cut cell from which manyQuadsNote speaks.
+constexpr size_t kManyQuadsPerCell = 12;
+/// The most quads of `mask` that cross one of `cells` (cut cells).
+size_t mostQuadsInACell(const cutter::CutMask& mask, const std::vector<openvdb::Coord>& cells);
+/// A note for the user when up to `most` quads cross one cut cell
+/// (at least kManyQuadsPerCell) and the retrace tolerance is below a voxel:
+/// such cells are slow to re-mesh, and a wider tolerance (`how`: the option
+/// or control that sets it) keeps a saw worked back and forth from piling
+/// quads there. "" otherwise.
+std::string manyQuadsNote(size_t most, double retraceVoxels, const std::string& how);
+
 /// describeRefusal, and when the refusal is one a live stroke steps round
 /// (below a float step) and --keep-going was not given, how to get past it.
 std::string describeRefusalWithHint(const std::string& what, const cutter::IndexFrame& frame, double kerf,

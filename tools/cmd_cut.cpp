@@ -143,6 +143,7 @@ int runCut(const Args& args)
     std::vector<uint8_t> onBlade; // per fused triangle: a cut face
     std::vector<cutter::Fragment> fragments;
     size_t surfaceCells = 0; // cut cells with new geometry: the blade meets the solid there
+    size_t mostQuads = 0;    // the most quads crossing one of them (manyQuadsNote)
     const bool keepGoing = args.has("keep-going");
     std::vector<RefusedStroke> refused;
     std::vector<size_t> stepped; // strokes whose live cut stepped round a refusal
@@ -165,7 +166,11 @@ int runCut(const Args& args)
             mask = cutter::CutMask(frame, kerf);
             quadCount = cutStrokeByStroke(remesher, mask, strokes, filterOptions, refused, &stepped);
         }
-        for (const auto& [cell, geometry] : remesher.cells()) surfaceCells += geometry.indices.empty() ? 0 : 1;
+        std::vector<openvdb::Coord> withSurface;
+        for (const auto& [cell, geometry] : remesher.cells())
+            if (!geometry.indices.empty()) withSurface.push_back(cell);
+        surfaceCells = withSurface.size();
+        mostQuads = mostQuadsInACell(mask, withSurface);
         std::vector<uint32_t> source;
         fused = remesher.fusedMesh(&source);
         onBlade = remesher.bladeTriangles(source);
@@ -278,6 +283,8 @@ int runCut(const Args& args)
                 records.size() - 1, ext.c_str(), pathFile.empty() ? "stroke.csv, " : "");
 
     std::fflush(stdout); // warnings after the report, also when both go to one pipe
+    if (const std::string note = manyQuadsNote(mostQuads, filterOptions.retraceTolerance, "--retrace 1"); !note.empty())
+        std::fprintf(stderr, "mtcut: note: %s\n", note.c_str());
     if (!refused.empty())
         std::fprintf(stderr, "mtcut: warning: %zu stroke(s) cut only in part (--keep-going; summary.json \"refused\")\n",
                      refused.size());

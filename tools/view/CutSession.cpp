@@ -83,6 +83,7 @@ struct CutSession::State
 
     // The live stroke.
     cutter::PathFilterOptions filterOptions;  ///< setRetrace; for the strokes to come
+    bool manyQuadsNoted = false;              ///< cli::manyQuadsNote said once this session
     std::unique_ptr<cutter::PathFilter> filter;
     bool live = false;                          ///< between beginStroke and endStroke
     std::unique_ptr<cutter::LiveStroke> stroke; ///< the live stroke's quads and its refusals
@@ -403,6 +404,7 @@ void CutSession::endLiveStroke()
     s.live = s.haveBlade = false;
     s.stroke.reset();
     s.sceneDirty = s.fragmentsDirty = true;
+    noteManyQuads();
 }
 
 void CutSession::open(const std::string& path, float isovalue)
@@ -580,7 +582,22 @@ void CutSession::addStrokes(std::vector<std::vector<cutter::Pose>> strokes, std:
               std::snprintf(buf, sizeof buf, ": %zu stroke(s), %zu quads, %zu cut cells in %.2f s", added, quads,
                             s.mask->cutCellCount(), secondsSince(t0));
               message(false, pathName + buf);
+              noteManyQuads();
           }});
+}
+
+void CutSession::noteManyQuads()
+{
+    State& s = *mState;
+    if (s.manyQuadsNoted || !s.remesher) return;
+    std::vector<openvdb::Coord> withSurface;
+    for (const auto& [cell, geometry] : s.remesher->cells())
+        if (!geometry.indices.empty()) withSurface.push_back(cell);
+    const std::string note = cli::manyQuadsNote(cli::mostQuadsInACell(*s.mask, withSurface),
+                                                s.filterOptions.retraceTolerance, "the retrace slider at 1 (--retrace 1)");
+    if (note.empty()) return;
+    s.manyQuadsNoted = true;
+    message(false, "note: " + note);
 }
 
 void CutSession::undo()

@@ -154,6 +154,9 @@ private:
     void updateCut(bool mayDefer = false);
     void publish();
     void message(bool error, const std::string& text);
+    /// Worker: once a session, cli::manyQuadsNote when the cut's cells
+    /// with surface gather that many quads (after a stroke or a path file).
+    void noteManyQuads();
     void setTaskName(const std::string& name);
     void resetCut();      ///< worker: a new mask (kerf kept) and remesher on the current surface
     void endLiveStroke(); ///< worker: ends the live stroke, if any
