@@ -62,14 +62,20 @@ double Args::kerfMm() const
 
 cutter::PathFilterOptions Args::pathFilterOptions() const
 {
+    return pathFilterOptionsWith(getDouble("retrace", cutter::PathFilterOptions{}.retraceTolerance),
+                                 "--retrace " + get("retrace"));
+}
+
+cutter::PathFilterOptions pathFilterOptionsWith(double voxels, const std::string& what)
+{
     cutter::PathFilterOptions o;
-    o.retraceTolerance = getDouble("retrace", o.retraceTolerance);
-    if (!(o.retraceTolerance >= 0.0 && o.retraceTolerance <= cutter::kMaxRetraceTolerance)) {
+    if (!(voxels >= 0.0 && voxels <= cutter::kMaxRetraceTolerance)) {
         char text[128];
         std::snprintf(text, sizeof text, ": expected a tolerance from 0 to %g voxels (default %g)",
-                      cutter::kMaxRetraceTolerance, cutter::PathFilterOptions{}.retraceTolerance);
-        throw InputError("--retrace " + get("retrace") + text);
+                      cutter::kMaxRetraceTolerance, o.retraceTolerance);
+        throw InputError(what + text);
     }
+    o.retraceTolerance = voxels;
     return o;
 }
 

@@ -33,7 +33,7 @@ struct Args
     /// --kerf in mm (default 0); InputError outside 0..cutter::kMaxKerfMm.
     double kerfMm() const;
     /// The path filter's options: --retrace VOXELS (the retrace tolerance,
-    /// default PathFilterOptions' 0.25); InputError outside 0..cutter::kMaxRetraceTolerance.
+    /// default PathFilterOptions' 0.25), checked by pathFilterOptionsWith.
     cutter::PathFilterOptions pathFilterOptions() const;
     /// --iso, which `command` (mesh, cut, render) needs; InputError when it
     /// is missing or not a finite number.
@@ -149,6 +149,11 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
 /// "refused:" line per stroke cut only in part, one "stepped:" line per
 /// stroke that stepped round a refusal below a float step; on stdout.
 void printStrokeByStroke(const std::vector<RefusedStroke>& refused, const std::vector<size_t>& steppedRound);
+
+/// The path filter's options with retrace tolerance `voxels` (mtcut --retrace,
+/// the viewer's slider and script); InputError "`what`: expected a tolerance
+/// from 0 to 4 voxels (default 0.25)" outside 0..cutter::kMaxRetraceTolerance.
+cutter::PathFilterOptions pathFilterOptionsWith(double voxels, const std::string& what);
 
 /// Quads crossing one cut cell from which manyQuadsNote speaks.
 constexpr size_t kManyQuadsPerCell = 12;

@@ -487,13 +487,9 @@ void CutSession::setKerf(double kerfMm)
 void CutSession::setRetrace(double voxels)
 {
     post({"retrace", false, [this, voxels] {
-              if (!(voxels >= 0.0 && voxels <= cutter::kMaxRetraceTolerance)) {
-                  char text[96];
-                  std::snprintf(text, sizeof text, "retrace: expected a tolerance from 0 to %g voxels",
-                                cutter::kMaxRetraceTolerance);
-                  throw InputError(text);
-              }
-              mState->filterOptions.retraceTolerance = voxels; // the next stroke's filter takes it
+              char text[48];
+              std::snprintf(text, sizeof text, "retrace %g", voxels);
+              mState->filterOptions = cli::pathFilterOptionsWith(voxels, text); // the next stroke's filter takes it
           }});
 }
 

@@ -1,6 +1,6 @@
 #include "tools/view/Script.h"
 
-#include "cutter/BladePath.h"
+#include "tools/Cli.h"
 #include "vdb/Error.h"
 
 #include <cerrno>
@@ -82,14 +82,9 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         a.line = lineNo;
         if (a.kind == ScriptAction::Kind::Iso) a.number = numberOf(rest, where + ": iso", false);
         if (a.kind == ScriptAction::Kind::Kerf) a.number = numberOf(rest, where + ": kerf", true);
-        if (a.kind == ScriptAction::Kind::Retrace) {
-            a.number = numberOf(rest, where + ": retrace", true);
-            if (a.number > cutter::kMaxRetraceTolerance) {
-                char range[64];
-                std::snprintf(range, sizeof range, ": expected a tolerance from 0 to %g voxels", cutter::kMaxRetraceTolerance);
-                throw InputError(where + ": retrace " + rest + range);
-            }
-        }
+        if (a.kind == ScriptAction::Kind::Retrace)
+            a.number = cli::pathFilterOptionsWith(numberOf(rest, where + ": retrace", true), where + ": retrace " + rest)
+                           .retraceTolerance;
         if (a.kind == ScriptAction::Kind::Wait) {
             if (rest == "poses") a.kind = ScriptAction::Kind::WaitPoses;
             else a.number = numberOf(rest, where + ": wait (seconds, or 'poses')", true);
