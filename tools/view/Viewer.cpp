@@ -752,7 +752,7 @@ void Viewer::panel()
         ImGui::SliderFloat("tilt (deg)", &mBladeAngle, -80.0f, 80.0f, "%.0f");
         ImGui::SliderFloat("kerf (mm)", &mKerf, 0.0f, 2.0f, "%.2f");
         if (ImGui::IsItemDeactivatedAfterEdit()) mSession.setKerf(mKerf);
-        ImGui::SliderFloat("retrace (voxels)", &mRetrace, 0.0f, float(cutter::kMaxRetraceTolerance), "%.2f");
+        ImGui::SliderFloat("retrace (vox)", &mRetrace, 0.0f, float(cutter::kMaxRetraceTolerance), "%.2f");
         if (ImGui::IsItemHovered())
             ImGui::SetTooltip("A pose this close to the cut is taken as going back over it. 1: a saw worked back and\n"
                               "forth cuts many times faster, and the cut may lag the blade by up to that much.");
