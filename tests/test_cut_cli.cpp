@@ -830,7 +830,9 @@ TEST(CutCli, ARetraceToleranceIsCheckedUsedAndRecorded)
         const bool noted = std::regex_search(
             r.output, note, std::regex(R"(mtcut: note: up to (\d+) quads cross one cut cell .*; --retrace 1 lays one only)"));
         EXPECT_EQ(noted, !wide) << r.output;
-        if (noted) EXPECT_GE(std::stoul(note[1]), 12u); // cli::kManyQuadsPerCell
+        if (noted) {
+            EXPECT_GE(std::stoul(note[1]), 12u); // cli::kManyQuadsPerCell
+        }
         const std::string json = readText(outDir + "/summary.json");
         EXPECT_NE(json.find(wide ? "\"retrace_voxels\": 1,\n" : "\"retrace_voxels\": 0.25,\n"), std::string::npos) << json;
     }
