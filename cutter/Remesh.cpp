@@ -262,6 +262,8 @@ struct RimEntry
     };
     std::array<double, 12> signature{};
     std::vector<Rim> rims;
+    std::array<QuadGeom::Side, 2> faces{}; ///< the prism's offset faces (kPlusKind, kMinusKind) as built
+    glm::dvec3 normal{0.0};                ///< the quad's world normal
     uint64_t serial = 0; ///< which build of an entry this is (PrismCache::serial)
 };
 struct PrismCache
@@ -314,6 +316,36 @@ std::array<double, 12> cornerSignature(const Quad& q)
 ///   across an unmitred turn are one surface in remeshTet.
 /// The mask voxelises cutRegion(), which covers the mitre joints.
 QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache);
+
+/// The fold-back snap's guard (makePrismGeom): does the mask cut, by quad
+/// `ref` or the one before it, every cell that `ref`'s quad would reach with
+/// its corners moved onto the plane `mid` (index space, normal `n`)? Its
+/// region, cutRegion() of the moved quad, has the previous prism's faces
+/// (the same plane and offset) and, for ends, the quad's own moved by at
+/// most the snap's tolerance, inside the region's growth. Only these two
+/// quads count, so the answer stays the same while they stand, however the
+/// stroke goes on or is undone after them.
+bool maskHoldsFold(const CutMask& mask, const QuadRef& ref, const Quad& q, const dvec3& n, double mid)
+{
+    const IndexFrame& frame = mask.frame();
+    std::array<dvec3, 4> corners{};
+    for (uint32_t k = 0; k < q.cornerCount; ++k) {
+        const dvec3 p = frame.toIndex(q.corners[k]);
+        corners[k] = frame.toWorld(p - (glm::dot(n, p) - mid) * n);
+    }
+    const Quad moved = makeQuad(corners.data(), q.cornerCount, q.stick);
+    if (moved.degenerate) return false;
+    std::vector<glm::ivec3> cells;
+    voxelizeCut(moved, mask.kerf(), frame, cells);
+    const QuadRef before{ref.stroke, ref.quad - 1};
+    for (const glm::ivec3& c : cells) {
+        const std::vector<QuadRef>* list = mask.quadsAt(openvdb::Coord(c.x, c.y, c.z));
+        if (!list || (std::find(list->begin(), list->end(), ref) == list->end() &&
+                      std::find(list->begin(), list->end(), before) == list->end()))
+            return false;
+    }
+    return true;
+}
 std::array<double, 3 * 17 + 7> prismGeomKey(const CutMask& mask, const QuadRef& r);
 
 const RimEntry& rimEntry(const CutMask& mask, const QuadRef& ref, PrismCache& cache)
@@ -452,6 +484,42 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             break;
         }
     }
+    // A fold back onto the previous quad: the blade went back over it,
+    // nearly in its plane (a saw reversing at the end of a pass, its passes
+    // joined by the path filter). The two prisms overlap, their faces and
+    // their ends at the stick a few 1e-4 rad apart: planes that nearly
+    // coincide, whose crossings inside a cell the kernel names apart
+    // where they are one point (4 mm head, kerf 0.5, sawing seeds 103 and
+    // 108 with a retrace tolerance of a voxel or half: a region's loop
+    // passing one edge twice, "triangulation failed"). When the normals are
+    // within 1.4e-4 rad of opposite (a continued rim's tolerance) and every
+    // corner lies within 1e-3 voxel (and a tenth of the half-width) of the
+    // previous prism's mid-plane, the prism takes the previous prism's
+    // plane objects: its faces, swapped, and (pass 2) its end at the stick.
+    // Two guards:
+    // - no mitre joint on the quad: the kernel names a mitred pair's offset
+    //   planes by their quads' ids (a point on the mitre and one offset
+    //   plane is on the partner's too), which borrowed faces are not (2 mm
+    //   head, seed 139, retrace 1: the next pass quad mitred to a folded
+    //   one left an open edge);
+    // - maskHoldsFold: the mask voxelises the quad itself, and a face moved
+    //   across a grid plane would reach a cell no quad cut.
+    // The decision depends on the quad, the previous one and the next only
+    // (pass 1), so a live stroke and the stroke re-meshed from scratch agree.
+    bool foldedBack = false;
+    if (previous && joinedPrevious && glm::dot(q.normal, previous->normal) < -(1.0 - 1e-8)) {
+        const Plane& f0 = previous->faces[0].plane;
+        const double mid = 0.5 * (previous->faces[0].plane.d + previous->faces[1].plane.d);
+        foldedBack = true;
+        for (uint32_t k = 0; k < q.cornerCount; ++k)
+            foldedBack = foldedBack && std::abs(glm::dot(f0.n, frame.toIndex(q.corners[k])) - mid) <= std::min(1e-3, 0.1 * hw);
+        foldedBack = foldedBack && std::find(isJoint.begin(), isJoint.end(), 1) == isJoint.end();
+        foldedBack = foldedBack && maskHoldsFold(mask, ref, q, f0.n, mid);
+    }
+    if (foldedBack) {
+        g.sides[0] = previous->faces[1];
+        g.sides[1] = previous->faces[0];
+    }
     // Pass 2: the sides.
     for (size_t e = 0; e < m; ++e) {
         if (isJoint[e]) {
@@ -468,7 +536,20 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
         side.id = planeIdOf(ref.stroke, ref.quad, 1 + int(e));
         side.plane.n = sdir / len;
         side.plane.d = glm::dot(side.plane.n, a);
-        if (previous && joinedPrevious) {
+        const bool stick = (wa == prevA && wb == prevB) || (wa == prevB && wb == prevA);
+        if (foldedBack && stick) {
+            // The previous prism's own end at the stick: its rim through both corners.
+            for (const auto& r : previous->rims) {
+                Plane pp;
+                pp.n = r.n;
+                pp.d = r.d;
+                if ((r.corner == wa || r.corner == wb) && std::abs(pp.h(a)) <= 1e-4 && std::abs(pp.h(b)) <= 1e-4) {
+                    side.id = r.id;
+                    side.plane = pp;
+                    break;
+                }
+            }
+        } else if (previous && joinedPrevious) {
             // A rim continuing the previous quad's rim through a corner of their joint.
             for (const auto& r : previous->rims) {
                 const bool atJoint = r.corner == prevA || r.corner == prevB;
@@ -490,6 +571,8 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
         g.sides.push_back(side);
     }
     for (const auto& cap : caps) g.sides.push_back(cap);
+    entry.faces = {g.sides[0], g.sides[1]};
+    entry.normal = q.normal;
     entry.serial = ++cache.serial;
     const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
     PrismCache::Geom& memo = cache.geoms[key];

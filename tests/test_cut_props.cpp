@@ -1213,7 +1213,8 @@ TEST_P(CutProps, RandomStrokesOnThe4mmHead)
 // takes today at both widths (benchmarks/RESULTS.md, "A saw worked back and
 // forth", has the sweep and the strokes it stops); they guard what works.
 // The same with the path filter's retrace tolerance at a voxel (`--retrace
-// 1`, "The retrace tolerance"): a third of the quads or fewer, the same checks.
+// 1`, "The retrace tolerance"): a third of the quads or fewer, the same checks;
+// and three seeds whose passes fold back onto the last nearly in its plane.
 TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_4mm.nhdr");
@@ -1222,8 +1223,14 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
     const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
     StateStats st;
     size_t updates = 0, quads = 0, stepped = 0, quadsWide = 0;
+    std::vector<std::pair<double, uint32_t>> runs; // (retrace tolerance, seed)
     for (const double retrace : {PathFilterOptions{}.retraceTolerance, 1.0})
-    for (uint32_t seed : {102u, 104u, 105u, 106u, 108u, 111u, 115u, 117u}) {
+        for (uint32_t seed : {102u, 104u, 105u, 106u, 108u, 111u, 115u, 117u}) runs.emplace_back(retrace, seed);
+    // Passes that fold back within 1.4e-4 rad, whose prisms borrow the
+    // last one's faces (Remesh.AQuadFoldingBackOntoTheLastBorrowsItsFaces):
+    // at kerf 0.5 they stopped on "triangulation failed" before.
+    runs.insert(runs.end(), {{1.0, 103u}, {0.5, 103u}, {0.5, 108u}});
+    for (const auto& [retrace, seed] : runs) {
         const std::string what =
             "sawing seed " + std::to_string(seed) + ", " + kerfName(w) + ", retrace " + std::to_string(retrace);
         SCOPED_TRACE(what);
@@ -1242,7 +1249,8 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
             }
             ASSERT_FALSE(live.stopped());
             EXPECT_EQ(live.acceptedQuads(), stroke.size());
-            (retrace == 1.0 ? quadsWide : quads) += stroke.size();
+            if (retrace == 1.0) quadsWide += stroke.size();
+            else if (retrace == PathFilterOptions{}.retraceTolerance) quads += stroke.size();
             stepped += live.steppedRound();
             before.push_back(remesher.fusedMesh());
         }

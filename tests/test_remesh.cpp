@@ -1498,6 +1498,100 @@ TEST(Remesh, AMitreIsCappedAtASharpCornerOfItsJoint)
     }
 }
 
+// A saw reversing at the end of a pass: quad 1 goes back over quad 0 nearly
+// in its plane (1e-4 mm off it, 6.7e-5 rad), past where quad 0 began. Their
+// faces and their ends at the common stick nearly coincide, and the kernel
+// named their crossings in a cell apart where they were one point (4 mm
+// head, kerf 0.5, sawing seeds 103 and 108 with a retrace tolerance of a
+// voxel or half: "triangulation failed"). The folded prism borrows quad 0's
+// plane objects: its faces, swapped, and its end at the stick, so each
+// cell sees one pair of faces. Not when the fold is wider (1.3e-2 rad: the
+// planes are apart), nor when the folded quad is mitred to the next one (the
+// kernel names a mitred pair's offset planes by their quads). The sphere,
+// re-meshed each way, is clean, and outside the cut cells untouched.
+TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
+{
+    const double R = 15.0, kerf = 0.5;
+    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    const IndexFrame frame = frameOf(vol);
+    using remesh_detail::planeIdOf;
+    auto stick = [](double x, double y) { return std::array<dvec3, 2>{dvec3(x, y, -25.0), dvec3(x, y, 10.2)}; };
+    struct Case
+    {
+        const char* name;
+        double off;   // how far quad 1's far stick lies off quad 0's plane, mm
+        bool next;    // a quad 2 going on from quad 1 (mitred to it)
+        bool borrows; // does quad 1 take quad 0's faces?
+    };
+    for (const Case& cs : {Case{"fold", 1e-4, false, true}, Case{"wide fold", 2e-2, false, false},
+                           Case{"fold, then on", 1e-4, true, false}}) {
+        SCOPED_TRACE(cs.name);
+        const std::vector<std::array<dvec3, 2>> sticks = {stick(3.37, 0.37), stick(4.37, 0.37),
+                                                          stick(2.87, 0.37 + cs.off), stick(1.87, 0.37 + 2 * cs.off)};
+        CutMask mask(frame, kerf);
+        mask.beginStroke();
+        for (uint32_t i = 0; i + 1 < (cs.next ? 4u : 3u); ++i) {
+            const dvec3 c[4] = {sticks[i][0], sticks[i][1], sticks[i + 1][1], sticks[i + 1][0]};
+            mask.addQuad(makeQuad(c, 4, i));
+        }
+        const Quad &q0 = mask.quad(QuadRef{1, 0}), &q1 = mask.quad(QuadRef{1, 1});
+        const double c01 = glm::dot(q0.normal, q1.normal); // the fold: within 1.4e-4 rad of opposite, or not
+        if (cs.off < 1e-3) {
+            ASSERT_LT(c01, -(1.0 - 1e-8));
+        } else {
+            ASSERT_GT(c01, -(1.0 - 1e-8));
+            ASSERT_LT(c01, -0.99);
+        }
+        std::vector<remesh_detail::QuadGeom> prisms;
+        for (uint32_t qi = 0; qi < 2; ++qi) {
+            const uint64_t id = planeIdOf(1, qi, 0);
+            remesh_detail::QuadGeom g;
+            for (const auto& q : remesh_detail::kernelQuadsOf(mask, mask.cellsOf(QuadRef{1, qi}).front()))
+                if (q.id == id) g = q;
+            ASSERT_EQ(g.id, id);
+            prisms.push_back(g);
+        }
+        const auto &g0 = prisms[0], &g1 = prisms[1];
+        // Quad 0's end at the stick they share: the side holding both its corners.
+        const dvec3 s0 = frame.toIndex(sticks[1][0]), s1 = frame.toIndex(sticks[1][1]);
+        const remesh_detail::QuadGeom::Side* end0 = nullptr;
+        for (size_t k = 2; k < g0.sides.size(); ++k)
+            if (std::abs(g0.sides[k].plane.h(s0)) < 1e-9 && std::abs(g0.sides[k].plane.h(s1)) < 1e-9) end0 = &g0.sides[k];
+        ASSERT_NE(end0, nullptr);
+        auto samePlane = [](const remesh_detail::QuadGeom::Side& a, const remesh_detail::QuadGeom::Side& b) {
+            return a.id == b.id && a.plane.n == b.plane.n && a.plane.d == b.plane.d && a.orient == b.orient;
+        };
+        const bool endShared = std::any_of(g1.sides.begin(), g1.sides.end(), [&](const auto& s) { return samePlane(s, *end0); });
+        if (cs.borrows) {
+            EXPECT_TRUE(samePlane(g1.sides[0], g0.sides[1]));
+            EXPECT_TRUE(samePlane(g1.sides[1], g0.sides[0]));
+            EXPECT_TRUE(endShared);
+        } else {
+            EXPECT_EQ(g1.sides[0].id, planeIdOf(1, 1, remesh_detail::kPlusKind));
+            EXPECT_EQ(g1.sides[1].id, planeIdOf(1, 1, remesh_detail::kMinusKind));
+            EXPECT_FALSE(endShared);
+        }
+        // Every corner of the folded prism at the blade's tip (its base is
+        // below the volume) lies in a cell the mask cut for quad 0 or 1.
+        size_t corners = 0;
+        for (const dvec3& x : prismCorners(g1, 1e-9)) {
+            const Coord cell(int(std::floor(x.x)), int(std::floor(x.y)), int(std::floor(x.z)));
+            if (cell.z() < 0) continue;
+            ++corners;
+            EXPECT_TRUE(cutFor(mask, cell, QuadRef{1, 0}) || cutFor(mask, cell, QuadRef{1, 1})) << "corner in " << cell;
+        }
+        EXPECT_GE(corners, 4u);
+        CutRemesher remesher(vol, 0.0f, uncut);
+        remesher.update(mask);
+        const CutResult c = cutAndCheck(remesher);
+        EXPECT_TRUE(c.check.ok()) << c.check.report();
+        EXPECT_EQ(c.fragments.size(), 1u); // a slot 1.5 to 2.5 mm long up into the ball from below
+        EXPECT_LT(c.fragments[0].volume, meshVolume(uncut));
+        expectUntouchedOutside(uncut, c.fused, mask, remesher);
+    }
+}
+
 // The kernel names a point once per tet: a later naming with the same
 // simplex and planes (the crossing of two pieces' common edge, a line's
 // point on each surface through it) takes the first one's vertex from a
