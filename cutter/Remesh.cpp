@@ -262,8 +262,7 @@ struct RimEntry
     };
     std::array<double, 12> signature{};
     std::vector<Rim> rims;
-    std::array<QuadGeom::Side, 2> faces{}; ///< the prism's offset faces (kPlusKind, kMinusKind) as built
-    glm::dvec3 normal{0.0};                ///< the quad's world normal
+    std::array<QuadGeom::Side, 2> faces{}; ///< the prism's offset faces as built (+normal side first), borrowed or its own
     uint64_t serial = 0; ///< which build of an entry this is (PrismCache::serial)
 };
 struct PrismCache
@@ -507,7 +506,8 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     // The decision depends on the quad, the previous one and the next only
     // (pass 1), so a live stroke and the stroke re-meshed from scratch agree.
     bool foldedBack = false;
-    if (previous && joinedPrevious && glm::dot(q.normal, previous->normal) < -(1.0 - 1e-8)) {
+    if (previous && joinedPrevious &&
+        glm::dot(q.normal, mask.quad(QuadRef{ref.stroke, ref.quad - 1}).normal) < -(1.0 - 1e-8)) {
         const Plane& f0 = previous->faces[0].plane;
         const double mid = 0.5 * (previous->faces[0].plane.d + previous->faces[1].plane.d);
         foldedBack = true;
@@ -572,7 +572,6 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     }
     for (const auto& cap : caps) g.sides.push_back(cap);
     entry.faces = {g.sides[0], g.sides[1]};
-    entry.normal = q.normal;
     entry.serial = ++cache.serial;
     const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
     PrismCache::Geom& memo = cache.geoms[key];

@@ -1507,8 +1507,10 @@ TEST(Remesh, AMitreIsCappedAtASharpCornerOfItsJoint)
 // plane objects: its faces, swapped, and its end at the stick, so each
 // cell sees one pair of faces. Not when the fold is wider (1.3e-2 rad: the
 // planes are apart), nor when the folded quad is mitred to the next one (the
-// kernel names a mitred pair's offset planes by their quads). The sphere,
-// re-meshed each way, is clean, and outside the cut cells untouched.
+// kernel names a mitred pair's offset planes by their quads), nor when a
+// borrowed face would reach a cell the mask did not cut (it lies across a
+// grid plane from the quad's own). The sphere, re-meshed each way, is
+// clean, and outside the cut cells untouched.
 TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
 {
     const double R = 15.0, kerf = 0.5;
@@ -1520,15 +1522,21 @@ TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
     struct Case
     {
         const char* name;
+        double y;     // quad 0's plane, mm
+        double x;     // where quad 1 ends (quad 0 runs from 3.37 to 4.37 mm), mm
         double off;   // how far quad 1's far stick lies off quad 0's plane, mm
         bool next;    // a quad 2 going on from quad 1 (mitred to it)
         bool borrows; // does quad 1 take quad 0's faces?
     };
-    for (const Case& cs : {Case{"fold", 1e-4, false, true}, Case{"wide fold", 2e-2, false, false},
-                           Case{"fold, then on", 1e-4, true, false}}) {
+    // "across a grid plane": quad 0's +y face lies 5e-5 mm above the grid
+    // plane y = 0.5 mm, quad 1's falls below it where it goes past quad 0, so
+    // the borrowed face would reach cells (x index 21) no quad cut there.
+    for (const Case& cs : {Case{"fold", 0.37, 2.87, 1e-4, false, true}, Case{"wide fold", 0.37, 2.87, 2e-2, false, false},
+                           Case{"fold, then on", 0.37, 2.87, 1e-4, true, false},
+                           Case{"fold across a grid plane", 0.25005, 1.87, -2e-4, false, false}}) {
         SCOPED_TRACE(cs.name);
-        const std::vector<std::array<dvec3, 2>> sticks = {stick(3.37, 0.37), stick(4.37, 0.37),
-                                                          stick(2.87, 0.37 + cs.off), stick(1.87, 0.37 + 2 * cs.off)};
+        const std::vector<std::array<dvec3, 2>> sticks = {stick(3.37, cs.y), stick(4.37, cs.y), stick(cs.x, cs.y + cs.off),
+                                                          stick(cs.x - 1.0, cs.y + 2 * cs.off)};
         CutMask mask(frame, kerf);
         mask.beginStroke();
         for (uint32_t i = 0; i + 1 < (cs.next ? 4u : 3u); ++i) {
@@ -1537,7 +1545,7 @@ TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
         }
         const Quad &q0 = mask.quad(QuadRef{1, 0}), &q1 = mask.quad(QuadRef{1, 1});
         const double c01 = glm::dot(q0.normal, q1.normal); // the fold: within 1.4e-4 rad of opposite, or not
-        if (cs.off < 1e-3) {
+        if (std::abs(cs.off) < 1e-3) {
             ASSERT_LT(c01, -(1.0 - 1e-8));
         } else {
             ASSERT_GT(c01, -(1.0 - 1e-8));
