@@ -263,6 +263,7 @@ struct RimEntry
     std::array<double, 12> signature{};
     std::vector<Rim> rims;
     std::array<QuadGeom::Side, 2> faces{}; ///< the prism's offset faces as built (+normal side first), borrowed or its own
+    bool borrowed = false; ///< its faces are the previous prism's (a fold back, makePrismGeom)
     uint64_t serial = 0; ///< which build of an entry this is (PrismCache::serial)
 };
 struct PrismCache
@@ -403,6 +404,46 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     // there crossed into a cell the mask did not cut: an open edge.)
     const bool isotropic = frame.spacing.x == frame.spacing.y && frame.spacing.y == frame.spacing.z;
     const dvec3 upright = isotropic ? g.pi.n : glm::normalize(q.normal / frame.spacing);
+    // A fold back onto the previous quad: the blade went back over it,
+    // nearly in its plane (a saw reversing at the end of a pass, its passes
+    // joined by the path filter). The two prisms overlap, their faces and
+    // their ends at the stick a few 1e-4 rad apart: planes that nearly
+    // coincide, whose crossings inside a cell the kernel names apart
+    // where they are one point (4 mm head, kerf 0.5, sawing seeds 103 and
+    // 108 with a retrace tolerance of a voxel or half: a region's loop
+    // passing one edge twice, "triangulation failed"). When the normals are
+    // within 1.4e-4 rad of opposite (a continued rim's tolerance) and every
+    // corner lies within 1e-3 voxel (and a tenth of the half-width) of the
+    // previous prism's mid-plane, the prism borrows the previous prism's
+    // plane objects: its faces, swapped, and (pass 2) its end at the stick.
+    // - It is not mitred to the next quad (pass 1; the next one sees
+    //   RimEntry::borrowed): the kernel names a mitred pair's offset planes
+    //   by their quads' ids (a point on the mitre and one offset plane is on
+    //   the partner's too), which borrowed faces are not, and a mitre
+    //   bisecting borrowed faces and the next quad's own would not hold the
+    //   stick. The two meet on their own end planes instead. (With the
+    //   mitre kept and the fold left unborrowed, the pass after a fold was
+    //   refused: 4 mm head seeds 113 at the default tolerance, 185 and 223
+    //   at a voxel's.)
+    // - maskHoldsFold: the mask voxelises the quad itself, and a face moved
+    //   across a grid plane would reach a cell no quad cut.
+    // The decision depends on the quad and the previous one only, so a live
+    // stroke and the stroke re-meshed from scratch agree.
+    bool foldedBack = false;
+    if (previous) {
+        const Quad& o = mask.quad(QuadRef{ref.stroke, ref.quad - 1});
+        if (!o.degenerate && glm::dot(q.normal, o.normal) < -(1.0 - 1e-8)) {
+            const std::vector<int> oHull = hullOf(o, frame, indexNormal(o, frame));
+            for (size_t e = 0; e < m && !foldedBack; ++e)
+                foldedBack = sharesEdge(o, oHull, q.corners[size_t(hull[e])], q.corners[size_t(hull[(e + 1) % m])]);
+            const Plane& f0 = previous->faces[0].plane;
+            const double mid = 0.5 * (previous->faces[0].plane.d + previous->faces[1].plane.d);
+            const double tolerance = std::min(1e-3, 0.1 * hw);
+            for (uint32_t k = 0; k < q.cornerCount; ++k)
+                foldedBack = foldedBack && std::abs(glm::dot(f0.n, frame.toIndex(q.corners[k])) - mid) <= tolerance;
+            foldedBack = foldedBack && maskHoldsFold(mask, ref, q, f0.n, mid);
+        }
+    }
     // Pass 1: mitre joints per hull edge.
     std::vector<QuadGeom::Side> joint(m);
     std::vector<char> isJoint(m, 0);
@@ -428,6 +469,7 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             const dvec3 nl = lower ? q.normal : o.normal, nu = lower ? o.normal : q.normal; // world
             const double c = glm::dot(nl, nu);
             if (!(c > std::cos(kKerfMitreMaxBend))) break;
+            if (lower ? foldedBack : previous && previous->borrowed) break; // a borrowing prism: its own ends
             // Both quads' corners at the joint (the decision is the same from
             // either side): a sharp one would put the mitre outside the mask.
             const double tanHalfBend = std::sqrt(std::max(0.0, 1.0 - c) / (1.0 + c));
@@ -482,39 +524,6 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
             }
             break;
         }
-    }
-    // A fold back onto the previous quad: the blade went back over it,
-    // nearly in its plane (a saw reversing at the end of a pass, its passes
-    // joined by the path filter). The two prisms overlap, their faces and
-    // their ends at the stick a few 1e-4 rad apart: planes that nearly
-    // coincide, whose crossings inside a cell the kernel names apart
-    // where they are one point (4 mm head, kerf 0.5, sawing seeds 103 and
-    // 108 with a retrace tolerance of a voxel or half: a region's loop
-    // passing one edge twice, "triangulation failed"). When the normals are
-    // within 1.4e-4 rad of opposite (a continued rim's tolerance) and every
-    // corner lies within 1e-3 voxel (and a tenth of the half-width) of the
-    // previous prism's mid-plane, the prism takes the previous prism's
-    // plane objects: its faces, swapped, and (pass 2) its end at the stick.
-    // Two guards:
-    // - no mitre joint on the quad: the kernel names a mitred pair's offset
-    //   planes by their quads' ids (a point on the mitre and one offset
-    //   plane is on the partner's too), which borrowed faces are not (2 mm
-    //   head, seed 139, retrace 1: the next pass quad mitred to a folded
-    //   one left an open edge);
-    // - maskHoldsFold: the mask voxelises the quad itself, and a face moved
-    //   across a grid plane would reach a cell no quad cut.
-    // The decision depends on the quad, the previous one and the next only
-    // (pass 1), so a live stroke and the stroke re-meshed from scratch agree.
-    bool foldedBack = false;
-    if (previous && joinedPrevious &&
-        glm::dot(q.normal, mask.quad(QuadRef{ref.stroke, ref.quad - 1}).normal) < -(1.0 - 1e-8)) {
-        const Plane& f0 = previous->faces[0].plane;
-        const double mid = 0.5 * (previous->faces[0].plane.d + previous->faces[1].plane.d);
-        foldedBack = true;
-        for (uint32_t k = 0; k < q.cornerCount; ++k)
-            foldedBack = foldedBack && std::abs(glm::dot(f0.n, frame.toIndex(q.corners[k])) - mid) <= std::min(1e-3, 0.1 * hw);
-        foldedBack = foldedBack && std::find(isJoint.begin(), isJoint.end(), 1) == isJoint.end();
-        foldedBack = foldedBack && maskHoldsFold(mask, ref, q, f0.n, mid);
     }
     if (foldedBack) {
         g.sides[0] = previous->faces[1];
@@ -572,6 +581,7 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     }
     for (const auto& cap : caps) g.sides.push_back(cap);
     entry.faces = {g.sides[0], g.sides[1]};
+    entry.borrowed = foldedBack;
     entry.serial = ++cache.serial;
     const uint64_t key = uint64_t(ref.stroke) << 32 | ref.quad;
     PrismCache::Geom& memo = cache.geoms[key];

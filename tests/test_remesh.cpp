@@ -1506,11 +1506,12 @@ TEST(Remesh, AMitreIsCappedAtASharpCornerOfItsJoint)
 // voxel or half: "triangulation failed"). The folded prism borrows quad 0's
 // plane objects: its faces, swapped, and its end at the stick, so each
 // cell sees one pair of faces. Not when the fold is wider (1.3e-2 rad: the
-// planes are apart), nor when the folded quad is mitred to the next one (the
-// kernel names a mitred pair's offset planes by their quads), nor when a
-// borrowed face would reach a cell the mask did not cut (it lies across a
-// grid plane from the quad's own). The sphere, re-meshed each way, is
-// clean, and outside the cut cells untouched.
+// planes are apart), nor when a borrowed face would reach a cell the mask
+// did not cut (it lies across a grid plane from the quad's own). A
+// borrowing prism is not mitred to the next quad, which goes on nearly
+// straight (the kernel names a mitred pair's offset planes by their quads).
+// The sphere, re-meshed each way, is clean, and outside the cut cells
+// untouched.
 TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
 {
     const double R = 15.0, kerf = 0.5;
@@ -1532,7 +1533,7 @@ TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
     // plane y = 0.5 mm, quad 1's falls below it where it goes past quad 0, so
     // the borrowed face would reach cells (x index 21) no quad cut there.
     for (const Case& cs : {Case{"fold", 0.37, 2.87, 1e-4, false, true}, Case{"wide fold", 0.37, 2.87, 2e-2, false, false},
-                           Case{"fold, then on", 0.37, 2.87, 1e-4, true, false},
+                           Case{"fold, then on", 0.37, 2.87, 1e-4, true, true},
                            Case{"fold across a grid plane", 0.25005, 1.87, -2e-4, false, false}}) {
         SCOPED_TRACE(cs.name);
         const std::vector<std::array<dvec3, 2>> sticks = {stick(3.37, cs.y), stick(4.37, cs.y), stick(cs.x, cs.y + cs.off),
@@ -1571,6 +1572,11 @@ TEST(Remesh, AQuadFoldingBackOntoTheLastBorrowsItsFaces)
             return a.id == b.id && a.plane.n == b.plane.n && a.plane.d == b.plane.d && a.orient == b.orient;
         };
         const bool endShared = std::any_of(g1.sides.begin(), g1.sides.end(), [&](const auto& s) { return samePlane(s, *end0); });
+        // A borrowing prism is mitred to neither neighbour (the next quad
+        // goes on 3e-5 rad from it: mitred but for the fold).
+        const uint64_t mitre12 = planeIdOf(1, 1, remesh_detail::kJunctionKind);
+        const bool mitred = std::any_of(g1.sides.begin(), g1.sides.end(), [&](const auto& s) { return s.id == mitre12; });
+        EXPECT_EQ(mitred, cs.next && !cs.borrows);
         if (cs.borrows) {
             EXPECT_TRUE(samePlane(g1.sides[0], g0.sides[1]));
             EXPECT_TRUE(samePlane(g1.sides[1], g0.sides[0]));
