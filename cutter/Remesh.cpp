@@ -317,12 +317,12 @@ std::array<double, 12> cornerSignature(const Quad& q)
 /// The mask voxelises cutRegion(), which covers the mitre joints.
 QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cache);
 
-/// The fold-back snap's guard (makePrismGeom): does the mask cut, by quad
+/// The guard of a fold's borrowed faces (makePrismGeom): does the mask cut, by quad
 /// `ref` or the one before it, every cell that `ref`'s quad would reach with
 /// its corners moved onto the plane `mid` (index space, normal `n`)? Its
 /// region, cutRegion() of the moved quad, has the previous prism's faces
 /// (the same plane and offset) and, for ends, the quad's own moved by at
-/// most the snap's tolerance, inside the region's growth. Only these two
+/// most the fold's tolerance, inside the region's growth. Only these two
 /// quads count, so the answer stays the same while they stand, however the
 /// stroke goes on or is undone after them.
 bool maskHoldsFold(const CutMask& mask, const QuadRef& ref, const Quad& q, const dvec3& n, double mid)
