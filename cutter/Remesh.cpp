@@ -71,6 +71,11 @@ using namespace remesh_detail;
 
 namespace {
 
+/// A prism folding back onto the previous one borrows its faces
+/// (makePrismGeom) when their normals are within this of opposite
+/// (radians) and its corners lie near the previous prism's mid-plane.
+constexpr double kFoldMaxAngle = 1e-3;
+
 /// Convex hull (CCW around n) of the quad's corners, as corner indices.
 std::vector<int> hullOf(const Quad& q, const IndexFrame& frame, const dvec3& n)
 {
@@ -412,10 +417,15 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     // where they are one point (4 mm head, kerf 0.5, sawing seeds 103 and
     // 108 with a retrace tolerance of a voxel or half: a region's loop
     // passing one edge twice, "triangulation failed"). When the normals are
-    // within 1.4e-4 rad of opposite (a continued rim's tolerance) and every
-    // corner lies within 1e-3 voxel (and a tenth of the half-width) of the
-    // previous prism's mid-plane, the prism borrows the previous prism's
-    // plane objects: its faces, swapped, and (pass 2) its end at the stick.
+    // within kFoldMaxAngle (1e-3 rad) of opposite and every corner lies
+    // within 1e-3 voxel (and a tenth of the half-width) of the previous
+    // prism's mid-plane, the prism borrows the previous prism's plane
+    // objects: its faces, swapped, and (pass 2) its end at the stick. (The
+    // bound was first a continued rim's 1.4e-4 rad; the 1 mm head's sawing
+    // seed 302 at a voxel's tolerance folded by 1.43e-4 rad, its corners
+    // 4e-4 mm off, and stopped the same way. The corners' distance is what
+    // makes the planes nearly coincide in the cells; the angle only keeps
+    // the fold a fold.)
     // - It is not mitred to the next quad (pass 1; the next one sees
     //   RimEntry::borrowed): the kernel names a mitred pair's offset planes
     //   by their quads' ids (a point on the mitre and one offset plane is on
@@ -432,7 +442,7 @@ QuadGeom makePrismGeom(const CutMask& mask, const QuadRef& ref, PrismCache& cach
     bool foldedBack = false;
     if (previous) {
         const Quad& o = mask.quad(QuadRef{ref.stroke, ref.quad - 1});
-        if (!o.degenerate && glm::dot(q.normal, o.normal) < -(1.0 - 1e-8)) {
+        if (!o.degenerate && glm::dot(q.normal, o.normal) < -std::cos(kFoldMaxAngle)) {
             const std::vector<int> oHull = hullOf(o, frame, indexNormal(o, frame));
             for (size_t e = 0; e < m && !foldedBack; ++e)
                 foldedBack = sharesEdge(o, oHull, q.corners[size_t(hull[e])], q.corners[size_t(hull[(e + 1) % m])]);

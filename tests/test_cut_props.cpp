@@ -1226,7 +1226,7 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
     std::vector<std::pair<double, uint32_t>> runs; // (retrace tolerance, seed)
     for (const double retrace : {PathFilterOptions{}.retraceTolerance, 1.0})
         for (uint32_t seed : {102u, 104u, 105u, 106u, 108u, 111u, 115u, 117u}) runs.emplace_back(retrace, seed);
-    // Passes that fold back within 1.4e-4 rad, whose prisms borrow the
+    // Passes that fold back within 1e-3 rad, whose prisms borrow the
     // last one's faces (Remesh.AQuadFoldingBackOntoTheLastBorrowsItsFaces):
     // at kerf 0.5 they stopped on "triangulation failed" before; in 185 and
     // 223 the pass after the fold goes on nearly straight from it.
