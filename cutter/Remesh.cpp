@@ -2,6 +2,7 @@
 
 #include "cutter/FloatRepair.h"
 #include "cutter/Isosurface.h"
+#include "cutter/PrismCover.h"
 #include "cutter/RemeshKernel.h"
 #include "vdb/Error.h"
 
@@ -711,8 +712,11 @@ const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCa
 /// (zero kerf: in quadCache; kerf > 0: in `cache`) instead of once per cell.
 /// Into `quads` (its elements' storage is reused: no allocation per cell
 /// once it has grown).
-void cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache& cache, QuadGeomCache* quadCache,
-               std::vector<QuadGeom>& quads)
+/// Kerf > 0: the prisms the others cover in the cell (coveredPrisms) are
+/// left out; the kernel, the GPU cut pass and removedVoxels all take a
+/// cell's quads from here.
+void cellQuads(const CutMask& mask, const Coord& cell, const std::vector<QuadRef>& refs, PrismCache& cache,
+               QuadGeomCache* quadCache, std::vector<QuadGeom>& quads)
 {
     size_t n = 0;
     auto put = [&](const QuadGeom& g) {
@@ -727,6 +731,16 @@ void cellQuads(const CutMask& mask, const std::vector<QuadRef>& refs, PrismCache
         else put(makeQuadGeom(mask, r));
     }
     quads.resize(n);
+    if (mask.kerf() > 0 && n >= kCoverMinPrisms && dropCoveredPrisms()) {
+        const std::vector<char> covered = coveredPrisms(cell, quads);
+        size_t kept = 0;
+        for (size_t i = 0; i < n; ++i)
+            if (!covered[i]) {
+                if (kept != i) quads[kept] = std::move(quads[i]);
+                ++kept;
+            }
+        quads.resize(kept);
+    }
     for (QuadGeom& q : quads)
         for (auto& s : q.sides) {
             if (s.partnerId == 0) continue;
@@ -838,7 +852,7 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
     PrismCache cache;
     std::vector<QuadGeom> quads;
     mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
-        cellQuads(mask, list, cache, nullptr, quads);
+        cellQuads(mask, c, list, cache, nullptr, quads);
         for (int k = 0; k < 8; ++k) {
             const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
             if (acc.isValueOn(g)) continue;
@@ -873,7 +887,7 @@ std::vector<QuadGeom> remesh_detail::KernelQuads::of(const Coord& cell)
     std::vector<QuadGeom> quads;
     const std::vector<QuadRef>* refs = mMask.quadsAt(cell);
     if (!refs) return quads;
-    cellQuads(mMask, *refs, *mPrisms, mQuadGeoms.get(), quads);
+    cellQuads(mMask, cell, *refs, *mPrisms, mQuadGeoms.get(), quads);
     return quads;
 }
 
@@ -886,7 +900,7 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
     CellKernel kernel(volume, isovalue);
     PrismCache cache;
     std::vector<QuadGeom> quads;
-    cellQuads(mask, *refs, cache, nullptr, quads);
+    cellQuads(mask, cell, *refs, cache, nullptr, quads);
     kernel.remesh(cell, quads, mask.kerf() > 0, out);
 }
 
@@ -1239,7 +1253,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             signatures.reserve(list.size());
             for (const QuadRef& r : list) signatures.push_back(quadSignature(mask, r));
             if (!newList && it->second.quadCorners == signatures) continue;
-            cellQuads(mask, list, *mPrismCache, mQuadCache.get(), quads);
+            cellQuads(mask, c, list, *mPrismCache, mQuadCache.get(), quads);
             const std::array<uint64_t, 2> input = kernelInputDigest(c, quads, prism);
             if (!newList && it->second.input == input) {
                 // A neighbour quad's side changed where this cell does not

@@ -229,7 +229,8 @@ private:
 };
 
 /// The quads of `cell` of `mask` as update() hands them to the kernel (in
-/// the cell's order, degenerate ones left out, partners resolved), built
+/// the cell's order, degenerate ones left out, with kerf > 0 the prisms the
+/// others cover there left out (PrismCover.h), partners resolved), built
 /// without update()'s caches; empty when the cell is not cut. For the GPU
 /// cut pass's input (cutter/KernelInput.h) and tests.
 std::vector<QuadGeom> kernelQuadsOf(const CutMask& mask, const Coord& cell);

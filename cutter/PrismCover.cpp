@@ -1,0 +1,189 @@
+// The prisms of a cell that the others cover (PrismCover.h).
+//
+// A prism's part of the cell, C = P ∩ box, is a convex polytope, held as
+// its faces (convex polygons). C minus the union of the others is found by
+// subtracting them one at a time: X minus a convex prism Q (shrunk by the
+// margin) is the union of X ∩ {outside Q's face 1}, X ∩ {inside face 1,
+// outside face 2}, ..., each convex; pieces with no volume go. C is covered
+// when nothing is left. Plain doubles: the margin (1e-6 voxel) dwarfs their
+// rounding (1e-13 here), and every doubt (a sliver left, the budget spent)
+// keeps the prism. No GL.
+#include "cutter/PrismCover.h"
+
+#include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+namespace mtcut::cutter::remesh_detail {
+
+namespace {
+
+using Polygon = std::vector<dvec3>;
+
+/// A convex polytope as its faces; empty when it has no volume.
+struct Polytope
+{
+    std::vector<Polygon> faces;
+    bool empty() const { return faces.size() < 4; }
+};
+
+/// Pieces one prism's test may hold at once before it gives up (covered:
+/// no). A saw's cell needs a handful.
+constexpr size_t kPieceBudget = 64;
+
+/// Points closer than this (index space) are one (a clip's cap corners).
+constexpr double kSamePoint = 1e-11;
+
+Polytope cellBox(const Coord& c)
+{
+    const dvec3 lo(c.x(), c.y(), c.z()), hi = lo + dvec3(1.0);
+    auto at = [&](int k) { return dvec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z); };
+    Polytope box;
+    // Corner k: bit 0 x, bit 1 y, bit 2 z; each face a loop of four corners.
+    const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+    for (const auto& f : faces) box.faces.push_back({at(f[0]), at(f[1]), at(f[2]), at(f[3])});
+    return box;
+}
+
+/// The part of `p` where g(x) = n . x - d >= 0: each face clipped
+/// (Sutherland-Hodgman), and the cap on g = 0 from the crossings, ordered
+/// round their centre.
+Polytope clip(const Polytope& p, const dvec3& n, double d)
+{
+    Polytope out;
+    Polygon cap;
+    auto g = [&](const dvec3& x) { return glm::dot(n, x) - d; };
+    for (const Polygon& f : p.faces) {
+        Polygon kept;
+        const size_t m = f.size();
+        for (size_t i = 0; i < m; ++i) {
+            const dvec3 &a = f[i], &b = f[(i + 1) % m];
+            const double ga = g(a), gb = g(b);
+            if (ga >= 0) kept.push_back(a);
+            if (ga == 0) cap.push_back(a);
+            if ((ga > 0 && gb < 0) || (ga < 0 && gb > 0)) {
+                const dvec3 x = a + (ga / (ga - gb)) * (b - a);
+                kept.push_back(x);
+                cap.push_back(x);
+            }
+        }
+        if (kept.size() >= 3) out.faces.push_back(std::move(kept));
+    }
+    if (out.faces.empty()) return out;
+    // The cap: its corners once each, ordered by angle in the plane.
+    Polygon unique;
+    for (const dvec3& x : cap)
+        if (std::none_of(unique.begin(), unique.end(), [&](const dvec3& y) { return glm::length(x - y) < kSamePoint; }))
+            unique.push_back(x);
+    if (unique.size() >= 3) {
+        dvec3 centre(0.0);
+        for (const dvec3& x : unique) centre += x;
+        centre /= double(unique.size());
+        dvec3 u(0.0);
+        for (const dvec3& x : unique)
+            if (glm::length(x - centre) > glm::length(u)) u = x - centre;
+        u = glm::normalize(u);
+        const dvec3 v = glm::cross(n, u);
+        std::sort(unique.begin(), unique.end(), [&](const dvec3& a, const dvec3& b) {
+            return std::atan2(glm::dot(a - centre, v), glm::dot(a - centre, u)) <
+                   std::atan2(glm::dot(b - centre, v), glm::dot(b - centre, u));
+        });
+        out.faces.push_back(std::move(unique));
+    }
+    if (out.empty()) out.faces.clear();
+    return out;
+}
+
+/// g_f(x) = orient * h_f(x) - margin for face f of q: q shrunk by the
+/// margin is where every g_f > 0.
+double inside(const QuadGeom::Side& s, const dvec3& x) { return s.orient * s.plane.h(x) - kCoverMargin; }
+
+/// Appends X minus the prism q shrunk by the margin to `out`, as convex
+/// pieces. False when the budget ran out.
+bool subtract(const Polytope& x, const QuadGeom& q, std::vector<Polytope>& out)
+{
+    // Quick: X wholly inside (nothing left), or wholly outside one face (X as it is).
+    bool allInside = true;
+    for (const QuadGeom::Side& s : q.sides) {
+        bool anyIn = false, anyOut = false;
+        for (const Polygon& f : x.faces)
+            for (const dvec3& v : f) (inside(s, v) > 0 ? anyIn : anyOut) = true;
+        if (!anyIn) {
+            out.push_back(x);
+            return out.size() <= kPieceBudget;
+        }
+        allInside = allInside && !anyOut;
+    }
+    if (allInside) return true;
+    Polytope rest = x;
+    for (const QuadGeom::Side& s : q.sides) {
+        // outside this face: orient * h - margin <= 0
+        const dvec3 n = s.orient * s.plane.n;
+        const double d = s.orient * s.plane.d + kCoverMargin; // inside(s, x) = n . x - d
+        Polytope piece = clip(rest, -n, -d);
+        if (!piece.empty()) out.push_back(std::move(piece));
+        if (out.size() > kPieceBudget) return false;
+        rest = clip(rest, n, d);
+        if (rest.empty()) break;
+    }
+    return true;
+}
+
+std::atomic<bool> gDropCovered{true};
+
+} // namespace
+
+void dropCoveredPrismsForTesting(bool drop) { gDropCovered.store(drop); }
+
+bool dropCoveredPrisms() { return gDropCovered.load(std::memory_order_relaxed); }
+
+std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& quads)
+{
+    std::vector<char> covered(quads.size(), 0);
+    if (quads.size() < kCoverMinPrisms) return covered;
+    const Polytope box = cellBox(cell);
+    auto within = [](const QuadGeom& q, const dvec3& x, double margin) {
+        for (const QuadGeom::Side& s : q.sides)
+            if (!(s.orient * s.plane.h(x) > margin)) return false;
+        return true;
+    };
+    const dvec3 lo(cell.x(), cell.y(), cell.z());
+    for (size_t i = 0; i < quads.size(); ++i) {
+        // A witness first (most prisms of an ordinary stroke have one): the
+        // cell's centre or a corner, moved onto the prism's mid-plane, in
+        // the prism and the cell but in none of the others kept.
+        bool witness = false;
+        for (int k = 0; k < 9 && !witness; ++k) {
+            const dvec3 p = k == 8 ? lo + dvec3(0.5) : lo + dvec3(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+            const dvec3 x = p - quads[i].pi.h(p) * quads[i].pi.n;
+            if (glm::any(glm::lessThan(x, lo)) || glm::any(glm::greaterThan(x, lo + dvec3(1.0))) || !within(quads[i], x, 0.0))
+                continue;
+            witness = true;
+            for (size_t j = 0; j < quads.size() && witness; ++j)
+                witness = j == i || covered[j] || !within(quads[j], x, kCoverMargin);
+        }
+        if (witness) continue;
+        Polytope own = box;
+        for (const QuadGeom::Side& s : quads[i].sides) {
+            own = clip(own, s.orient * s.plane.n, s.orient * s.plane.d);
+            if (own.empty()) break;
+        }
+        if (own.empty()) continue; // no volume in the cell: its planes may still hold the surface on a face
+        std::vector<Polytope> pieces{std::move(own)}, next;
+        bool ok = true;
+        for (size_t j = 0; j < quads.size() && ok && !pieces.empty(); ++j) {
+            if (j == i || covered[j]) continue;
+            next.clear();
+            for (const Polytope& p : pieces)
+                if (!(ok = subtract(p, quads[j], next))) break;
+            pieces.swap(next);
+        }
+        covered[i] = ok && pieces.empty();
+    }
+    return covered;
+}
+
+} // namespace mtcut::cutter::remesh_detail
