@@ -253,8 +253,9 @@ std::string manyQuadsNote(size_t most, double retraceVoxels, const std::string& 
     char text[512];
     std::snprintf(text, sizeof text,
                   "up to %zu quads cross one cut cell (a saw worked back and forth over its cut lays one over the "
-                  "whole blade each time it goes %g voxel deeper), and each makes the cell slower to re-mesh; %s "
-                  "lays one only once it goes a voxel deeper (the cut may then lag the blade by up to a voxel)",
+                  "whole blade each time it goes %g voxel deeper), and each that the others do not cover makes the "
+                  "cell slower to re-mesh; %s lays one only once it goes a voxel deeper (the cut may then lag the "
+                  "blade by up to a voxel)",
                   most, retraceVoxels, how.c_str());
     return text;
 }
