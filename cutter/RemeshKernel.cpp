@@ -114,6 +114,10 @@ public:
     bool mUseMemo = true;
     size_t mMemoHits = 0; ///< calls the memo answered (for tests)
     size_t mCellMemoHits = 0; ///< namings the cell memo answered (for tests)
+    /// splitSurface and conformPieces pass over what lies off a plane by
+    /// far without asking signs (CellKernel::skipFarForTesting).
+    bool mSkipFar = true;
+    size_t mFarSkips = 0; ///< what they passed over (for tests)
 
 private:
     // ---- per tet state
@@ -2132,29 +2136,48 @@ void RemeshKernel::splitSurface(const Surface& s)
     const auto& splitOrder = mSplitOrder;
     pieces.clear();
     pieces.push_back(s.poly);
-    // In place: a piece a plane splits is replaced by its pieces, in order
-    // (the others stay where they are).
+    // A piece a plane splits is replaced by its pieces, in order (the others
+    // stay where they are). Once a plane splits one, the pieces are moved
+    // into `next` as they come, so that a plane costs one pass over them
+    // however many it splits (inserting each split in place moved all the
+    // pieces after it: a cell where 30 prisms cross has thousands).
     for (const SplitPlane& sp : splitOrder) {
         if (sp.id == s.plane) continue;
         if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
+        bool moving = false; // pieces[0, i) are in `next`
+        next.clear();
+        const Plane* plane = planeById(sp.id);
         for (size_t i = 0; i < pieces.size(); ++i) {
             const Poly& p = pieces[i];
+            // Every corner strictly on one side of the plane: splitPoly would
+            // find none on the other (a sign is 0 or that of h, sign()), so
+            // the piece stays, without its corners' signs. Most pieces of a
+            // cell where many prisms cross lie off most of the planes.
+            bool above = plane && mSkipFar, below = above;
+            for (size_t k = 0; k < p.v.size() && (above || below); ++k) {
+                const double h = plane->h(mVerts[size_t(p.v[k])].pos);
+                above = above && h > 0;
+                below = below && h < 0;
+            }
             // A quad's plane and rim sides only split inside its junction zone,
             // so near-coincident planes of consecutive quads never meet there.
-            bool outside = false;
-            if (sp.owner)
+            bool outside = above || below;
+            mFarSkips += outside;
+            if (sp.owner && !outside)
                 for (const auto& sd : sp.owner->sides)
                     if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
-            if (outside) continue;
-            next.clear();
-            if (!splitPoly(p, s.plane, sp.id, next)) continue;
-            if (next.empty()) {
-                pieces.erase(pieces.begin() + std::ptrdiff_t(i--));
+            const size_t before = next.size();
+            if (!outside && splitPoly(p, s.plane, sp.id, next)) {
+                if (!moving) { // the pieces before this one, then its split (appended by splitPoly)
+                    next.insert(next.begin() + std::ptrdiff_t(before), std::make_move_iterator(pieces.begin()),
+                                std::make_move_iterator(pieces.begin() + std::ptrdiff_t(i)));
+                    moving = true;
+                }
                 continue;
             }
-            pieces[i] = std::move(next[0]);
-            for (size_t k = 1; k < next.size(); ++k) pieces.insert(pieces.begin() + std::ptrdiff_t(++i), std::move(next[k]));
+            if (moving) next.push_back(std::move(pieces[i]));
         }
+        if (moving) pieces.swap(next);
     }
 }
 
@@ -2887,6 +2910,10 @@ void CellKernel::useNameMemoForTesting(bool use) { mKernel->mUseMemo = use; }
 size_t CellKernel::nameMemoHitsForTesting() const { return mKernel->mMemoHits; }
 
 size_t CellKernel::cellNameMemoHitsForTesting() const { return mKernel->mCellMemoHits; }
+
+void CellKernel::skipFarForTesting(bool skip) { mKernel->mSkipFar = skip; }
+
+size_t CellKernel::farSkipsForTesting() const { return mKernel->mFarSkips; }
 
 std::array<ArrangementProbe, kTetsPerCell> CellKernel::arrangementForTesting(const Coord& cell,
                                                                              const std::vector<QuadGeom>& quads,

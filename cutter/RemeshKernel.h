@@ -222,6 +222,13 @@ public:
     size_t nameMemoHitsForTesting() const;
     /// Of the namings, those the per-cell memo answered (a tet face or edge point an earlier tet named).
     size_t cellNameMemoHitsForTesting() const;
+    /// For tests: whether the kernel passes over what lies off a plane by
+    /// far without asking signs (on by default): a piece whose every corner
+    /// lies strictly on one side of a splitting plane stays whole. The
+    /// output is the same either way.
+    void skipFarForTesting(bool skip);
+    /// For tests: how many pieces and vertices it passed over so.
+    size_t farSkipsForTesting() const;
 
 private:
     std::unique_ptr<RemeshKernel> mKernel;
