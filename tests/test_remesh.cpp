@@ -1678,7 +1678,8 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
 
 // Passing over what lies off a plane by far (CellKernel::skipFarForTesting:
 // a piece whose every corner is strictly on one side of a splitting plane
-// is not asked its signs) changes no bit of any cell: random strokes on
+// is not asked its signs; making pieces conform, an edge looks only at the
+// vertices within its reach) changes no bit of any cell: random strokes on
 // the phantom, and a saw worked back and forth on the 4 mm head (up to 38
 // quads a cell, where it matters), both kerfs, every cut cell meshed both
 // ways. Refusals too are the same.
