@@ -2214,21 +2214,24 @@ void RemeshKernel::conformPieces()
     // and sorting cost more than they save.
     const bool skipFar = mSkipFar && all.size() > kFarVertices;
     SmallVector<std::pair<uint64_t, double>, 16> offBound;
-    for (const Poly& p : skipFar ? pieces : std::vector<Poly>{})
-        for (size_t k = 0; k < p.v.size(); ++k) {
-            const uint64_t L = p.lab[k];
-            if (L & kBoundaryLabel) continue;
-            const Plane* pl = planeById(L);
-            if (!pl) continue;
-            const dvec3 &a = mVerts[size_t(p.v[k])].pos, &b = mVerts[size_t(p.v[(k + 1) % p.v.size()])].pos;
-            const double len = glm::length(b - a), nlen = glm::length(pl->n);
-            const double far = std::max(std::abs(pl->h(a)), std::abs(pl->h(b))) + nlen * 2e-9 * (1 + len) +
-                               1e-9 * (1 + nlen) * (1 + std::max({std::abs(a.x), std::abs(a.y), std::abs(a.z), std::abs(b.x),
-                                                                  std::abs(b.y), std::abs(b.z)})) + 1e-9 * std::abs(pl->d);
-            auto it = std::find_if(offBound.begin(), offBound.end(), [&](const auto& e) { return e.first == L; });
-            if (it == offBound.end()) offBound.push_back({L, far});
-            else it->second = std::max(it->second, far);
-        }
+    if (skipFar)
+        for (const Poly& p : pieces)
+            for (size_t k = 0; k < p.v.size(); ++k) {
+                const uint64_t L = p.lab[k];
+                if (L & kBoundaryLabel) continue;
+                const Plane* pl = planeById(L);
+                if (!pl) continue;
+                const dvec3 &a = mVerts[size_t(p.v[k])].pos, &b = mVerts[size_t(p.v[(k + 1) % p.v.size()])].pos;
+                const double len = glm::length(b - a), nlen = glm::length(pl->n);
+                const double far = std::max(std::abs(pl->h(a)), std::abs(pl->h(b))) + nlen * 2e-9 * (1 + len) +
+                                   1e-9 * (1 + nlen) *
+                                       (1 + std::max({std::abs(a.x), std::abs(a.y), std::abs(a.z), std::abs(b.x), std::abs(b.y),
+                                                      std::abs(b.z)})) +
+                                   1e-9 * std::abs(pl->d);
+                auto it = std::find_if(offBound.begin(), offBound.end(), [&](const auto& e) { return e.first == L; });
+                if (it == offBound.end()) offBound.push_back({L, far});
+                else it->second = std::max(it->second, far);
+            }
     auto onLineOf = [&](uint64_t L, int& axis) -> std::pair<const int*, const int*> {
         for (const auto& e : onLabel)
             if (e[0] == L) {
