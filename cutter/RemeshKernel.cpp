@@ -455,7 +455,13 @@ private:
     // remeshTet's scratch, kept between tets for its capacity.
     std::vector<int> mNodeHead, mNodeNext, mParent, mEdgeOrder;
     std::vector<Poly> mPieces, mNextPieces;
+    /// splitSurface's pieces by number, and the numbers of those in order.
+    std::vector<Poly> mPiecePool;
+    std::vector<int> mPieceOrder, mNextPieceOrder;
     std::vector<int> mOnLine;
+    /// conformPieces' mark of the vertices it has listed (== mVertStampNow).
+    std::vector<uint32_t> mVertStamp;
+    uint32_t mVertStampNow = 0;
     using Tags = SmallVector<uint64_t, 4>;
     struct Node // a vertex of a region loop: the vertex and its side tags
     {
@@ -2149,24 +2155,28 @@ int RemeshKernel::pieceSign(const Poly& p, uint64_t id)
 
 void RemeshKernel::splitSurface(const Surface& s)
 {
-    std::vector<Poly>& pieces = mPieces;
-    std::vector<Poly>& next = mNextPieces;
+    // Every piece made is kept in a pool by number, and the pieces now are
+    // a list of numbers: a piece a plane splits is replaced in the list by
+    // its pieces, in order (the others stay where they are). Once a plane
+    // splits one, the numbers are copied into `nextOrder` as they come, so
+    // that a plane costs one pass however many it splits, and a piece is
+    // moved once, into mPieces at the end (a cell where 30 prisms cross has
+    // thousands of pieces, and most planes split a few).
+    std::vector<Poly>& pool = mPiecePool;
+    std::vector<Poly>& made = mNextPieces; // one piece's split (splitPoly's out)
+    std::vector<int>& order = mPieceOrder;
+    std::vector<int>& nextOrder = mNextPieceOrder;
     const auto& splitOrder = mSplitOrder;
-    pieces.clear();
-    pieces.push_back(s.poly);
-    // A piece a plane splits is replaced by its pieces, in order (the others
-    // stay where they are). Once a plane splits one, the pieces are moved
-    // into `next` as they come, so that a plane costs one pass over them
-    // however many it splits (inserting each split in place moved all the
-    // pieces after it: a cell where 30 prisms cross has thousands).
+    pool.clear();
+    pool.push_back(s.poly);
+    order.assign(1, 0);
     for (const SplitPlane& sp : splitOrder) {
         if (sp.id == s.plane) continue;
         if (!s.quad && (sp.id == kIsoA || sp.id == kIsoB)) continue;
-        bool moving = false; // pieces[0, i) are in `next`
-        next.clear();
+        bool moving = false; // order[0, i) is in `nextOrder`
         const Plane* plane = planeById(sp.id);
-        for (size_t i = 0; i < pieces.size(); ++i) {
-            const Poly& p = pieces[i];
+        for (size_t i = 0; i < order.size(); ++i) {
+            const Poly& p = pool[size_t(order[i])];
             // Every corner strictly on one side of the plane: splitPoly would
             // find none on the other (a sign is 0 or that of h, sign()), so
             // the piece stays, without its corners' signs. Most pieces of a
@@ -2184,19 +2194,24 @@ void RemeshKernel::splitSurface(const Surface& s)
             if (sp.owner && !outside)
                 for (const auto& sd : sp.owner->sides)
                     if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
-            const size_t before = next.size();
-            if (!outside && splitPoly(p, s.plane, sp.id, next)) {
-                if (!moving) { // the pieces before this one, then its split (appended by splitPoly)
-                    next.insert(next.begin() + std::ptrdiff_t(before), std::make_move_iterator(pieces.begin()),
-                                std::make_move_iterator(pieces.begin() + std::ptrdiff_t(i)));
+            made.clear();
+            if (!outside && splitPoly(p, s.plane, sp.id, made)) {
+                if (!moving) { // the pieces before this one
+                    nextOrder.assign(order.begin(), order.begin() + std::ptrdiff_t(i));
                     moving = true;
+                }
+                for (Poly& m : made) { // (p is not used again: the pool may move)
+                    nextOrder.push_back(int(pool.size()));
+                    pool.push_back(std::move(m));
                 }
                 continue;
             }
-            if (moving) next.push_back(std::move(pieces[i]));
+            if (moving) nextOrder.push_back(order[i]);
         }
-        if (moving) pieces.swap(next);
+        if (moving) order.swap(nextOrder);
     }
+    mPieces.clear();
+    for (int i : order) mPieces.push_back(std::move(pool[size_t(i)]));
 }
 
 /// Conformity: restricted splits end on junction lines; their end points
@@ -2206,10 +2221,21 @@ void RemeshKernel::conformPieces()
 {
     std::vector<Poly>& pieces = mPieces;
     std::vector<Poly>& next = mNextPieces;
+    // The pieces' vertices, each once, as they come (an edge sorts the
+    // points it takes by their place along it, so their order here does
+    // not matter).
     SmallVector<int, 32> all;
-    for (const Poly& p : pieces) all.insert(all.end(), p.v.begin(), p.v.end());
-    std::sort(all.begin(), all.end());
-    all.erase(std::unique(all.begin(), all.end()), all.end());
+    if (++mVertStampNow == 0) {
+        std::fill(mVertStamp.begin(), mVertStamp.end(), 0u);
+        mVertStampNow = 1;
+    }
+    if (mVertStamp.size() < mVerts.size()) mVertStamp.resize(mVerts.size() + 64, 0u);
+    for (const Poly& p : pieces)
+        for (int v : p.v)
+            if (mVertStamp[size_t(v)] != mVertStampNow) {
+                mVertStamp[size_t(v)] = mVertStampNow;
+                all.push_back(v);
+            }
     // The vertices of `all` on each edge label's line, found once per label
     // rather than once per edge: a cell where many quads pivot has
     // thousands of edges and vertices here. There they are sorted along the
@@ -2285,13 +2311,18 @@ void RemeshKernel::conformPieces()
         return {onLine.data() + begin, onLine.data() + onLine.size()};
     };
     for (Poly& p : pieces) {
+        // The piece with the points on its edges put in, built only once
+        // an edge has one (most pieces have none).
         Poly q;
+        bool grown = false;
         const size_t n = p.v.size();
         for (size_t k = 0; k < n; ++k) {
             const int u = p.v[k], w = p.v[(k + 1) % n];
             const uint64_t L = p.lab[k];
-            q.v.push_back(u);
-            q.lab.push_back(L);
+            if (grown) {
+                q.v.push_back(u);
+                q.lab.push_back(L);
+            }
             const dvec3 a = mVerts[size_t(u)].pos, d = mVerts[size_t(w)].pos - a;
             const double dd = glm::dot(d, d);
             SmallVector<std::pair<double, int>, 4> on;
@@ -2313,18 +2344,34 @@ void RemeshKernel::conformPieces()
                 if (glm::length(vx.pos - (a + t * d)) > 1e-9 * (1 + std::sqrt(dd))) continue;
                 on.push_back({t, x});
             }
+            if (on.empty()) continue;
+            if (!grown) { // corners 0..k as they were
+                grown = true;
+                q.v.assign(p.v.begin(), p.v.begin() + std::ptrdiff_t(k + 1));
+                q.lab.assign(p.lab.begin(), p.lab.begin() + std::ptrdiff_t(k + 1));
+            }
             std::sort(on.begin(), on.end());
             for (const auto& o : on) {
                 q.v.push_back(o.second);
                 q.lab.push_back(L);
             }
         }
-        p = std::move(q);
+        if (grown) p = std::move(q);
     }
     // A piece folded onto itself (it runs out along a line and back
-    // through the same vertex): its loop and the spike, apart.
+    // through the same vertex): its loop and the spike, apart. The pieces
+    // before the first such stay where they are.
+    auto simple = [](const Poly& p) {
+        for (size_t i = 0; i < p.v.size(); ++i)
+            for (size_t j = i + 1; j < p.v.size(); ++j)
+                if (p.v[i] == p.v[j]) return false;
+        return true;
+    };
+    const size_t folded = size_t(std::find_if_not(pieces.begin(), pieces.end(), simple) - pieces.begin());
+    if (folded == pieces.size()) return;
     next.clear();
-    for (Poly& p : pieces) pushSimple(std::move(p), next);
+    next.insert(next.end(), std::make_move_iterator(pieces.begin()), std::make_move_iterator(pieces.begin() + std::ptrdiff_t(folded)));
+    for (size_t i = folded; i < pieces.size(); ++i) pushSimple(std::move(pieces[i]), next);
     pieces.swap(next);
 }
 
