@@ -155,6 +155,70 @@ private:
     int mTet = 0;
     Support mT;
     std::vector<Vert> mVerts;
+    /// An open-addressing memo whose slots hold only (hash, generation,
+    /// entry): 16 bytes, four to a cache line, the entries themselves apart
+    /// in the order they came. A cell where 30 prisms cross grows a memo to
+    /// 131,072 slots; with the keys in the slots (56 and 136 bytes) the
+    /// probes there missed the cache (the two memos' lookups were a tenth
+    /// of a sawing replay's profile; with slots it runs 2-4 % faster).
+    /// Valid for the entries of the current generation; reset() starts a
+    /// new one.
+    template <class Entry> struct SlotMemo
+    {
+        struct Slot
+        {
+            uint64_t hash = 0;
+            uint32_t generation = 0;
+            uint32_t entry = 0;
+        };
+        std::vector<Slot> slots = std::vector<Slot>(256);
+        std::vector<Entry> entries;
+        uint32_t generation = 1;
+        /// The entry with `hash` that `same` accepts, or nullptr and in
+        /// `at` the empty slot where it goes (add() there, before any other add).
+        template <class Same> const Entry* find(uint64_t hash, Same&& same, size_t& at) const
+        {
+            const size_t mask = slots.size() - 1;
+            for (size_t i = size_t(hash) & mask;; i = (i + 1) & mask) {
+                const Slot& s = slots[i];
+                if (s.generation != generation) {
+                    at = i;
+                    return nullptr;
+                }
+                if (s.hash == hash && same(entries[s.entry])) return &entries[s.entry];
+            }
+        }
+        template <class Same> Entry* find(uint64_t hash, Same&& same, size_t& at)
+        {
+            return const_cast<Entry*>(std::as_const(*this).find(hash, std::forward<Same>(same), at));
+        }
+        void add(size_t at, uint64_t hash, const Entry& e)
+        {
+            slots[at] = Slot{hash, generation, uint32_t(entries.size())};
+            entries.push_back(e);
+            if (2 * entries.size() > slots.size()) grow();
+        }
+        void reset()
+        {
+            entries.clear();
+            if (++generation == 0) { // wrapped: no slot may look current
+                std::fill(slots.begin(), slots.end(), Slot{});
+                generation = 1;
+            }
+        }
+        void grow()
+        {
+            std::vector<Slot> old(2 * slots.size());
+            old.swap(slots);
+            const size_t mask = slots.size() - 1;
+            for (const Slot& s : old) {
+                if (s.generation != generation) continue;
+                size_t i = size_t(s.hash) & mask;
+                while (slots[i].generation == generation) i = (i + 1) & mask;
+                slots[i] = s;
+            }
+        }
+    };
     /// CutVertexIdHash of each mVerts[i].key: makeVertex's search for an
     /// existing name compares these first (a cell where many quads pivot has
     /// thousands of vertices per tet; comparing whole keys was most of its time).
@@ -163,14 +227,18 @@ private:
     /// and last vertex holding it, chained in ascending order through
     /// mNextSameHash, so findVertex still returns the lowest match.
     static constexpr size_t kIndexFrom = 64;
-    std::unordered_map<uint64_t, std::pair<int, int>> mHashChain;
+    SlotMemo<std::pair<int, int>> mHashChain; ///< (its key is the hash itself)
     std::vector<int> mNextSameHash;
     bool mHashIndexed = false;
     /// Also past kIndexFrom: the tet-inside, non-Steiner vertices by position,
     /// in buckets of kNearCell voxels (far above mergeTolerance), for
     /// makeVertex's merge of one point made by different planes.
     static constexpr double kNearCell = 1e-5;
-    std::unordered_map<uint64_t, SmallVector<int, 2>> mNear;
+    /// Per bucket (nearKey, the key itself) its last vertex; each vertex's
+    /// predecessor in its bucket in mNearNext (-1: none).
+    SlotMemo<int> mNear;
+    std::vector<int> mNearNext;
+    static constexpr auto kAnyEntry = [](const auto&) { return true; };
     static uint64_t nearKey(int64_t x, int64_t y, int64_t z)
     {
         uint64_t h = uint64_t(x) * 0x9e3779b97f4a7c15ull;
@@ -223,9 +291,9 @@ private:
         for (int64_t dx = -1; dx <= 1; ++dx)
             for (int64_t dy = -1; dy <= 1; ++dy)
                 for (int64_t dz = -1; dz <= 1; ++dz) {
-                    auto it = mNear.find(nearKey(bx + dx, by + dy, bz + dz));
-                    if (it == mNear.end()) continue;
-                    for (int i : it->second)
+                    size_t at = 0;
+                    const int* last = mNear.find(nearKey(bx + dx, by + dy, bz + dz), kAnyEntry, at);
+                    for (int i = last ? *last : -1; i >= 0; i = mNearNext[size_t(i)])
                         if ((best < 0 || i < best) && fits(mVerts[size_t(i)])) best = i;
                 }
         return best;
@@ -233,22 +301,32 @@ private:
     void indexVertex(int i)
     {
         const Vert& v = mVerts[size_t(i)];
-        if (v.key.dim == 3 && !v.steiner)
-            mNear[nearKey(int64_t(std::floor(v.pos.x / kNearCell)), int64_t(std::floor(v.pos.y / kNearCell)),
-                          int64_t(std::floor(v.pos.z / kNearCell)))]
-                .push_back(i);
+        mNearNext.push_back(-1);
+        size_t at = 0;
+        if (v.key.dim == 3 && !v.steiner) {
+            const uint64_t bucket = nearKey(int64_t(std::floor(v.pos.x / kNearCell)), int64_t(std::floor(v.pos.y / kNearCell)),
+                                            int64_t(std::floor(v.pos.z / kNearCell)));
+            if (int* last = mNear.find(bucket, kAnyEntry, at)) {
+                mNearNext[size_t(i)] = *last;
+                *last = i;
+            } else {
+                mNear.add(at, bucket, i);
+            }
+        }
         mNextSameHash.push_back(-1);
-        auto [it, fresh] = mHashChain.try_emplace(mVertHash[size_t(i)], i, i);
-        if (!fresh) {
-            mNextSameHash[size_t(it->second.second)] = i;
-            it->second.second = i;
+        if (std::pair<int, int>* chain = mHashChain.find(mVertHash[size_t(i)], kAnyEntry, at)) {
+            mNextSameHash[size_t(chain->second)] = i;
+            chain->second = i;
+        } else {
+            mHashChain.add(at, mVertHash[size_t(i)], {i, i});
         }
     }
     void rebuildHashIndex()
     {
-        mHashChain.clear();
+        mHashChain.reset();
         mNextSameHash.clear();
-        mNear.clear();
+        mNear.reset();
+        mNearNext.clear();
         for (size_t i = 0; i < mVerts.size(); ++i) indexVertex(int(i));
         mHashIndexed = true;
     }
@@ -260,8 +338,9 @@ private:
                 if (mVertHash[i] == hash && mVerts[i].key == key) return int(i);
             return -1;
         }
-        auto it = mHashChain.find(hash);
-        for (int i = it == mHashChain.end() ? -1 : it->second.first; i >= 0; i = mNextSameHash[size_t(i)])
+        size_t at = 0;
+        const std::pair<int, int>* chain = mHashChain.find(hash, kAnyEntry, at);
+        for (int i = chain ? chain->first : -1; i >= 0; i = mNextSameHash[size_t(i)])
             if (mVerts[size_t(i)].key == key) return i;
         return -1;
     }
@@ -272,66 +351,6 @@ private:
         if (mHashIndexed) indexVertex(int(mVerts.size() - 1));
         else if (mVerts.size() >= kIndexFrom) rebuildHashIndex();
     }
-    /// An open-addressing memo whose slots hold only (hash, generation,
-    /// entry): 16 bytes, four to a cache line, the entries themselves apart
-    /// in the order they came. A cell where 30 prisms cross grows a memo to
-    /// 131,072 slots; with the keys in the slots (56 and 136 bytes) the
-    /// probes there missed the cache (the two memos' lookups were a tenth
-    /// of a sawing replay's profile; with slots it runs 2-4 % faster).
-    /// Valid for the entries of the current generation; reset() starts a
-    /// new one.
-    template <class Entry> struct SlotMemo
-    {
-        struct Slot
-        {
-            uint64_t hash = 0;
-            uint32_t generation = 0;
-            uint32_t entry = 0;
-        };
-        std::vector<Slot> slots = std::vector<Slot>(256);
-        std::vector<Entry> entries;
-        uint32_t generation = 1;
-        /// The entry with `hash` that `same` accepts, or nullptr and in
-        /// `at` the empty slot where it goes (add() there, before any other add).
-        template <class Same> const Entry* find(uint64_t hash, Same&& same, size_t& at) const
-        {
-            const size_t mask = slots.size() - 1;
-            for (size_t i = size_t(hash) & mask;; i = (i + 1) & mask) {
-                const Slot& s = slots[i];
-                if (s.generation != generation) {
-                    at = i;
-                    return nullptr;
-                }
-                if (s.hash == hash && same(entries[s.entry])) return &entries[s.entry];
-            }
-        }
-        void add(size_t at, uint64_t hash, const Entry& e)
-        {
-            slots[at] = Slot{hash, generation, uint32_t(entries.size())};
-            entries.push_back(e);
-            if (2 * entries.size() > slots.size()) grow();
-        }
-        void reset()
-        {
-            entries.clear();
-            if (++generation == 0) { // wrapped: no slot may look current
-                std::fill(slots.begin(), slots.end(), Slot{});
-                generation = 1;
-            }
-        }
-        void grow()
-        {
-            std::vector<Slot> old(2 * slots.size());
-            old.swap(slots);
-            const size_t mask = slots.size() - 1;
-            for (const Slot& s : old) {
-                if (s.generation != generation) continue;
-                size_t i = size_t(s.hash) & mask;
-                while (slots[i].generation == generation) i = (i + 1) & mask;
-                slots[i] = s;
-            }
-        }
-    };
     /// makeVertex's memo: the vertex a call with the same simplex and the
     /// same planes (as a set) made earlier in this tet. Such a call names the
     /// same point, computed along another edge or by another surface (a
@@ -1716,9 +1735,10 @@ void RemeshKernel::resetTet()
     mVerts.clear();
     mVertHash.clear();
     if (mHashIndexed) {
-        mHashChain.clear();
+        mHashChain.reset();
         mNextSameHash.clear();
-        mNear.clear();
+        mNear.reset();
+        mNearNext.clear();
         mHashIndexed = false;
     }
     mSignTab.clear();
