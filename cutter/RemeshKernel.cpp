@@ -373,7 +373,6 @@ private:
         }
         return h ^ (h >> 31);
     }
-    void memoReset() { mMemo.reset(); }
     /// nameVertex's memo over a cell: the name (its planes) a point on a
     /// tet face or edge was given by an earlier tet of the same cell, by its
     /// simplex (grid vertex ids) and defining planes, the iso triangle's plane
@@ -1729,7 +1728,7 @@ void RemeshKernel::remeshTet(CutCellGeometry& out)
 
 void RemeshKernel::resetTet()
 {
-    memoReset();
+    mMemo.reset();
     mSlitKnown = 0; // the slit memo, per tet
     mSlitMemo.clear();
     mVerts.clear();
