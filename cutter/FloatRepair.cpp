@@ -413,6 +413,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     auto extentOf = [&](const Coord& lo, const Coord& hi) { return boxExtent(origin, spacing, lo, hi); };
     const double shortEdge = floatShortAt(extentOf(cell, cell + Coord(1)));
     auto isShort = [&](uint32_t a, uint32_t b) { return glm::length(exact[a] - exact[b]) < shortEdge; };
+    const double lookReach = shortEdge * (kFloatStepsLook / kFloatStepsShort);
     // face: bit 2 * axis + side (cellFaces).
     auto isShortInFace = [&](uint32_t a, uint32_t b, unsigned face) {
         int axis = 0;
@@ -631,12 +632,20 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     /// once each way, and one used only once lies in a cell face.
     /// `tip`: a vertex of a cell face that may be left without a triangle
     /// (a spike's, below), as the cell's own vertices may.
+    /// `with`: vertices private to the cell that become q along with p (the
+    /// face rule's, below); a triangle they leave with two corners alike goes.
     auto collapseCancelling = [&](uint32_t p, uint32_t q, const std::vector<size_t>& onEdge,
-                                  uint32_t tip = UINT32_MAX) {
+                                  uint32_t tip = UINT32_MAX, const std::vector<uint32_t>& with = {}) {
         std::vector<size_t> touched;
         for (const std::vector<size_t>* list : {&atP, &atQ})
             for (size_t t : *list)
                 if (std::find(onEdge.begin(), onEdge.end(), t) == onEdge.end()) touched.push_back(t);
+        std::vector<size_t> atWith;
+        for (uint32_t w : with) {
+            trianglesAt(w, atWith);
+            for (size_t t : atWith)
+                if (std::find(onEdge.begin(), onEdge.end(), t) == onEdge.end()) touched.push_back(t);
+        }
         std::sort(touched.begin(), touched.end());
         touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
         std::vector<std::array<uint32_t, 3>> moved(touched.size());
@@ -644,7 +653,9 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         for (size_t i = 0; i < touched.size(); ++i) {
             moved[i] = tris[touched[i]];
             for (uint32_t& w : moved[i])
-                if (w == p) w = q;
+                if (w == p || std::find(with.begin(), with.end(), w) != with.end()) w = q;
+            const auto& m = moved[i];
+            if (m[0] == m[1] || m[1] == m[2] || m[0] == m[2]) keep[i] = 0; // (only with `with`)
         }
         // Rotated to start at the least vertex: two triangles on one vertex set
         // face opposite ways when their second corners differ.
@@ -696,8 +707,9 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             alive[touched[i]] = keep[i];
         }
         mergedInto[p] = q;
+        for (uint32_t v : with) mergedInto[v] = q;
         for (uint32_t v : dropped) mergedInto[v] = q;
-        ++removed;
+        removed += 1 + with.size();
         return true;
     };
     /// Collapses p onto q when that keeps a 2-manifold and (unless `onFace`)
@@ -770,7 +782,23 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             };
             for (uint32_t w : common)
                 if ((faces[w] & faces[p]) && uses(atP, w) == 1 && uses(atQ, w) == 1) return false;
-            return collapseCancelling(p, q, onEdge);
+            if (collapseCancelling(p, q, onEdge)) return true;
+            // The rest of the link is the cell's own: common neighbours
+            // private to it, within a few float steps, which the cell across
+            // does not see (its own rounds may have collapsed theirs, and it
+            // merges p into q). They become q too (1 mm head, kerf 0.5, seed
+            // 60027, stroke 2, quad 66: the isosurface's vertex and an
+            // offset plane's 2.3e-4 mm apart on the diagonal of face
+            // z = 1163 mm; the cell below has a vertex of its own 3.3e-4 mm
+            // under the face joined to both, the cell above merged them, and
+            // the seam opened).
+            std::vector<uint32_t> with;
+            for (uint32_t w : common)
+                if (!std::binary_search(apexes.begin(), apexes.end(), w)) {
+                    if (faces[w] != 0 || glm::length(exact[w] - exact[q]) >= lookReach) return false;
+                    with.push_back(w);
+                }
+            return !with.empty() && collapseCancelling(p, q, onEdge, UINT32_MAX, with);
         }
         // A tetrahedron of the cell's own with a short edge (a spike of solid
         // 2e-3 voxel thin between three prisms that pivot on its tip: the

@@ -109,10 +109,16 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   neighbour in the face that fails it keeps the two apart only where
 ///   both its edges to them are the cell's boundary, as the cell across
 ///   sees them (a fold or face check might be judged otherwise by the next
-///   cell; should the link be, the seam opens and the local check refuses the update:
-///   seen once, seed 1028 on the 2 mm head, at the sub-micron notch of an
-///   unmitred joint, now mitred (makePrismGeom); none of test_cut_props'
-///   strokes does it); a triangle it moves into another cell face is listed
+///   cell). The rest of the link is the cell's own, which the cell across
+///   does not see: common neighbours private to the cell (within
+///   kFloatStepsLook float steps) go into the survivor with the pair, so
+///   the cell joins the pair where the cell across does (1 mm head, kerf
+///   0.5, seed 60027: a vertex 3.3e-4 mm under the face joined to both ends
+///   of a pair on the face's diagonal in one cell, collapsed by a round in
+///   the other). Where a cell still cannot join (seed 1028 on the 2 mm
+///   head, at the sub-micron notch of an unmitred joint, now mitred:
+///   makePrismGeom), the seam opens and the local check refuses the
+///   update; a triangle it moves into another cell face is listed
 ///   in out.intoFace (the cell across may make its twin: markCancellingPairs),
 ///   and it makes no edge along a cube edge, longer than a short edge, from
 ///   an edge of the face's section (the four cells round the cube edge

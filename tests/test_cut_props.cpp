@@ -1996,6 +1996,24 @@ TEST(CutPropsDefects, ACapOnlyTheUpperQuadHasSplitsOnItsSideOfTheMitre)
     expectCleanCutUpToQuad(dir, 16497, 0.5, {3, 78});
 }
 
+// The 1 mm head at kerf 0.5, random strokes seed 60027, stroke 2 to quad
+// 66: an offset plane crosses the diagonal of face z = 1163 mm 2.3e-4 mm
+// (two float steps there) from the isosurface's vertex on it. The float
+// repair's face rule joined the two in the cell above the face, where the
+// link condition held, and not in the cell below, where a vertex of its own
+// 3.3e-4 mm under the face was joined to both: the seam opened (an edge
+// used once in cell (270, 164, 162)) and the live stroke stepped round. A
+// common neighbour private to the cell now goes into the survivor with the
+// pair. The tooth, kerf 0.5, sharp turns, seed 61013, stroke 3 to quad 202
+// opened a seam the same way, on the diagonal of face x = 81 mm (1e-5 mm).
+TEST(CutPropsDefects, AFaceRuleMergeTakesTheCellsOwnCommonNeighbourAlong)
+{
+    MTCUT_REQUIRE_DATA(dir, "vhm-head-dicom");
+    expectCleanCutUpToQuad(dir, 60027, 0.5, {2, 66});
+    MTCUT_REQUIRE_DATA(tooth, "tooth.nhdr");
+    expectCleanCutUpToQuad(tooth, 61013, 0.5, {3, 202}, 400.0f, 1.0);
+}
+
 // The tooth at kerf 0, random strokes seed 16929, stroke 3 to quad 83: the
 // stroke turns back on itself, and quad 83's blade crosses a rim line of
 // quad 81, two quads back, inside cell (76, 16, 116). The point where it
