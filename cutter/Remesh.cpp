@@ -942,6 +942,46 @@ namespace {
 
 using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
 
+/// Sorts and uniques cells in Coord order, by a packed 64-bit key where the
+/// coordinates allow (every cell a cut can reach: -1 to dims); the same
+/// order as Coord's operator<, which branches on each axis in turn.
+void sortUniqueCells(std::vector<Coord>& cells)
+{
+    constexpr int64_t kBias = 1 << 20, kSpan = int64_t(1) << 21;
+    const bool packable = std::all_of(cells.begin(), cells.end(), [&](const Coord& c) {
+        for (int a = 0; a < 3; ++a)
+            if (int64_t(c[a]) + kBias < 0 || int64_t(c[a]) + kBias >= kSpan) return false;
+        return true;
+    });
+    if (!packable) {
+        std::sort(cells.begin(), cells.end());
+        cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+        return;
+    }
+    std::vector<uint64_t> keys(cells.size());
+    for (size_t i = 0; i < cells.size(); ++i) {
+        const Coord& c = cells[i];
+        keys[i] = uint64_t(c.x() + kBias) << 42 | uint64_t(c.y() + kBias) << 21 | uint64_t(c.z() + kBias);
+    }
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    cells.resize(keys.size());
+    constexpr uint64_t kMask = uint64_t(kSpan - 1);
+    for (size_t i = 0; i < keys.size(); ++i)
+        cells[i] = Coord(int(int64_t(keys[i] >> 42) - kBias), int(int64_t(keys[i] >> 21 & kMask) - kBias),
+                         int(int64_t(keys[i] & kMask) - kBias));
+}
+
+/// map.lower_bound(c), given `from`, the lower bound of a key below c (or
+/// begin()): a few steps forward from it, else the tree's search.
+template <typename Map>
+typename Map::iterator lowerBoundFrom(Map& map, typename Map::iterator from, const Coord& c)
+{
+    for (int k = 0; k < 8 && from != map.end(); ++k, ++from)
+        if (!(from->first < c)) return from;
+    return map.lower_bound(c);
+}
+
 /// The corners of `cell` inside the solid, bit c for corner (c & 1, c >> 1 & 1,
 /// c >> 2 & 1), by the kernel's and the isosurface's rule: in the scan box and
 /// at least the isovalue. 0: an air cell.
@@ -1095,8 +1135,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             }
         }
     }
-    std::sort(dirty.begin(), dirty.end());
-    dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
+    sortUniqueCells(dirty);
     {
         const size_t inside = dirty.size();
         for (size_t i = 0; i < inside; ++i) {
@@ -1116,10 +1155,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
                         if (outside && valid) dirty.push_back(n);
                     }
         }
-        if (dirty.size() > inside) {
-            std::sort(dirty.begin(), dirty.end());
-            dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
-        }
+        if (dirty.size() > inside) sortUniqueCells(dirty);
     }
     // A cell's quad list: the mask's; for a cell just outside the box, the
     // quads of its cut neighbours inside the box that touch it, sorted.
@@ -1158,6 +1194,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         CellRecord record;
     };
     std::vector<Saved> saved;
+    saved.reserve(dirty.size());
     std::vector<Coord> changedCells;
     // `changed`: the cell's triangles can differ (every cell but an air cell).
     auto save = [&](const Coord& c, bool changed = true) {
@@ -1229,11 +1266,16 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     std::vector<CellJob> jobs;
     const bool prism = mask.kerf() > 0;
     try {
+        // `dirty` ascends, so each map's lower bound for the next cell lies a
+        // few nodes past the last one's (nearly all of a long cut's steps
+        // are air cells, each a lookup or two into maps of every cut cell).
+        auto recordHint = mRecords.begin();
+        auto cellHint = mCells.begin();
         for (size_t i = 0; i < dirty.size(); ++i) {
             if (!lists[i]) continue;
             const Coord& c = dirty[i];
             const std::vector<QuadRef>& list = *lists[i];
-            auto it = mRecords.lower_bound(c);
+            auto it = recordHint = lowerBoundFrom(mRecords, recordHint, c);
             const bool recorded = it != mRecords.end() && it->first == c;
             if (recorded ? it->second.air : airCell(c)) {
                 if (!recorded) {
@@ -1242,8 +1284,10 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
                     saved.push_back(std::move(fresh));
                     CellRecord air;
                     air.air = true;
-                    mRecords.emplace_hint(it, c, std::move(air));
-                    mCells[c].clear();
+                    recordHint = mRecords.emplace_hint(it, c, std::move(air));
+                    cellHint = lowerBoundFrom(mCells, cellHint, c);
+                    if (cellHint == mCells.end() || cellHint->first != c) cellHint = mCells.emplace_hint(cellHint, c, CutCellGeometry{});
+                    cellHint->second.clear();
                 }
                 continue;
             }
