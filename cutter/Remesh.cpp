@@ -944,8 +944,11 @@ using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, fa
 
 /// Sorts and uniques cells in Coord order, by a packed 64-bit key where the
 /// coordinates allow (every cell a cut can reach: -1 to dims); the same
-/// order as Coord's operator<, which branches on each axis in turn.
-void sortUniqueCells(std::vector<Coord>& cells)
+/// order as Coord's operator<, which branches on each axis in turn. `runs`
+/// (ascending offsets, may be empty) splits `cells` into lists each of which
+/// may already be in order (a quad's cells mostly are): those are merged,
+/// not sorted again.
+void sortUniqueCells(std::vector<Coord>& cells, const std::vector<size_t>& runs = {})
 {
     constexpr int64_t kBias = 1 << 20, kSpan = int64_t(1) << 21;
     const bool packable = std::all_of(cells.begin(), cells.end(), [&](const Coord& c) {
@@ -963,7 +966,14 @@ void sortUniqueCells(std::vector<Coord>& cells)
         const Coord& c = cells[i];
         keys[i] = uint64_t(c.x() + kBias) << 42 | uint64_t(c.y() + kBias) << 21 | uint64_t(c.z() + kBias);
     }
-    std::sort(keys.begin(), keys.end());
+    std::vector<size_t> bounds(runs.begin(), runs.end());
+    if (bounds.empty() || bounds.front() != 0) bounds.insert(bounds.begin(), 0);
+    bounds.push_back(keys.size());
+    for (size_t r = 0; r + 1 < bounds.size(); ++r) {
+        const auto b = keys.begin() + std::ptrdiff_t(bounds[r]), e = keys.begin() + std::ptrdiff_t(bounds[r + 1]);
+        if (!std::is_sorted(b, e)) std::sort(b, e);
+        if (r > 0) std::inplace_merge(keys.begin(), b, e);
+    }
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     cells.resize(keys.size());
     constexpr uint64_t kMask = uint64_t(kSpan - 1);
@@ -1118,6 +1128,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     // just outside the scan box next to any of them (the isosurface closes
     // there: a quad of a border cell that touches such a cell re-meshes it).
     std::vector<Coord> dirty;
+    std::vector<size_t> dirtyRuns; // where each quad's list starts in `dirty`
     for (uint32_t s = 1; s <= strokes && anyQuad; ++s) {
         const std::vector<char>& flags = changedQuad[s - 1];
         const uint32_t now = mask.quadCount(s);
@@ -1126,16 +1137,18 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             if (flags[q]) {
                 if (s <= mSeen.size() && q < mSeen[s - 1].size()) {
                     const std::vector<Coord>& cells = mSeen[s - 1][q].cells;
+                    dirtyRuns.push_back(dirty.size());
                     dirty.insert(dirty.end(), cells.begin(), cells.end());
                 }
             }
             if (q < now && (flags[q] || neighbourChanged)) {
                 const std::vector<Coord>& cells = mask.cellsOf(QuadRef{s, q});
+                dirtyRuns.push_back(dirty.size());
                 dirty.insert(dirty.end(), cells.begin(), cells.end());
             }
         }
     }
-    sortUniqueCells(dirty);
+    sortUniqueCells(dirty, dirtyRuns);
     {
         const size_t inside = dirty.size();
         for (size_t i = 0; i < inside; ++i) {
