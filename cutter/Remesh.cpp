@@ -938,17 +938,7 @@ CutRemesher::CutRemesher(const vdb::Volume& volume, float isovalue, const Mesh& 
 
 CutRemesher::~CutRemesher() = default;
 
-namespace {
-
-using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
-
-/// Sorts and uniques cells in Coord order, by a packed 64-bit key where the
-/// coordinates allow (every cell a cut can reach: -1 to dims); the same
-/// order as Coord's operator<, which branches on each axis in turn. `runs`
-/// (ascending offsets, may be empty) splits `cells` into lists each of which
-/// may already be in order (a quad's cells mostly are): those are merged,
-/// not sorted again.
-void sortUniqueCells(std::vector<Coord>& cells, const std::vector<size_t>& runs = {})
+void remesh_detail::sortUniqueCells(std::vector<Coord>& cells, const std::vector<size_t>& runs)
 {
     constexpr int64_t kBias = 1 << 20, kSpan = int64_t(1) << 21;
     const bool packable = std::all_of(cells.begin(), cells.end(), [&](const Coord& c) {
@@ -981,6 +971,10 @@ void sortUniqueCells(std::vector<Coord>& cells, const std::vector<size_t>& runs 
         cells[i] = Coord(int(int64_t(keys[i] >> 42) - kBias), int(int64_t(keys[i] >> 21 & kMask) - kBias),
                          int(int64_t(keys[i] & kMask) - kBias));
 }
+
+namespace {
+
+using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
 
 /// map.lower_bound(c), given `from`, the lower bound of a key below c (or
 /// begin()): a few steps forward from it, else the tree's search.

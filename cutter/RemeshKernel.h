@@ -267,6 +267,14 @@ private:
     std::unique_ptr<QuadGeomCache> mQuadGeoms;
 };
 
+/// Sorts `cells` and drops repeats, in Coord's order (its operator<), by a
+/// packed 64-bit key when every coordinate fits 21 bits biased (any cell a
+/// cut can reach: -1 to dims), else by Coord itself. `runs`, ascending
+/// offsets (may be empty), splits `cells` into lists each of which may
+/// already be in order (a quad's cells mostly are): those are merged, not
+/// sorted again. CutRemesher::update's dirty cells.
+void sortUniqueCells(std::vector<Coord>& cells, const std::vector<size_t>& runs = {});
+
 /// The fans of a vertex from its link (the edge b -> c opposite it in each
 /// of its triangles, in triangle order): when every link vertex starts
 /// exactly one link edge and ends exactly one, the link is a union of

@@ -1888,3 +1888,41 @@ TEST(Remesh, CapsThatCanKeepNoPieceAreLeftOutAndChangeNoTriangle)
         EXPECT_LE(h.worst, 1e-12);
     }
 }
+
+// CutRemesher::update walks its record maps along the dirty cells, which
+// must ascend in Coord's order with no repeats: the packed-key sort and the
+// merge of lists already in order give exactly std::sort + std::unique, on
+// lists in order and not, on the ring just outside the box (-1), and with a
+// coordinate too wide to pack (the Coord fallback).
+TEST(Remesh, DirtyCellsSortAsCoordsDoWhetherMergedOrSorted)
+{
+    using openvdb::Coord;
+    std::mt19937 rng(4501);
+    std::uniform_int_distribution<int> coord(-1, 40), length(0, 60), kind(0, 2);
+    for (int trial = 0; trial < 300; ++trial) {
+        std::vector<Coord> cells;
+        std::vector<size_t> runs;
+        const int lists = 1 + trial % 4;
+        for (int l = 0; l < lists; ++l) {
+            std::vector<Coord> list(size_t(length(rng)));
+            for (Coord& c : list) c = Coord(coord(rng), coord(rng), coord(rng));
+            const int k = kind(rng);
+            if (k == 0) std::sort(list.begin(), list.end()); // in order, repeats kept
+            if (k == 1) std::sort(list.rbegin(), list.rend()); // backwards
+            if (trial % 7 == 3 && !list.empty()) list.back() = Coord(1 << 22, -5, 3); // too wide: the fallback
+            runs.push_back(cells.size());
+            cells.insert(cells.end(), list.begin(), list.end());
+        }
+        std::vector<Coord> expected = cells;
+        std::sort(expected.begin(), expected.end());
+        expected.erase(std::unique(expected.begin(), expected.end()), expected.end());
+        std::vector<Coord> merged = cells, sorted = cells;
+        cutter::remesh_detail::sortUniqueCells(merged, runs);
+        cutter::remesh_detail::sortUniqueCells(sorted);
+        ASSERT_EQ(merged, expected) << "trial " << trial;
+        ASSERT_EQ(sorted, expected) << "trial " << trial;
+    }
+    std::vector<Coord> none;
+    cutter::remesh_detail::sortUniqueCells(none, {0});
+    EXPECT_TRUE(none.empty());
+}
