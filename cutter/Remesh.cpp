@@ -1223,9 +1223,11 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     // the kernel makes none whatever quads cut it: its geometry is empty
     // once and for all. Most cells of a cut through a head are air (the
     // LeFort stroke on the 1 mm head: 2,995 of 47,880 meet the solid); they
-    // are recorded as cut without their quads, meshing or checking, and
-    // their record says so (the volume and isovalue never change), so a
-    // step reads the corners of its new cells only.
+    // are recorded as cut without their quads, meshing, checking or an entry
+    // in cells() (a node of that map for each new air cell was a third of a
+    // step on the 1 mm head's 11,748-cell cut), and their record says so (the
+    // volume and isovalue never change), so a step reads the corners of its
+    // new cells only.
     VolumeAccessor volumeAcc(mVolume->grid->tree());
     auto airCell = [&](const Coord& c) { return insideCorners(*mVolume, mIso, volumeAcc, c) == 0; };
     // Cells kept as they are (same kernel input) with their old signatures.
@@ -1234,8 +1236,9 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
         for (auto& [cell, signatures] : resigned) mRecords[cell].quadCorners = std::move(signatures);
         for (auto it = saved.rbegin(); it != saved.rend(); ++it) {
             if (it->had) {
+                if (it->record.air) mCells.erase(it->cell); // (an air cell has no geometry)
+                else mCells[it->cell] = std::move(it->geometry);
                 mRecords[it->cell] = std::move(it->record);
-                mCells[it->cell] = std::move(it->geometry);
             } else {
                 mRecords.erase(it->cell);
                 mCells.erase(it->cell);
@@ -1273,11 +1276,10 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     std::vector<CellJob> jobs;
     const bool prism = mask.kerf() > 0;
     try {
-        // `dirty` ascends, so each map's lower bound for the next cell lies a
-        // few nodes past the last one's (nearly all of a long cut's steps
-        // are air cells, each a lookup or two into maps of every cut cell).
+        // `dirty` ascends, so the records' lower bound for the next cell lies
+        // a few nodes past the last one's (nearly all of a long cut's steps
+        // are air cells, each a lookup into the records of every cut cell).
         auto recordHint = mRecords.begin();
-        auto cellHint = mCells.begin();
         for (size_t i = 0; i < dirty.size(); ++i) {
             if (!lists[i]) continue;
             const Coord& c = dirty[i];
@@ -1291,10 +1293,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
                     saved.push_back(std::move(fresh));
                     CellRecord air;
                     air.air = true;
-                    recordHint = mRecords.emplace_hint(it, c, std::move(air));
-                    cellHint = lowerBoundFrom(mCells, cellHint, c);
-                    if (cellHint == mCells.end() || cellHint->first != c) cellHint = mCells.emplace_hint(cellHint, c, CutCellGeometry{});
-                    cellHint->second.clear();
+                    recordHint = mRecords.emplace_hint(it, c, std::move(air)); // no geometry: not in cells()
                 }
                 continue;
             }

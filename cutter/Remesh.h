@@ -186,10 +186,11 @@ public:
     /// the number of cells re-meshed. The cut cells are the mask's cut
     /// cells plus the cells just outside the scan box (index -1 or dims-1)
     /// that a quad of a border cell touches: the isosurface closes there and
-    /// the mask holds only cells inside the box; cells() lists them all. An
-    /// air cell (all eight corners outside the solid: most cells of a cut
-    /// through a head) has no triangles, cut or not, whatever its quads: it
-    /// is listed with empty geometry but never re-meshed, counted or checked.
+    /// the mask holds only cells inside the box; cutCellCount() counts them
+    /// all. An air cell (all eight corners outside the solid: most cells of a
+    /// cut through a head) has no triangles, cut or not, whatever its quads:
+    /// it is recorded as cut but never re-meshed, counted, checked or listed
+    /// in cells(); every other cut cell is listed there.
     /// Throws std::runtime_error ("remesh: ... cell (i,j,k)") when a cell
     /// meets a configuration the kernel does not handle (two exactly coplanar,
     /// overlapping quads; see the file comment for kerf > 0), rather than
@@ -283,6 +284,9 @@ public:
     std::vector<uint8_t> bladeTriangles(const std::vector<uint32_t>& source) const;
 
     /// The cut cells' new geometry only (no uncut triangles), cells ascending.
+    /// Air cells (all eight corners outside the solid: no uncut triangle, and
+    /// the kernel makes none whatever cuts them) are cut but not listed:
+    /// cutCellCount() counts them.
     const std::map<openvdb::Coord, CutCellGeometry>& cells() const { return mCells; }
     /// The cells whose geometry the last successful update() re-made or
     /// forgot, air cells left out (ascending; empty when it changed nothing). For an interactive
@@ -290,7 +294,10 @@ public:
     /// drop the others, instead of building a whole fusedMesh() per step.
     const std::vector<openvdb::Coord>& lastChangedCells() const { return mLastChanged; }
     const Mesh& uncut() const { return mUncut; }
-    size_t cutCellCount() const { return mCells.size(); }
+    /// The cells the last successful update() recorded as cut (the mask's
+    /// cut cells and those just outside the scan box its quads reach), air
+    /// cells included.
+    size_t cutCellCount() const { return mRecords.size(); }
 
 private:
     struct CellRecord

@@ -2264,7 +2264,7 @@ void cutLevelStroke(const std::string& dir, double kerf, size_t poses, double z,
     const MeshCheck check = checkMesh(out.fused);
     EXPECT_TRUE(check.ok()) << check.report();
     out.touches = touchesNearCut(out.fused, remesher, mask, 1e-3);
-    out.cutCells = remesher.cells().size();
+    out.cutCells = remesher.cutCellCount();
     out.uncutVertices = uncut.positions.size();
 }
 
