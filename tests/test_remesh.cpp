@@ -1934,3 +1934,42 @@ TEST(Remesh, DirtyCellsSortAsCoordsDoWhetherMergedOrSorted)
     cutter::remesh_detail::sortUniqueCells(none, {0});
     EXPECT_TRUE(none.empty());
 }
+
+// A refused update puts back what it forgot as it was: an air cell as a
+// record (cut) without a listing in cells(), a cell of solid with its
+// geometry. The update undoes one stroke (forgetting its cells, air and
+// solid) and cuts another, whose first cell with geometry is broken.
+TEST(Remesh, ARefusedUpdatePutsForgottenAirCellsBackUnlisted)
+{
+    const BallAndTwoStrokes ball;
+    CutMask mask(frameOf(ball.vol), 0.5);
+    CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
+    addStroke(mask, ball.first);
+    remesher.update(mask);
+    const Mesh good = remesher.fusedMesh();
+    const size_t cut = remesher.cutCellCount();
+    std::vector<Coord> listed;
+    for (const auto& [c, g] : remesher.cells()) listed.push_back(c);
+    ASSERT_GT(cut, listed.size() + 100) << "the stroke crosses air";
+
+    ASSERT_TRUE(mask.undoStroke());
+    addStroke(mask, ball.second);
+    bool broken = false;
+    remesher.setCellHookForTesting([&](const Coord&, CutCellGeometry& g) {
+        if (broken || g.indices.size() < 6) return;
+        broken = true;
+        g.indices.resize(g.indices.size() - 3);
+    });
+    EXPECT_THROW(remesher.update(mask), std::runtime_error);
+    ASSERT_TRUE(broken);
+    EXPECT_EQ(remesher.cutCellCount(), cut);
+    std::vector<Coord> after;
+    for (const auto& [c, g] : remesher.cells()) after.push_back(c);
+    EXPECT_EQ(after, listed) << "an air cell came back listed, or a cell of solid did not come back";
+    EXPECT_TRUE(sameMesh(remesher.fusedMesh(), good));
+
+    // And the update goes through without the break.
+    remesher.setCellHookForTesting(nullptr);
+    EXPECT_GT(remesher.update(mask), 0u);
+    EXPECT_TRUE(checkMesh(remesher.fusedMesh()).ok());
+}
