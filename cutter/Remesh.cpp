@@ -769,16 +769,22 @@ std::array<double, 36> quadSignature(const CutMask& mask, const QuadRef& r)
 
 /// What the kernel's output for `cell` depends on besides the volume, hashed
 /// (two independent 64-bit hashes): the kind of cut, and per quad of the
-/// cell (in the kernel's order) its plane and id, and each side in full
-/// unless the cell's closed box lies strictly on one side of it (every
-/// corner more than kFar voxel inside, or outside). Such a side decides
-/// nothing in the cell: no point there lies on it (the kernel's tie is
-/// 1e-13 (1 + |x|)), every side test gives the same answer for all points,
-/// so its id, partner and corner sides are never read; only inside/outside
-/// remains (a quad outside one of its sides reaches none of the cell's
-/// tets). When a stroke neighbour of a quad comes or goes, the quad's far
-/// side changes (rim <-> junction); the cells that side does not reach keep
-/// this digest, and update() keeps their geometry instead of re-meshing it.
+/// cell that can reach one of its tets (in the kernel's order) its plane and
+/// id, and each side in full unless the cell's closed box lies strictly on
+/// one side of it (every corner more than kFar voxel inside, or outside).
+/// Such a side decides nothing in the cell: no point there lies on it (the
+/// kernel's tie is 1e-13 (1 + |x|)), every side test gives the same answer
+/// for all points, so its id, partner and corner sides are never read; only
+/// inside/outside remains. A quad with the box strictly outside one of its
+/// sides reaches none of the cell's tets (gatherQuads passes it over in
+/// each; the kernel reads a partner only among the quads a tet gathered, and
+/// a partner's place in the list only for its sign), so it is left out.
+/// When a stroke neighbour of a quad comes or goes, the quad's far side
+/// changes (rim <-> junction); the cells that side does not reach keep this
+/// digest. So do the cells the mask lists a new quad in that it reaches in
+/// no tet (kerf > 0: the cut region is grown round the mitre, and pulls in
+/// cells behind the prism). update() keeps their geometry instead of
+/// re-meshing it.
 std::array<uint64_t, 2> kernelInputDigest(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism)
 {
     constexpr double kFar = 1e-6;
@@ -805,9 +811,19 @@ std::array<uint64_t, 2> kernelInputDigest(const Coord& cell, const std::vector<Q
         putD(p.n.z);
         putD(p.d);
     };
+    // A side the closed box lies strictly outside of: the quad reaches none
+    // of the cell's tets (no corner of any is inside that side or within
+    // the kernel's tie of it, so gatherQuads passes it over in every one).
+    auto outsideSide = [&](const QuadGeom::Side& s) {
+        for (int k = 0; k < 8; ++k) {
+            const dvec3 x(cell.x() + (k & 1), cell.y() + ((k >> 1) & 1), cell.z() + ((k >> 2) & 1));
+            if (!(s.orient * s.plane.h(x) < -kFar)) return false;
+        }
+        return true;
+    };
     put(prism ? 2 : 1);
-    put(quads.size());
     for (const QuadGeom& q : quads) {
+        if (std::any_of(q.sides.begin(), q.sides.end(), outsideSide)) continue;
         put(q.id);
         putPlane(q.pi);
         put(q.sides.size());
@@ -1230,10 +1246,21 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     // new cells only.
     VolumeAccessor volumeAcc(mVolume->grid->tree());
     auto airCell = [&](const Coord& c) { return insideCorners(*mVolume, mIso, volumeAcc, c) == 0; };
-    // Cells kept as they are (same kernel input) with their old signatures.
-    std::vector<std::pair<Coord, std::vector<std::array<double, 36>>>> resigned;
+    // Cells kept as they are (same kernel input) with their old quad lists
+    // (empty when the list stayed) and signatures.
+    struct Resigned
+    {
+        Coord cell;
+        std::vector<QuadRef> quads;
+        std::vector<std::array<double, 36>> signatures;
+    };
+    std::vector<Resigned> resigned;
     auto restore = [&] {
-        for (auto& [cell, signatures] : resigned) mRecords[cell].quadCorners = std::move(signatures);
+        for (Resigned& r : resigned) {
+            CellRecord& rec = mRecords[r.cell];
+            if (!r.quads.empty()) rec.quads = std::move(r.quads);
+            rec.quadCorners = std::move(r.signatures);
+        }
         for (auto it = saved.rbegin(); it != saved.rend(); ++it) {
             if (it->had) {
                 if (it->record.air) mCells.erase(it->cell); // (an air cell has no geometry)
@@ -1305,10 +1332,11 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             if (!newList && it->second.quadCorners == signatures) continue;
             cellQuads(mask, c, list, *mPrismCache, mQuadCache.get(), quads);
             const std::array<uint64_t, 2> input = kernelInputDigest(c, quads, prism);
-            if (!newList && it->second.input == input) {
+            if (it != mRecords.end() && it->second.input == input) {
                 // A neighbour quad's side changed where this cell does not
-                // reach (kernelInputDigest): the kernel would make the same
-                // geometry. Keep it; remember the new signatures.
+                // reach, or a quad came or went that reaches none of its
+                // tets (kernelInputDigest): the kernel would make the same
+                // geometry. Keep it; remember the new list and signatures.
                 if (mVerifyKept) {
                     CutCellGeometry again;
                     mKernels->local().remesh(c, quads, prism, again);
@@ -1317,7 +1345,9 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
                           again.indices == kept.indices))
                         throw std::logic_error("remesh: kept geometry differs from a re-mesh in cell " + cellText(c));
                 }
-                resigned.emplace_back(c, std::move(it->second.quadCorners));
+                resigned.push_back({c, newList ? std::move(it->second.quads) : std::vector<QuadRef>(),
+                                    std::move(it->second.quadCorners)});
+                if (newList) it->second.quads = list;
                 it->second.quadCorners = std::move(signatures);
                 ++keptCells;
                 continue;

@@ -226,10 +226,13 @@ public:
     /// Cancelled and, as on any throw, leaves the remesher as it was.
     size_t update(const CutMask& mask, Interrupter* interrupter = nullptr);
 
-    /// The cells the last successful update() kept without re-meshing: cells
-    /// of a quad whose stroke neighbour came or went, where the neighbour's
-    /// junction does not reach (the kernel's input there is unchanged). Not
-    /// counted in update()'s result.
+    /// The cells the last successful update() kept without re-meshing, the
+    /// kernel's input there being unchanged: cells of a quad whose stroke
+    /// neighbour came or went, where the neighbour's junction does not reach,
+    /// and cells where a quad came or went that reaches none of their tets
+    /// (the mask lists a quad wherever its cut region, grown round a mitre,
+    /// touches; with kerf > 0 that is most of the cells a step re-meshed
+    /// before on the phantom's solid bone). Not counted in update()'s result.
     size_t lastKeptCells() const { return mLastKept; }
     /// The chunks the last update's local check ran in parallel (0: one
     /// serial check; a whole cut of 2,048 cells or more on several threads

@@ -49,6 +49,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <map>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -1443,6 +1444,93 @@ TEST(CutProps, CellsKeptWhenANeighbourQuadArrivesAreThoseARemeshMakes)
         EXPECT_EQ(batch.lastKeptCells(), 0u);
         EXPECT_TRUE(sameMesh(live.fusedMesh(), batch.fusedMesh())) << "kerf " << kerf;
     }
+}
+
+// The mask lists a quad in every cell its cut region touches, and at
+// kerf > 0 that region is grown round the mitres, so a new quad is listed in
+// cells behind it that its prism reaches in none of their tets. The kernel's
+// input there is the same (kernelInputDigest leaves such a quad out), and
+// update() keeps those cells although their lists changed. Updating after
+// every quad of a bent stroke at kerf 0.5 and then undoing one quad at a
+// time, with every kept cell re-meshed anyway and compared (verification
+// on): such cells are kept on the way out and back, and every step's mesh is
+// the one the way out had, the last the batch mesh. A refused update that
+// kept some leaves the mesh as it was, and done again keeps them again.
+TEST(CutProps, CellsAQuadListsButReachesInNoTetAreKept)
+{
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f);
+    CutMask mask(frameOf(vol), 0.5);
+    CutRemesher live(vol, 0.0f, uncut);
+    live.setVerifyKeptCellsForTesting(true);
+    const std::vector<Quad> quads = filterStroke(bentStroke(), mask.frame());
+    ASSERT_GT(quads.size(), 20u);
+    // Cells of geometry whose mask list changed in a step yet were not re-made.
+    auto listedKept = [&](const std::map<Coord, std::vector<QuadRef>>& before) {
+        const std::vector<Coord>& changed = live.lastChangedCells();
+        size_t n = 0;
+        for (const auto& [c, list] : before) {
+            const std::vector<QuadRef>* now = mask.quadsAt(c);
+            if (now && *now != list && !std::binary_search(changed.begin(), changed.end(), c)) ++n;
+        }
+        return n;
+    };
+    auto lists = [&] {
+        std::map<Coord, std::vector<QuadRef>> out;
+        for (const auto& [c, g] : live.cells())
+            if (const std::vector<QuadRef>* l = mask.quadsAt(c)) out[c] = *l;
+        return out;
+    };
+    mask.beginStroke();
+    std::vector<Mesh> meshes{live.fusedMesh()};
+    size_t outKept = 0, backKept = 0, best = 0, bestStep = 0;
+    for (size_t k = 0; k < quads.size(); ++k) {
+        const auto before = lists();
+        mask.addQuad(quads[k]);
+        live.update(mask); // throws std::logic_error on a kept cell a re-mesh changes
+        const size_t n = listedKept(before);
+        outKept += n;
+        if (n > best) {
+            best = n;
+            bestStep = k;
+        }
+        meshes.push_back(live.fusedMesh());
+    }
+    CutRemesher batch(vol, 0.0f, uncut);
+    batch.update(mask);
+    EXPECT_TRUE(sameMesh(live.fusedMesh(), batch.fusedMesh()));
+    for (size_t k = quads.size(); k-- > 0;) {
+        const auto before = lists();
+        mask.undoToQuad(uint32_t(k));
+        live.update(mask);
+        backKept += listedKept(before);
+        EXPECT_TRUE(sameMesh(live.fusedMesh(), meshes[k])) << "undone to quad " << k;
+    }
+    std::printf("%zu quads: cells kept with a changed list %zu adding, %zu undoing; at most %zu a step (quad %zu)\n",
+                quads.size(), outKept, backKept, best, bestStep);
+    EXPECT_GT(outKept, 0u);
+    EXPECT_GT(backKept, 0u);
+
+    // A refused update that kept such cells leaves the remesher as it was,
+    // and the same update done again keeps them again.
+    for (size_t k = 0; k < bestStep; ++k) mask.addQuad(quads[k]);
+    live.update(mask);
+    const Mesh good = live.fusedMesh();
+    const auto before = lists();
+    mask.addQuad(quads[bestStep]);
+    bool broken = false;
+    live.setCellHookForTesting([&](const Coord&, CutCellGeometry& g) {
+        if (broken || g.indices.size() < 6) return;
+        broken = true;
+        g.indices.resize(g.indices.size() - 3);
+    });
+    EXPECT_THROW(live.update(mask), std::runtime_error);
+    ASSERT_TRUE(broken);
+    EXPECT_TRUE(sameMesh(live.fusedMesh(), good));
+    live.setCellHookForTesting(nullptr);
+    live.update(mask);
+    EXPECT_EQ(listedKept(before), best);
+    EXPECT_TRUE(sameMesh(live.fusedMesh(), meshes[bestStep + 1]));
 }
 
 // update() runs the kernel over the cells in parallel: one thread and four
