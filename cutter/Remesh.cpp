@@ -811,39 +811,41 @@ std::array<uint64_t, 2> kernelInputDigest(const Coord& cell, const std::vector<Q
         putD(p.n.z);
         putD(p.d);
     };
-    // A side the closed box lies strictly outside of: the quad reaches none
-    // of the cell's tets (no corner of any is inside that side or within
-    // the kernel's tie of it, so gatherQuads passes it over in every one).
-    auto outsideSide = [&](const QuadGeom::Side& s) {
+    // Each side against the cell's closed box: strictly inside at every
+    // corner (1), strictly outside (2), or neither (3). A quad with a side
+    // of kind 2 reaches none of the cell's tets: no corner of any is inside
+    // that side or within the kernel's tie of it, so gatherQuads passes the
+    // quad over in every one.
+    auto kindOf = [&](const QuadGeom::Side& s) {
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
         for (int k = 0; k < 8; ++k) {
             const dvec3 x(cell.x() + (k & 1), cell.y() + ((k >> 1) & 1), cell.z() + ((k >> 2) & 1));
-            if (!(s.orient * s.plane.h(x) < -kFar)) return false;
+            const double v = s.orient * s.plane.h(x);
+            lo = std::min(lo, v);
+            hi = std::max(hi, v);
         }
-        return true;
+        return lo > kFar ? 1 : hi < -kFar ? 2 : 3;
     };
     put(prism ? 2 : 1);
+    std::vector<int> kinds; // of the quad's sides
     for (const QuadGeom& q : quads) {
-        if (std::any_of(q.sides.begin(), q.sides.end(), outsideSide)) continue;
+        kinds.clear();
+        bool reaches = true;
+        for (const auto& s : q.sides) {
+            kinds.push_back(kindOf(s));
+            if (kinds.back() == 2) {
+                reaches = false;
+                break;
+            }
+        }
+        if (!reaches) continue;
         put(q.id);
         putPlane(q.pi);
         put(q.sides.size());
-        for (const auto& s : q.sides) {
-            double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-            for (int k = 0; k < 8; ++k) {
-                const dvec3 x(cell.x() + (k & 1), cell.y() + ((k >> 1) & 1), cell.z() + ((k >> 2) & 1));
-                const double v = s.orient * s.plane.h(x);
-                lo = std::min(lo, v);
-                hi = std::max(hi, v);
-            }
-            if (lo > kFar) {
-                put(1); // strictly inside over the whole cell
-                continue;
-            }
-            if (hi < -kFar) {
-                put(2); // strictly outside
-                continue;
-            }
-            put(3);
+        for (size_t i = 0; i < q.sides.size(); ++i) {
+            const QuadGeom::Side& s = q.sides[i];
+            put(uint64_t(kinds[i]));
+            if (kinds[i] == 1) continue; // strictly inside over the whole cell
             put(s.id);
             putPlane(s.plane);
             putD(s.orient);
