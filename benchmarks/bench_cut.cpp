@@ -387,7 +387,7 @@ Row runTarget(VolumeCase& vc, size_t target, int runs, double kerf)
         for (int r = 0; r < runs; ++r) {
             const auto t0 = Clock::now();
             remesh_detail::CellKernel cellKernel(vc.vol, vc.scene.iso);
-            remesh_detail::KernelQuads kernelQuads(*mask);
+            remesh_detail::KernelQuads kernelQuads(*mask, vc.vol, vc.scene.iso);
             for (const Coord& c : cutCells) cellKernel.remesh(c, kernelQuads.of(c), mask->kerf() > 0, scratch);
             kernel.push_back(msSince(t0));
         }

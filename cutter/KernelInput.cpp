@@ -38,7 +38,7 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
         in.origin[size_t(a)] = volume.origin()[a];
         in.spacing[size_t(a)] = volume.spacing()[a];
     }
-    remesh_detail::KernelQuads kernelQuads(mask); // each quad's geometry once, for all the cells
+    remesh_detail::KernelQuads kernelQuads(mask, volume, isovalue); // each quad's geometry once, for all the cells
     for (const openvdb::Coord& c : cells) {
         PackedKernelCell pc;
         pc.x = c.x();

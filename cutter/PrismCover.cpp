@@ -132,6 +132,28 @@ bool subtract(const Polytope& x, const QuadGeom& q, std::vector<Polytope>& out)
     return true;
 }
 
+/// A convex region of the cell to test in, with its bounding planes (inside: h >= 0).
+struct Region
+{
+    Polytope poly;
+    std::vector<Plane> planes;
+    bool holds(const dvec3& x) const
+    {
+        return std::all_of(planes.begin(), planes.end(), [&](const Plane& p) { return p.h(x) >= 0.0; });
+    }
+};
+
+Polytope tetPolytope(const std::array<dvec3, 4>& v)
+{
+    // A face opposite each corner (clip reads no winding).
+    Polytope t;
+    t.faces.push_back({v[1], v[2], v[3]});
+    t.faces.push_back({v[0], v[3], v[2]});
+    t.faces.push_back({v[0], v[1], v[3]});
+    t.faces.push_back({v[0], v[2], v[1]});
+    return t;
+}
+
 std::atomic<bool> gDropCovered{true};
 
 } // namespace
@@ -140,11 +162,84 @@ void dropCoveredPrismsForTesting(bool drop) { gDropCovered.store(drop); }
 
 bool dropCoveredPrisms() { return gDropCovered.load(std::memory_order_relaxed); }
 
-std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& quads)
+CellSolid cellSolid(const Coord& cell, const std::array<float, 8>& values, uint8_t inside, float iso)
+{
+    CellSolid s;
+    const auto& tets = cellTets(cellParity(cell.x(), cell.y(), cell.z()));
+    for (int t = 0; t < kTetsPerCell; ++t) {
+        int in = 0;
+        std::array<uint64_t, 4> id{};
+        for (int i = 0; i < 4; ++i) {
+            const int c = tets[size_t(t)][size_t(i)];
+            const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            s.corners[size_t(t)][size_t(i)] = dvec3(g.x(), g.y(), g.z());
+            id[size_t(i)] = gridVertexId(g.x(), g.y(), g.z());
+            in += inside >> c & 1;
+        }
+        s.holds[size_t(t)] = in > 0;
+        if (in == 0 || in == 4) continue;
+        // The MT points, as the kernel makes them (RemeshKernel::mtPoint).
+        std::vector<dvec3> pts;
+        std::vector<dvec3> in4; // the inside corners
+        dvec3 inSum(0.0), outSum(0.0);
+        for (int a = 0; a < 4; ++a) {
+            const int ca = tets[size_t(t)][size_t(a)];
+            const bool ia = inside >> ca & 1;
+            (ia ? inSum : outSum) += s.corners[size_t(t)][size_t(a)];
+            if (ia) in4.push_back(s.corners[size_t(t)][size_t(a)]);
+            for (int b = a + 1; b < 4; ++b) {
+                const int cb = tets[size_t(t)][size_t(b)];
+                if (ia == bool(inside >> cb & 1)) continue;
+                int lo = a, hi = b, clo = ca, chi = cb;
+                if (id[size_t(hi)] < id[size_t(lo)]) std::swap(lo, hi), std::swap(clo, chi);
+                const double u = edgeCrossing(values[size_t(clo)], values[size_t(chi)], iso);
+                pts.push_back(s.corners[size_t(t)][size_t(lo)] +
+                              u * (s.corners[size_t(t)][size_t(hi)] - s.corners[size_t(t)][size_t(lo)]));
+            }
+        }
+        // The pieces' normal (a quad's from its diagonals), toward the
+        // inside; any direction would hold the hull, this one nearly hugs it.
+        dvec3 n = pts.size() == 3 ? glm::cross(pts[1] - pts[0], pts[2] - pts[0])
+                                  : glm::cross(pts[3] - pts[0], pts[2] - pts[1]);
+        const double len = glm::length(n);
+        if (!(len > 0)) continue; // no plane: test the whole tet
+        n /= len;
+        if (glm::dot(n, inSum / double(in) - outSum / double(4 - in)) < 0) n = -n;
+        double d = 1e300;
+        for (const dvec3& x : pts) d = std::min(d, glm::dot(n, x));
+        for (const dvec3& x : in4) d = std::min(d, glm::dot(n, x));
+        s.hull[size_t(t)] = Plane{n, d - kCoverMargin};
+    }
+    return s;
+}
+
+std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& quads, const CellSolid* solid)
 {
     std::vector<char> covered(quads.size(), 0);
     if (quads.size() < kCoverMinPrisms) return covered;
     const Polytope box = cellBox(cell);
+    std::vector<Region> regions;
+    if (solid) {
+        for (int t = 0; t < kTetsPerCell; ++t) {
+            if (!solid->holds[size_t(t)]) continue;
+            const auto& v = solid->corners[size_t(t)];
+            Region r;
+            r.poly = tetPolytope(v);
+            for (int k = 0; k < 4; ++k) {
+                // Face opposite corner k, inward.
+                const dvec3 &a = v[size_t((k + 1) % 4)], &b = v[size_t((k + 2) % 4)], &c = v[size_t((k + 3) % 4)];
+                dvec3 n = glm::cross(b - a, c - a);
+                if (glm::dot(n, v[size_t(k)] - a) < 0) n = -n;
+                r.planes.push_back(Plane{n, glm::dot(n, a)});
+            }
+            const Plane& h = solid->hull[size_t(t)];
+            if (h.n != dvec3(0.0)) {
+                r.poly = clip(r.poly, h.n, h.d);
+                r.planes.push_back(h);
+            }
+            if (!r.poly.empty()) regions.push_back(std::move(r));
+        }
+    }
     auto within = [](const QuadGeom& q, const dvec3& x, double margin) {
         for (const QuadGeom::Side& s : q.sides)
             if (!(s.orient * s.plane.h(x) > margin)) return false;
@@ -161,6 +256,8 @@ std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& 
             const dvec3 x = p - quads[i].pi.h(p) * quads[i].pi.n;
             if (glm::any(glm::lessThan(x, lo)) || glm::any(glm::greaterThan(x, lo + dvec3(1.0))) || !within(quads[i], x, 0.0))
                 continue;
+            if (solid && std::none_of(regions.begin(), regions.end(), [&](const Region& r) { return r.holds(x); }))
+                continue;
             witness = true;
             for (size_t j = 0; j < quads.size() && witness; ++j)
                 witness = j == i || covered[j] || !within(quads[j], x, kCoverMargin);
@@ -172,16 +269,35 @@ std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& 
             if (own.empty()) break;
         }
         if (own.empty()) continue; // no volume in the cell: its planes may still hold the surface on a face
-        std::vector<Polytope> pieces{std::move(own)}, next;
-        bool ok = true;
-        for (size_t j = 0; j < quads.size() && ok && !pieces.empty(); ++j) {
-            if (j == i || covered[j]) continue;
-            next.clear();
-            for (const Polytope& p : pieces)
-                if (!(ok = subtract(p, quads[j], next))) break;
-            pieces.swap(next);
+        // Whether the others leave nothing of `part` (the budget counts each
+        // part's pieces on their own).
+        std::vector<Polytope> pieces, next;
+        auto coveredPart = [&](Polytope part) {
+            pieces.assign(1, std::move(part));
+            for (size_t j = 0; j < quads.size() && !pieces.empty(); ++j) {
+                if (j == i || covered[j]) continue;
+                next.clear();
+                for (const Polytope& p : pieces)
+                    if (!subtract(p, quads[j], next)) return false;
+                pieces.swap(next);
+            }
+            return pieces.empty();
+        };
+        if (!solid) {
+            covered[i] = coveredPart(std::move(own));
+            continue;
         }
-        covered[i] = ok && pieces.empty();
+        bool all = true;
+        for (size_t r = 0; r < regions.size() && all; ++r) {
+            // The prism grown by the margin, in the region.
+            Polytope part = regions[r].poly;
+            for (const QuadGeom::Side& s : quads[i].sides) {
+                part = clip(part, s.orient * s.plane.n, s.orient * s.plane.d - kCoverMargin);
+                if (part.empty()) break;
+            }
+            all = part.empty() || coveredPart(std::move(part));
+        }
+        covered[i] = all;
     }
     return covered;
 }

@@ -708,15 +708,53 @@ const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCa
     return e.geom;
 }
 
+using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
+
+} // namespace
+
+/// Kerf > 0: reads a cell's solid for coveredPrisms (a prism that meets the
+/// cell's air alone needs no cover).
+struct remesh_detail::CellSolidReader
+{
+    const vdb::Volume& volume;
+    float iso;
+    VolumeAccessor acc;
+    CellSolidReader(const vdb::Volume& v, float i) : volume(v), iso(i), acc(v.grid->tree()) {}
+
+    /// The cell's CellSolid, its corners read as the kernel reads them
+    /// (RemeshKernel::loadTet: outside the scan box, the background and
+    /// outside); false when every corner is inside (its box holds only solid).
+    bool read(const Coord& cell, CellSolid& out)
+    {
+        std::array<float, 8> values;
+        uint8_t inside = 0;
+        const float background = volume.grid->background();
+        for (int c = 0; c < 8; ++c) {
+            const Coord g = cell + Coord(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+            const bool inBox = g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() < volume.dims.x() &&
+                               g.y() < volume.dims.y() && g.z() < volume.dims.z();
+            values[size_t(c)] = inBox ? acc.getValue(g) : background;
+            if (inBox && values[size_t(c)] >= iso) inside |= uint8_t(1 << c);
+        }
+        if (inside == 0xff) return false;
+        out = cellSolid(cell, values, inside, iso);
+        return true;
+    }
+};
+
+namespace {
+
 /// quadCache: optional; when given, each quad's geometry is built once
 /// (zero kerf: in quadCache; kerf > 0: in `cache`) instead of once per cell.
 /// Into `quads` (its elements' storage is reused: no allocation per cell
 /// once it has grown).
 /// Kerf > 0: the prisms the others cover in the cell (coveredPrisms) are
 /// left out; the kernel, the GPU cut pass and removedVoxels all take a
-/// cell's quads from here.
+/// cell's quads from here. solidAt: the cell's solid (the kernel and the
+/// GPU cut pass), so that a prism needs cover only where it meets it;
+/// null (removedVoxels): wherever it meets the cell.
 void cellQuads(const CutMask& mask, const Coord& cell, const std::vector<QuadRef>& refs, PrismCache& cache,
-               QuadGeomCache* quadCache, std::vector<QuadGeom>& quads)
+               QuadGeomCache* quadCache, std::vector<QuadGeom>& quads, CellSolidReader* solidAt)
 {
     size_t n = 0;
     auto put = [&](const QuadGeom& g) {
@@ -732,7 +770,9 @@ void cellQuads(const CutMask& mask, const Coord& cell, const std::vector<QuadRef
     }
     quads.resize(n);
     if (mask.kerf() > 0 && n >= kCoverMinPrisms && dropCoveredPrisms()) {
-        const std::vector<char> covered = coveredPrisms(cell, quads);
+        CellSolid solid;
+        const bool air = solidAt && solidAt->read(cell, solid);
+        const std::vector<char> covered = coveredPrisms(cell, quads, air ? &solid : nullptr);
         size_t kept = 0;
         for (size_t i = 0; i < n; ++i)
             if (!covered[i]) {
@@ -870,7 +910,7 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
     PrismCache cache;
     std::vector<QuadGeom> quads;
     mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>& list) {
-        cellQuads(mask, c, list, cache, nullptr, quads);
+        cellQuads(mask, c, list, cache, nullptr, quads, nullptr);
         for (int k = 0; k < 8; ++k) {
             const Coord g = c + Coord(k & 1, (k >> 1) & 1, (k >> 2) & 1);
             if (acc.isValueOn(g)) continue;
@@ -888,13 +928,21 @@ openvdb::MaskGrid::Ptr removedVoxels(const CutMask& mask)
     return removed;
 }
 
-std::vector<QuadGeom> remesh_detail::kernelQuadsOf(const CutMask& mask, const Coord& cell)
+std::vector<QuadGeom> remesh_detail::kernelQuadsOf(const CutMask& mask, const Coord& cell, const vdb::Volume* volume,
+                                                   float iso)
 {
-    return KernelQuads(mask).of(cell);
+    std::vector<QuadGeom> quads;
+    const std::vector<QuadRef>* refs = mask.quadsAt(cell);
+    if (!refs) return quads;
+    PrismCache cache;
+    std::unique_ptr<CellSolidReader> solid = volume ? std::make_unique<CellSolidReader>(*volume, iso) : nullptr;
+    cellQuads(mask, cell, *refs, cache, nullptr, quads, solid.get());
+    return quads;
 }
 
-remesh_detail::KernelQuads::KernelQuads(const CutMask& mask)
-    : mMask(mask), mPrisms(std::make_unique<PrismCache>()), mQuadGeoms(std::make_unique<QuadGeomCache>())
+remesh_detail::KernelQuads::KernelQuads(const CutMask& mask, const vdb::Volume& volume, float iso)
+    : mMask(mask), mPrisms(std::make_unique<PrismCache>()), mQuadGeoms(std::make_unique<QuadGeomCache>()),
+      mSolid(std::make_unique<CellSolidReader>(volume, iso))
 {
 }
 
@@ -905,7 +953,7 @@ std::vector<QuadGeom> remesh_detail::KernelQuads::of(const Coord& cell)
     std::vector<QuadGeom> quads;
     const std::vector<QuadRef>* refs = mMask.quadsAt(cell);
     if (!refs) return quads;
-    cellQuads(mMask, cell, *refs, *mPrisms, mQuadGeoms.get(), quads);
+    cellQuads(mMask, cell, *refs, *mPrisms, mQuadGeoms.get(), quads, mSolid.get());
     return quads;
 }
 
@@ -918,7 +966,8 @@ void remeshCell(const vdb::Volume& volume, float isovalue, const CutMask& mask, 
     CellKernel kernel(volume, isovalue);
     PrismCache cache;
     std::vector<QuadGeom> quads;
-    cellQuads(mask, cell, *refs, cache, nullptr, quads);
+    CellSolidReader solid(volume, isovalue);
+    cellQuads(mask, cell, *refs, cache, nullptr, quads, &solid);
     kernel.remesh(cell, quads, mask.kerf() > 0, out);
 }
 
@@ -991,8 +1040,6 @@ void remesh_detail::sortUniqueCells(std::vector<Coord>& cells, const std::vector
 }
 
 namespace {
-
-using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
 
 /// map.lower_bound(c), given `from`, the lower bound of a key below c (or
 /// begin()): a few steps forward from it, else the tree's search.
@@ -1247,6 +1294,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
     // volume and isovalue never change), so a step reads the corners of its
     // new cells only.
     VolumeAccessor volumeAcc(mVolume->grid->tree());
+    CellSolidReader solidAt(*mVolume, mIso);
     auto airCell = [&](const Coord& c) { return insideCorners(*mVolume, mIso, volumeAcc, c) == 0; };
     // Cells kept as they are (same kernel input) with their old quad lists
     // (empty when the list stayed) and signatures.
@@ -1332,7 +1380,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             signatures.reserve(list.size());
             for (const QuadRef& r : list) signatures.push_back(quadSignature(mask, r));
             if (!newList && it->second.quadCorners == signatures) continue;
-            cellQuads(mask, c, list, *mPrismCache, mQuadCache.get(), quads);
+            cellQuads(mask, c, list, *mPrismCache, mQuadCache.get(), quads, &solidAt);
             const std::array<uint64_t, 2> input = kernelInputDigest(c, quads, prism);
             if (it != mRecords.end() && it->second.input == input) {
                 // A neighbour quad's side changed where this cell does not

@@ -237,34 +237,42 @@ private:
     openvdb::Vec3d mOrigin, mSpacing;
 };
 
-/// The quads of `cell` of `mask` as update() hands them to the kernel (in
-/// the cell's order, degenerate ones left out, with kerf > 0 the prisms the
-/// others cover there left out (PrismCover.h), partners resolved), built
-/// without update()'s caches; empty when the cell is not cut. For the GPU
-/// cut pass's input (cutter/KernelInput.h) and tests.
-std::vector<QuadGeom> kernelQuadsOf(const CutMask& mask, const Coord& cell);
+/// The quads of `cell` of `mask` as update() hands them to the kernel that
+/// cuts `volume` at `iso` (in the cell's order, degenerate ones left out,
+/// with kerf > 0 the prisms the others cover there left out (PrismCover.h;
+/// where the cell has air, they need cover only where they meet its
+/// solid), partners resolved), built without update()'s caches; empty when
+/// the cell is not cut. For the GPU cut pass's input (cutter/KernelInput.h)
+/// and tests. Without `volume`, a prism is left out only where the others
+/// cover all of its part of the cell (what removedVoxels takes).
+std::vector<QuadGeom> kernelQuadsOf(const CutMask& mask, const Coord& cell, const vdb::Volume* volume = nullptr,
+                                    float iso = 0.0f);
 
-/// kernelQuadsOf for many cells of one mask: each quad's geometry is built
-/// once and shared by the cells it cuts. kernelQuadsOf alone starts from
-/// nothing for every cell, and with kerf > 0 a prism is built from its
-/// stroke's rim planes, so it builds every prism of the stroke up to the
-/// cell's quads: packing the GPU cut pass's input for the 1 mm head's
-/// 11,748-cell cut at kerf 0.5 that way took 2.1 s, ten times the CPU's
-/// whole update(). The mask must not change while this is used.
+struct CellSolidReader; // Remesh.cpp
+
+/// kernelQuadsOf(mask, cell, &volume, iso) for many cells of one mask: each
+/// quad's geometry is built once and shared by the cells it cuts.
+/// kernelQuadsOf alone starts from nothing for every cell, and with kerf > 0
+/// a prism is built from its stroke's rim planes, so it builds every prism
+/// of the stroke up to the cell's quads: packing the GPU cut pass's input
+/// for the 1 mm head's 11,748-cell cut at kerf 0.5 that way took 2.1 s, ten
+/// times the CPU's whole update(). The mask and volume must not change while
+/// this is used.
 class KernelQuads
 {
 public:
-    explicit KernelQuads(const CutMask& mask);
+    KernelQuads(const CutMask& mask, const vdb::Volume& volume, float iso);
     ~KernelQuads();
     KernelQuads(const KernelQuads&) = delete;
     KernelQuads& operator=(const KernelQuads&) = delete;
-    /// kernelQuadsOf(mask, cell).
+    /// kernelQuadsOf(mask, cell, &volume, iso).
     std::vector<QuadGeom> of(const Coord& cell);
 
 private:
     const CutMask& mMask;
     std::unique_ptr<PrismCache> mPrisms;
     std::unique_ptr<QuadGeomCache> mQuadGeoms;
+    std::unique_ptr<CellSolidReader> mSolid;
 };
 
 /// Sorts `cells` and drops repeats, in Coord's order (its operator<), by a

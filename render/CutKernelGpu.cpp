@@ -632,7 +632,7 @@ RecoveredCells recoverCutCells(const GpuCutKernel& gpu, const vdb::Volume& volum
     r.madeByGpu.resize(cells.size());
     r.tetTriangles.resize(cells.size());
     cutter::remesh_detail::CellKernel cpu(volume, isovalue);
-    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    cutter::remesh_detail::KernelQuads kernelQuads(mask, volume, isovalue);
     const bool prism = mask.kerf() > 0;
     for (size_t i = 0; i < cells.size(); ++i) {
         const std::vector<cutter::remesh_detail::QuadGeom> quads = kernelQuads.of(cells[i]);

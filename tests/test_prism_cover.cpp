@@ -14,6 +14,8 @@
 #include "vdb/VolumeIO.h"
 
 #include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -60,6 +62,24 @@ const dvec3 kX(1, 0, 0);
 
 std::vector<char> covered(const std::vector<QuadGeom>& quads) { return coveredPrisms(Coord(0, 0, 0), quads); }
 
+/// Cell (0, 0, 0) with corner values `v` (corner c = x + 2y + 4z) at isovalue 0.
+std::vector<char> coveredIn(const std::array<float, 8>& v, const std::vector<QuadGeom>& quads)
+{
+    uint8_t inside = 0;
+    for (int c = 0; c < 8; ++c)
+        if (v[size_t(c)] >= 0.0f) inside |= uint8_t(1 << c);
+    const remesh_detail::CellSolid solid = remesh_detail::cellSolid(Coord(0, 0, 0), v, inside, 0.0f);
+    return coveredPrisms(Coord(0, 0, 0), quads, &solid);
+}
+
+/// Corner values of the affine f(x) = a . x + b at cell (0, 0, 0)'s corners.
+std::array<float, 8> affine(const dvec3& a, double b)
+{
+    std::array<float, 8> v;
+    for (int c = 0; c < 8; ++c) v[size_t(c)] = float(glm::dot(a, dvec3(c & 1, c >> 1 & 1, c >> 2 & 1)) + b);
+    return v;
+}
+
 } // namespace
 
 TEST(PrismCover, FindsTheSlabsInsideTheOthers)
@@ -84,6 +104,99 @@ TEST(PrismCover, FindsTheSlabsInsideTheOthers)
     // their union near the crossing but out of it elsewhere stays.
     EXPECT_EQ(covered({slab(dvec3(1, 0.3, 0), 0.3, 0.6), slab(dvec3(1, -0.3, 0), 0.3, 0.6), slab(kX, 0.35, 0.55)}),
               (V{0, 0, 0}));
+}
+
+// Where the cell has air, a prism needs cover only where it meets the solid
+// (here x <= 0.3: every edge the isosurface crosses runs along x, from
+// value 0.3 to -0.7): one in the air alone goes whatever the others do, one
+// whose solid part the others cover goes though they leave some of its air
+// uncovered, and one within the margin of the solid stays.
+TEST(PrismCover, APrismInTheCellsAirNeedsNoCover)
+{
+    using V = std::vector<char>;
+    const std::array<float, 8> v = affine(dvec3(-1, 0, 0), 0.3);
+    // In the air alone: covered, though nothing covers them.
+    EXPECT_EQ(coveredIn(v, {slab(kX, 0.5, 0.8), slab(kX, 0.2, 0.9), slab(kX, 0.6, 0.95)}), (V{1, 0, 1}));
+    EXPECT_EQ(covered({slab(kX, 0.5, 0.8), slab(kX, 0.2, 0.9), slab(kX, 0.6, 0.95)}), (V{1, 0, 0}));
+    EXPECT_EQ(coveredIn(v, {slab(kX, 0.5, 0.8), slab(kX, 0.6, 0.9), slab(kX, 0.55, 0.95)}), (V{1, 1, 1}));
+    EXPECT_EQ(covered({slab(kX, 0.5, 0.8), slab(kX, 0.6, 0.9), slab(kX, 0.55, 0.95)}), (V{0, 1, 0}));
+    // Its part in the solid covered, its air not: covered with the solid, not without.
+    EXPECT_EQ(coveredIn(v, {slab(kX, 0.1, 0.35), slab(kX, 0.5, 0.9), slab(kX, 0.2, 0.7)}), (V{0, 1, 1}));
+    EXPECT_EQ(covered({slab(kX, 0.1, 0.35), slab(kX, 0.5, 0.9), slab(kX, 0.2, 0.7)}), (V{0, 0, 0}));
+    // Within the margin of the solid: it may hold the surface, so it stays;
+    // farther, it goes.
+    EXPECT_EQ(coveredIn(v, {slab(kX, 0.3 + 5e-7, 0.9), slab(kX, 0.5, 0.9), slab(kX, 0.6, 0.9)}), (V{0, 1, 1}));
+    EXPECT_EQ(coveredIn(v, {slab(kX, 0.3 + 5e-6, 0.9), slab(kX, 0.5, 0.9), slab(kX, 0.6, 0.9)}), (V{1, 1, 1}));
+    EXPECT_EQ(coveredIn(v, {slab(kX, 0.0, 0.3 - 5e-7), slab(kX, 0.5, 0.9), slab(kX, 0.6, 0.9)}), (V{0, 1, 1}));
+    // A tilted isosurface (through the body diagonal): a slab on the far
+    // side of it goes, one crossing it stays.
+    const std::array<float, 8> tilted = affine(dvec3(-1, -1, -1), 1.2); // solid: x + y + z <= 1.2
+    const dvec3 d = glm::normalize(dvec3(1, 1, 1));
+    EXPECT_EQ(coveredIn(tilted, {slab(d, 1.2 / std::sqrt(3.0) + 0.01, 1.5), slab(d, 0.2, 0.5), slab(d, 0.6, 0.69)}),
+              (V{1, 0, 0}));
+}
+
+// Random corner values (every crossing away from the clamp of edgeCrossing,
+// so the solid is exactly where the tet's affine interpolant is at least the
+// isovalue) and random slabs: no prism called covered holds a sample point
+// of the solid that no kept one holds, and the solid lets the test drop
+// more than geometry alone does (not always a superset: of two prisms that
+// cover each other's solid, the first tested goes).
+TEST(PrismCover, NeverDropsAPrismThatReachesUncoveredSolid)
+{
+    std::mt19937 rng(20261205);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const auto& tets = cellTets(0);
+    size_t dropped = 0, droppedByGeometry = 0, tested = 0, solidSamples = 0;
+    for (int trial = 0; trial < 300; ++trial) {
+        std::array<float, 8> v;
+        for (float& x : v) x = float((u(rng) < 0.5 ? -1.0 : 1.0) * (1.0 + 99.0 * u(rng)));
+        const int k = 3 + int(rng() % 6);
+        std::vector<QuadGeom> quads;
+        for (int i = 0; i < k; ++i) {
+            const dvec3 n = glm::normalize(dvec3(1.0, 0.3 * (u(rng) - 0.5), 0.3 * (u(rng) - 0.5)));
+            const double centre = u(rng), halfWidth = 0.05 + 0.25 * u(rng);
+            quads.push_back(slab(n, centre - halfWidth, centre + halfWidth));
+        }
+        const std::vector<char> cov = coveredIn(v, quads), geo = covered(quads);
+        auto in = [](const QuadGeom& g, const dvec3& x) {
+            for (const auto& s : g.sides)
+                if (!(s.orient * s.plane.h(x) >= 0)) return false;
+            return true;
+        };
+        // The solid at x: its tet's barycentric weights, the values interpolated.
+        auto solidAt = [&](const dvec3& x) {
+            for (const auto& t : tets) {
+                dvec3 p[4];
+                for (int i = 0; i < 4; ++i) p[i] = dvec3(t[size_t(i)] & 1, t[size_t(i)] >> 1 & 1, t[size_t(i)] >> 2 & 1);
+                const glm::dmat3 m(p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+                const dvec3 w = glm::inverse(m) * (x - p[0]);
+                if (w.x < 0 || w.y < 0 || w.z < 0 || w.x + w.y + w.z > 1) continue;
+                const double f = (1 - w.x - w.y - w.z) * v[t[0]] + w.x * v[t[1]] + w.y * v[t[2]] + w.z * v[t[3]];
+                return f >= 0.0;
+            }
+            return false;
+        };
+        for (int sample = 0; sample < 3000; ++sample) {
+            const dvec3 x(u(rng), u(rng), u(rng));
+            if (!solidAt(x)) continue;
+            ++solidSamples;
+            bool inDropped = false, inKept = false;
+            for (size_t i = 0; i < size_t(k); ++i)
+                if (in(quads[i], x)) (cov[i] ? inDropped : inKept) = true;
+            ASSERT_FALSE(inDropped && !inKept) << "trial " << trial << ": a dropped prism holds solid at (" << x.x
+                                               << ", " << x.y << ", " << x.z << "), which no kept one does";
+        }
+        for (size_t i = 0; i < size_t(k); ++i) {
+            dropped += size_t(cov[i]);
+            droppedByGeometry += size_t(geo[i]);
+        }
+        tested += size_t(k);
+    }
+    std::printf("random slabs and solids: %zu of %zu prisms covered (%zu by geometry alone), %zu solid samples\n",
+                dropped, tested, droppedByGeometry, solidSamples);
+    EXPECT_GT(10 * dropped, 11 * droppedByGeometry);
+    EXPECT_GT(solidSamples, 100000u);
 }
 
 // Random nearly parallel slabs through the cell, tilted a little, as a saw's
@@ -140,7 +253,7 @@ TEST(PrismCover, LeavingThemOutChangesNoSurface)
     const vdb::Volume vol = vdb::readVolume(path);
     const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
     remesh_detail::CellKernel kernel(vol, 400.0f);
-    size_t cutCells = 0, withCovered = 0, prisms = 0, kept = 0, bitForBit = 0;
+    size_t cutCells = 0, withCovered = 0, prisms = 0, kept = 0, bitForBit = 0, keptByGeometry = 0, keptWithSolid = 0;
     double maxMove = 0.0, withMs = 0.0, withoutMs = 0.0;
     for (uint32_t seed : {102u, 104u, 105u, 106u, 108u, 111u, 115u, 117u}) {
     CutMask mask(frameOf(vol), 0.5);
@@ -155,7 +268,9 @@ TEST(PrismCover, LeavingThemOutChangesNoSurface)
         remesh_detail::dropCoveredPrismsForTesting(false);
         const std::vector<QuadGeom> all = remesh_detail::kernelQuadsOf(mask, c);
         remesh_detail::dropCoveredPrismsForTesting(true);
-        const std::vector<QuadGeom> some = remesh_detail::kernelQuadsOf(mask, c);
+        const std::vector<QuadGeom> some = remesh_detail::kernelQuadsOf(mask, c, &vol, 400.0f);
+        keptByGeometry += remesh_detail::kernelQuadsOf(mask, c).size();
+        keptWithSolid += some.size();
         ASSERT_LE(some.size(), all.size());
         if (some.size() == all.size()) continue;
         ++withCovered;
@@ -188,9 +303,10 @@ TEST(PrismCover, LeavingThemOutChangesNoSurface)
     }
     }
     std::printf("4 mm head, eight sawing seeds, kerf 0.5: %zu of %zu cut cells have covered prisms; %zu of their %zu "
-                "prisms kept; %zu cells bit for bit the same; positions within %.3g voxel; kernel %.0f ms with them, "
-                "%.0f without\n",
-                withCovered, cutCells, kept, prisms, bitForBit, maxMove, withMs, withoutMs);
+                "prisms kept; of all cells' prisms %zu kept, %zu by geometry alone (without the cells' air); %zu "
+                "cells bit for bit the same; positions within %.3g voxel; kernel %.0f ms with them, %.0f without\n",
+                withCovered, cutCells, kept, prisms, keptWithSolid, keptByGeometry, bitForBit, maxMove, withMs,
+                withoutMs);
     EXPECT_LT(maxMove, 1e-9);
     EXPECT_GT(withCovered, 300u);
     EXPECT_LT(5 * kept, 3 * prisms);

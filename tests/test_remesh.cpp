@@ -1258,7 +1258,7 @@ void forEachKernelCell(const vdb::Volume& vol, double kerf, const std::vector<st
 {
     CutMask mask(frameOf(vol), kerf);
     for (const auto& poses : strokes) addStroke(mask, poses);
-    remesh_detail::KernelQuads kernelQuads(mask);
+    remesh_detail::KernelQuads kernelQuads(mask, vol, 400.0f); // the isovalue of the tests that use this
     mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { each(c, kernelQuads.of(c)); });
 }
 
@@ -1298,9 +1298,10 @@ TEST(Remesh, KernelQuadsGivesEveryCellTheQuadsKernelQuadsOfGives)
                 addStroke(mask, poses);
             std::vector<Coord> cut;
             mask.forEachCutCell([&](const Coord& c, const std::vector<QuadRef>&) { cut.push_back(c); });
-            remesh_detail::KernelQuads shared(mask);
+            remesh_detail::KernelQuads shared(mask, phantom, 400.0f);
             for (auto c = cut.rbegin(); c != cut.rend(); ++c) {
-                const std::vector<remesh_detail::QuadGeom> got = shared.of(*c), want = remesh_detail::kernelQuadsOf(mask, *c);
+                const std::vector<remesh_detail::QuadGeom> got = shared.of(*c),
+                                                           want = remesh_detail::kernelQuadsOf(mask, *c, &phantom, 400.0f);
                 ASSERT_TRUE(same(got, want)) << "cell " << *c << ", kerf " << kerf << ", seed " << seed;
                 ++cells;
                 quads += got.size();

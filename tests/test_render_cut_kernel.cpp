@@ -139,7 +139,7 @@ Tally compare(const render::GpuCutKernel& gpu, const vdb::Volume& vol, float iso
         const std::vector<openvdb::Coord>& cells = cut.cells;
         t.strokes += cut.strokes;
         const std::vector<GpuTetPhaseOne> got = gpu.phaseOne(cut.input);
-        cutter::remesh_detail::KernelQuads kernelQuads(mask);
+        cutter::remesh_detail::KernelQuads kernelQuads(mask, vol, iso + isoShift);
         for (size_t i = 0; i < cells.size(); ++i) {
             const auto quads = kernelQuads.of(cells[i]);
             const auto want = cpu.phaseOneForTesting(cells[i], quads, kerf > 0);
@@ -252,7 +252,7 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
         const size_t tets = 5 * cut.cells.size();
         const std::vector<render::GpuArrangedTet> got = gpu.arrangement(cut.input, 0, tets, kLanesPerTet);
         size_t g = 0;
-        cutter::remesh_detail::KernelQuads kernelQuads(cut.mask);
+        cutter::remesh_detail::KernelQuads kernelQuads(cut.mask, vol, iso);
         for (size_t i = 0; i < cut.cells.size(); ++i) {
             std::array<cutter::remesh_detail::ArrangementProbe, cutter::kTetsPerCell> want;
             bool refused = false;
@@ -438,7 +438,7 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
             ASSERT_EQ(got.cells.size(), cut.cells.size());
             byGpu += got.byGpu;
             byCpu += got.byCpu;
-            cutter::remesh_detail::KernelQuads kernelQuads(cut.mask);
+            cutter::remesh_detail::KernelQuads kernelQuads(cut.mask, vol, 400.0f);
             for (size_t i = 0; i < cut.cells.size(); ++i) {
                 cutter::CutCellGeometry want;
                 cpu.remesh(cut.cells[i], kernelQuads.of(cut.cells[i]), kerf > 0, want);
@@ -506,7 +506,7 @@ TEST(CutKernelGpu, AStripThinnerThanDoubleIsTriangulatedAsTheCpu)
     const render::RecoveredCells got = render::recoverCutCells(gpu, tooth, 400.0f, mask, cells, 1);
     ASSERT_EQ(got.cells.size(), cells.size());
     CellKernel cpu(tooth, 400.0f);
-    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    cutter::remesh_detail::KernelQuads kernelQuads(mask, tooth, 400.0f);
     size_t triangles = 0;
     for (size_t i = 0; i < cells.size(); ++i) {
         cutter::CutCellGeometry want;
@@ -543,7 +543,7 @@ void expectGpuCellsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& ma
     const render::RecoveredCells got = render::recoverCutCells(gpu, vol, iso, mask, cells, kLanesPerTet);
     ASSERT_EQ(got.cells.size(), cells.size());
     CellKernel cpu(vol, iso);
-    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    cutter::remesh_detail::KernelQuads kernelQuads(mask, vol, iso);
     size_t triangles = 0;
     for (size_t i = 0; i < cells.size(); ++i) {
         cutter::CutCellGeometry want;
@@ -575,7 +575,7 @@ void expectGpuTetsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& mas
     const std::vector<render::GpuArrangedTet> got = gpu.arrangement(input, 0, cutter::kTetsPerCell, kLanesPerTet);
     CellKernel cpu(vol, iso);
     cpu.skipHeldMitresForTesting(false); // as the GPU port arranges them (RemeshKernel.h)
-    cutter::remesh_detail::KernelQuads kernelQuads(mask);
+    cutter::remesh_detail::KernelQuads kernelQuads(mask, vol, iso);
     const auto want = cpu.arrangementForTesting(at, kernelQuads.of(at), mask.kerf() > 0);
     size_t compared = 0;
     std::string which;
@@ -890,7 +890,7 @@ TEST(CutKernelGpu, VertexPositionsFromNamesEqualTheCpuKernelsBitForBit)
             const cutter::PackedKernelInput& input = cut.input;
             std::vector<render::GpuVertexQuery> queries;
             std::vector<glm::dvec3> want;
-            cutter::remesh_detail::KernelQuads kernelQuads(mask);
+            cutter::remesh_detail::KernelQuads kernelQuads(mask, vol, 400.0f);
             for (size_t i = 0; i < cells.size(); ++i) {
                 std::array<std::vector<cutter::remesh_detail::VertexProbe>, cutter::kTetsPerCell> probes;
                 try {
@@ -962,7 +962,7 @@ TEST(CutKernelGpu, NamesEqualTheCpuKernelsPlaneForPlane)
             const cutter::PackedKernelInput& input = cut.input;
             std::vector<render::GpuNameQuery> queries;
             std::vector<cutter::remesh_detail::NameProbe> want;
-            cutter::remesh_detail::KernelQuads kernelQuads(mask);
+            cutter::remesh_detail::KernelQuads kernelQuads(mask, vol, 400.0f);
             for (size_t i = 0; i < cells.size(); ++i)
                 for (auto& probe : cpu.namesForTesting(cells[i], kernelQuads.of(cells[i]), kerf > 0)) {
                     if (probe.defining.size() > 8) {
