@@ -34,6 +34,15 @@ struct Polytope
 /// no). A saw's cell needs a handful.
 constexpr size_t kPieceBudget = 64;
 
+/// How far the prism tested is grown where it meets a cell's solid (a cell
+/// with air), so that a prism that only touches the solid is tested there
+/// too. Half the margin: grown by the whole margin, its face on a plane it
+/// shares with another prism (a junction's mitre, facing the other way)
+/// would lie exactly on that prism's shrunk face, and `clip` can lose a
+/// piece whose corners lie on the clipping plane (each face rounds them
+/// its own way, so a face in that plane may not come out).
+constexpr double kGrow = 0.5 * kCoverMargin;
+
 /// Points closer than this (index space) are one (a clip's cap corners).
 constexpr double kSamePoint = 1e-11;
 
@@ -289,10 +298,10 @@ std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& 
         }
         bool all = true;
         for (size_t r = 0; r < regions.size() && all; ++r) {
-            // The prism grown by the margin, in the region.
+            // The prism grown by kGrow, in the region.
             Polytope part = regions[r].poly;
             for (const QuadGeom::Side& s : quads[i].sides) {
-                part = clip(part, s.orient * s.plane.n, s.orient * s.plane.d - kCoverMargin);
+                part = clip(part, s.orient * s.plane.n, s.orient * s.plane.d - kGrow);
                 if (part.empty()) break;
             }
             all = part.empty() || coveredPart(std::move(part));

@@ -59,9 +59,9 @@ CellSolid cellSolid(const Coord& cell, const std::array<float, 8>& values, uint8
 /// margin). Conservative: a prism whose pieces outrun the test's budget
 /// counts as not covered.
 /// With `solid` (a cell with air at some corner), the others need cover a
-/// prism only where it meets the solid: the prism grown by the margin, in
-/// each tet that holds solid, cut to that tet's hull. A prism in the cell's
-/// air alone is covered.
+/// prism only where it meets the solid: the prism grown by half the margin,
+/// in each tet that holds solid, cut to that tet's hull. A prism in the
+/// cell's air alone is covered.
 std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& quads,
                                 const CellSolid* solid = nullptr);
 

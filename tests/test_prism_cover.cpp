@@ -136,6 +136,87 @@ TEST(PrismCover, APrismInTheCellsAirNeedsNoCover)
               (V{1, 0, 0}));
 }
 
+// Two prisms of a stroke share their mitre plane, facing opposite ways. The
+// later one's solid beyond the mitre is the others' to cover, and here they
+// do not (tooth, kerf 0.5, sharp turns, seed 71044: the last of five
+// prisms in cell (22, 46, 32), which has one corner in the air). The
+// tested prism was once grown by the whole margin; its mitre face then lay
+// exactly on its partner's shrunk face, and the clipping lost the piece
+// between them, dropping the prism and opening the surface there.
+TEST(PrismCover, APrismBeyondItsPartnersMitreStays)
+{
+    struct Row
+    {
+        dvec3 n;
+        double d;
+        std::vector<std::pair<remesh_detail::Plane, double>> sides;
+    };
+    // The cell's kernel input, its planes bit for bit (index space).
+    const std::vector<Row> rows = {
+        {{-0x1.db737590830abp-1, -0x1.3fe74556d7209p-2, 0x1.99fdb128b515p-3},
+         -0x1.d4bc4ef29f52ap+4,
+         {{{{-0x1.db737590830abp-1, -0x1.3fe74556d7209p-2, 0x1.99fdb128b515p-3}, -0x1.d0bc4ef29f52ap+4}, -1},
+          {{{-0x1.db737590830abp-1, -0x1.3fe74556d7209p-2, 0x1.99fdb128b515p-3}, -0x1.d8bc4ef29f52ap+4}, 1},
+          {{{-0x1.6fa31f86ba334p-2, 0x1.3d96b40af2a2bp-1, -0x1.650f783f5d8cp-1}, -0x1.19d3e2b5c25e7p+4}, 1},
+          {{{0x1.93d7e7021dfc7p-5, -0x1.46fa77cc8a5d6p-1, -0x1.892e95c90cea5p-1}, -0x1.a8ed06319bfaap+5}, 1},
+          {{{0x1.71887c62d05e6p-2, -0x1.451999b5cccd3p-1, 0x1.5dbc6d86d733ap-1}, -0x1.abeddba9838bp+1}, 1},
+          {{{-0x1.2830126752012p-5, 0x1.4b81796ea0019p-1, 0x1.85c00f88b2c76p-1}, 0x1.a808f66a2b8a8p+5}, 1}}},
+        {{0x1.979f23bb8b8f4p-2, -0x1.e399ace429498p-2, -0x1.92a9d69d871d7p-1},
+         -0x1.302c5a6a3e706p+5,
+         {{{{0x1.979f23bb8b8f4p-2, -0x1.e399ace429498p-2, -0x1.92a9d69d871d7p-1}, -0x1.2e2c5a6a3e706p+5}, -1},
+          {{{0x1.979f23bb8b8f4p-2, -0x1.e399ace429498p-2, -0x1.92a9d69d871d7p-1}, -0x1.322c5a6a3e706p+5}, 1},
+          {{{-0x1.634451e064a85p-2, -0x1.be04e61329bebp-1, 0x1.63d994cf74cbp-2}, -0x1.402ce990cc1ccp+5}, 1},
+          {{{-0x1.ae4af429873c2p-1, -0x1.1016a216f3838p-1, -0x1.b33f7eb48ca24p-4}, -0x1.7a1cbe020276dp+5}, 1},
+          {{{0x1.1fe0fe0ee636fp-4, 0x1.bdb010ee8b9b9p-1, -0x1.f2d83f1d006ffp-2}, 0x1.8964a1579c5bp+3}, 1},
+          {{{0x1.b22f84eb73555p-1, 0x1.0866024362f7p-1, 0x1.e7f4247fd1db2p-4}, 0x1.74e9bc319ab8cp+5}, 1}}},
+        {{-0x1.68ff0d3cdd088p-4, -0x1.569d854254404p-1, -0x1.79c94de546b1ep-1},
+         -0x1.c37b1132614aap+5,
+         {{{{-0x1.68ff0d3cdd088p-4, -0x1.569d854254404p-1, -0x1.79c94de546b1ep-1}, -0x1.c17b1132614aap+5}, -1},
+          {{{-0x1.68ff0d3cdd088p-4, -0x1.569d854254404p-1, -0x1.79c94de546b1ep-1}, -0x1.c57b1132614aap+5}, 1},
+          {{{0x1.fb94b54fc7321p-1, -0x1.0c7e90d895b14p-3, 0x1.f95a5922ef5b1p-12}, 0x1.c60a01c67c168p+3}, 1},
+          {{{-0x1.dd83a08309638p-1, -0x1.a34e67dd45188p-3, 0x1.3035383fb2f6p-2}, -0x1.4d2ba5843f88ap+4}, 1},
+          {{{-0x1.f18e30b88a9cp-1, -0x1.adc61d5a38f9dp-4, 0x1.b09a4a45f4119p-3}, -0x1.5f7b61b887bp+4}, 1},
+          {{{0x1.db550b197d87ap-1, 0x1.b4d0f2531136ep-3, -0x1.37a064bbf31f2p-2}, 0x1.49a3ae4d797f6p+4}, 1}}},
+        {{0x1.4e91ab13f7381p-1, 0x1.4ed8b131fd50ep-1, 0x1.864f4bd997559p-2},
+         0x1.c66c78eab719dp+5,
+         {{{{0x1.4e91ab13f7381p-1, 0x1.4ed8b131fd50ep-1, 0x1.864f4bd997559p-2}, 0x1.c86c78eab719dp+5}, -1},
+          {{{0x1.4e91ab13f7381p-1, 0x1.4ed8b131fd50ep-1, 0x1.864f4bd997559p-2}, 0x1.c46c78eab719dp+5}, 1},
+          {{{0x1.54a5ad4313761p-1, -0x1.0635f9561aa82p-2, -0x1.670c1372c007p-1}, -0x1.390bcc625b3d2p+4}, 1},
+          {{{0x1.95739df341639p-5, 0x1.dcb8a770b9ff8p-2, -0x1.c46c23c670155p-1}, -0x1.37f0622526ef7p+4}, 1},
+          {{{0x1.53824da5e587fp-1, -0x1.ec304752100ddp-3, -0x1.6af4bad3d7a5p-1}, -0x1.2decb65977b9bp+4}, -1},
+          {{{-0x1.8858109db8541p-2, -0x1.3024d9148e718p-3, 0x1.d2c672a0ad14p-1}, 0x1.7e81bc3174a62p+3}, 1}}},
+        {{0x1.4a8ac42a4b88ap-1, 0x1.504e5192bf72ep-1, 0x1.8eeb7dcedc97ep-2},
+         0x1.c836dca270e2dp+5,
+         {{{{0x1.4a8ac42a4b88ap-1, 0x1.504e5192bf72ep-1, 0x1.8eeb7dcedc97ep-2}, 0x1.ca36dca270e2dp+5}, -1},
+          {{{0x1.4a8ac42a4b88ap-1, 0x1.504e5192bf72ep-1, 0x1.8eeb7dcedc97ep-2}, 0x1.c636dca270e2dp+5}, 1},
+          {{{0x1.53824da5e587fp-1, -0x1.ec304752100ddp-3, -0x1.6af4bad3d7a5p-1}, -0x1.2decb65977b9bp+4}, 1},
+          {{{-0x1.12ec5ef3b739bp-4, 0x1.1d2853832ad3ap-1, -0x1.a7d969d39025ap-1}, -0x1.15e17f716d44bp+4}, 1},
+          {{{-0x1.53e147cfba398p-1, 0x1.d8030d8e2034ap-3, 0x1.6c4804a2516e3p-1}, 0x1.18eb83d79c57ap+4}, 1},
+          {{{0x1.03dbe491af33fp-6, -0x1.0b078134ada4ep-1, 0x1.b4c6b16ed3c76p-1}, 0x1.029f4bbdddf8p-1}, 1}}},
+    };
+    std::vector<QuadGeom> quads;
+    for (const Row& r : rows) {
+        QuadGeom g;
+        g.pi.n = r.n;
+        g.pi.d = r.d;
+        for (const auto& [plane, orient] : r.sides) {
+            QuadGeom::Side side;
+            side.plane = plane;
+            side.orient = orient;
+            g.sides.push_back(side);
+        }
+        quads.push_back(g);
+    }
+    const Coord cell(22, 46, 32);
+    const std::array<float, 8> v = {406, 400, 414, 392, 403, 419, 410, 419}; // iso 400: corner 3 in the air
+    uint8_t inside = 0;
+    for (int c = 0; c < 8; ++c)
+        if (v[size_t(c)] >= 400.0f) inside |= uint8_t(1 << c);
+    const remesh_detail::CellSolid solid = remesh_detail::cellSolid(cell, v, inside, 400.0f);
+    EXPECT_EQ(coveredPrisms(cell, quads, &solid), (std::vector<char>{0, 0, 0, 0, 0}));
+    EXPECT_EQ(coveredPrisms(cell, quads), (std::vector<char>{0, 0, 0, 0, 0}));
+}
+
 // Random corner values (every crossing away from the clamp of edgeCrossing,
 // so the solid is exactly where the tet's affine interpolant is at least the
 // isovalue) and random slabs: no prism called covered holds a sample point
