@@ -188,35 +188,36 @@ CellSolid cellSolid(const Coord& cell, const std::array<float, 8>& values, uint8
         s.holds[size_t(t)] = in > 0;
         if (in == 0 || in == 4) continue;
         // The MT points, as the kernel makes them (RemeshKernel::mtPoint).
-        std::vector<dvec3> pts;
-        std::vector<dvec3> in4; // the inside corners
+        std::array<dvec3, 4> pts; // 3 or 4
+        std::array<dvec3, 3> inCorners;
+        size_t np = 0, nIn = 0;
         dvec3 inSum(0.0), outSum(0.0);
         for (int a = 0; a < 4; ++a) {
             const int ca = tets[size_t(t)][size_t(a)];
             const bool ia = inside >> ca & 1;
             (ia ? inSum : outSum) += s.corners[size_t(t)][size_t(a)];
-            if (ia) in4.push_back(s.corners[size_t(t)][size_t(a)]);
+            if (ia) inCorners[nIn++] = s.corners[size_t(t)][size_t(a)];
             for (int b = a + 1; b < 4; ++b) {
                 const int cb = tets[size_t(t)][size_t(b)];
                 if (ia == bool(inside >> cb & 1)) continue;
                 int lo = a, hi = b, clo = ca, chi = cb;
                 if (id[size_t(hi)] < id[size_t(lo)]) std::swap(lo, hi), std::swap(clo, chi);
                 const double u = edgeCrossing(values[size_t(clo)], values[size_t(chi)], iso);
-                pts.push_back(s.corners[size_t(t)][size_t(lo)] +
-                              u * (s.corners[size_t(t)][size_t(hi)] - s.corners[size_t(t)][size_t(lo)]));
+                pts[np++] = s.corners[size_t(t)][size_t(lo)] +
+                            u * (s.corners[size_t(t)][size_t(hi)] - s.corners[size_t(t)][size_t(lo)]);
             }
         }
         // The pieces' normal (a quad's from its diagonals), toward the
         // inside; any direction would hold the hull, this one nearly hugs it.
-        dvec3 n = pts.size() == 3 ? glm::cross(pts[1] - pts[0], pts[2] - pts[0])
-                                  : glm::cross(pts[3] - pts[0], pts[2] - pts[1]);
+        dvec3 n = np == 3 ? glm::cross(pts[1] - pts[0], pts[2] - pts[0])
+                          : glm::cross(pts[3] - pts[0], pts[2] - pts[1]);
         const double len = glm::length(n);
         if (!(len > 0)) continue; // no plane: test the whole tet
         n /= len;
         if (glm::dot(n, inSum / double(in) - outSum / double(4 - in)) < 0) n = -n;
         double d = 1e300;
-        for (const dvec3& x : pts) d = std::min(d, glm::dot(n, x));
-        for (const dvec3& x : in4) d = std::min(d, glm::dot(n, x));
+        for (size_t k = 0; k < np; ++k) d = std::min(d, glm::dot(n, pts[k]));
+        for (size_t k = 0; k < nIn; ++k) d = std::min(d, glm::dot(n, inCorners[k]));
         s.hull[size_t(t)] = Plane{n, d - kCoverMargin};
     }
     return s;
