@@ -38,9 +38,10 @@ constexpr size_t kPieceBudget = 64;
 /// with air), so that a prism that only touches the solid is tested there
 /// too. Half the margin: grown by the whole margin, its face on a plane it
 /// shares with another prism (a junction's mitre, facing the other way)
-/// would lie exactly on that prism's shrunk face, and `clip` can lose a
-/// piece whose corners lie on the clipping plane (each face rounds them
-/// its own way, so a face in that plane may not come out).
+/// lies exactly on that prism's shrunk face. `clip` once lost such a piece
+/// (each face computed a crossing its own way; `crossing` now makes them
+/// one point) and the whole margin passes APrismBeyondItsPartnersMitreStays
+/// since, but half keeps that face off the plane by a margin of its own.
 constexpr double kGrow = 0.5 * kCoverMargin;
 
 /// Points closer than this (index space) are one (a clip's cap corners).
@@ -55,6 +56,21 @@ Polytope cellBox(const Coord& c)
     const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
     for (const auto& f : faces) box.faces.push_back({at(f[0]), at(f[1]), at(f[2]), at(f[3])});
     return box;
+}
+
+/// Where the plane crosses edge ab (g(a) = ga and g(b) = gb of opposite
+/// signs), computed from the ends in one order whichever way the edge is
+/// walked: the two faces that share the edge get the same point, bit for
+/// bit, so every later clip puts it on the same side in both, and the
+/// faces of a piece stay one closed surface. (Walked each its own way, the
+/// two copies could differ in the last bits and a later plane through the
+/// point could keep it in one face and drop it from the other, losing a
+/// face: a piece with a face on the clipping plane came out empty.)
+dvec3 crossing(const dvec3& a, double ga, const dvec3& b, double gb)
+{
+    const bool swap = b.x < a.x || (b.x == a.x && (b.y < a.y || (b.y == a.y && b.z < a.z)));
+    if (swap) return b + (gb / (gb - ga)) * (a - b);
+    return a + (ga / (ga - gb)) * (b - a);
 }
 
 /// The part of `p` where g(x) = n . x - d >= 0: each face clipped
@@ -74,7 +90,7 @@ Polytope clip(const Polytope& p, const dvec3& n, double d)
             if (ga >= 0) kept.push_back(a);
             if (ga == 0) cap.push_back(a);
             if ((ga > 0 && gb < 0) || (ga < 0 && gb > 0)) {
-                const dvec3 x = a + (ga / (ga - gb)) * (b - a);
+                const dvec3 x = crossing(a, ga, b, gb);
                 kept.push_back(x);
                 cap.push_back(x);
             }
@@ -166,6 +182,16 @@ Polytope tetPolytope(const std::array<dvec3, 4>& v)
 std::atomic<bool> gDropCovered{true};
 
 } // namespace
+
+std::vector<std::vector<dvec3>> clipCellForTesting(const Coord& cell, const std::vector<Plane>& planes)
+{
+    Polytope p = cellBox(cell);
+    for (const Plane& plane : planes) {
+        p = clip(p, plane.n, plane.d);
+        if (p.empty()) break;
+    }
+    return p.faces;
+}
 
 void dropCoveredPrismsForTesting(bool drop) { gDropCovered.store(drop); }
 

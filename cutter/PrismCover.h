@@ -65,6 +65,11 @@ CellSolid cellSolid(const Coord& cell, const std::array<float, 8>& values, uint8
 std::vector<char> coveredPrisms(const Coord& cell, const std::vector<QuadGeom>& quads,
                                 const CellSolid* solid = nullptr);
 
+/// The clip the test is built on, for the tests: the closed box of `cell`
+/// cut to the side n . x - d >= 0 of each plane in turn, as its faces
+/// (convex polygons, index space); none when nothing with volume is left.
+std::vector<std::vector<dvec3>> clipCellForTesting(const Coord& cell, const std::vector<Plane>& planes);
+
 /// Whether cellQuads leaves the covered prisms out (default true). For the
 /// tests that hold a cell's geometry the same either way; process-wide.
 void dropCoveredPrismsForTesting(bool drop);
