@@ -103,6 +103,10 @@ using namespace mtcut::cutter;
 using bench::Clock;
 using bench::median;
 using bench::msSince;
+using bench::fnv;
+using bench::fnvVec;
+using bench::kFnvSeed;
+using bench::meshHash;
 using openvdb::Coord;
 
 namespace {
@@ -114,27 +118,6 @@ bool gHash = false;             // --hash: print hashes of the results
 int gOursThreads = 1;           // --threads N: ours on N threads (the goals are one core)
 int gFirstVariant = 0;          // --first-variant N: the first stroke variant tried
 
-/// FNV-1a over raw bytes, chained through `h`.
-uint64_t fnv(uint64_t h, const void* data, size_t bytes)
-{
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
-    return h;
-}
-template <class T> uint64_t fnvVec(uint64_t h, const std::vector<T>& v)
-{
-    const uint64_t n = v.size();
-    h = fnv(h, &n, sizeof n);
-    return v.empty() ? h : fnv(h, v.data(), v.size() * sizeof(T));
-}
-constexpr uint64_t kFnvSeed = 1469598103934665603ull;
-uint64_t meshHash(const Mesh& m, uint64_t h = kFnvSeed)
-{
-    h = fnvVec(h, m.positions);
-    h = fnvVec(h, m.normals);
-    h = fnvVec(h, m.indices);
-    return fnvVec(h, m.triangleVoxels);
-}
 uint64_t cellsHash(const CutRemesher& r)
 {
     uint64_t h = kFnvSeed;

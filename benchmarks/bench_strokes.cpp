@@ -20,8 +20,9 @@
 //           (CutMask::undoStroke), as a user would.
 // Prints a line per seed (`seed=...`: strokes stopped, updates deferred or
 // refused, checkMesh defects of the fused mesh, the live updates and the
-// slowest one's time, and each stroke's first refusal), then a summary line
-// (`summary ...`). Exit status 1 when a fused
+// slowest one's time, the fused mesh's hash (`mesh=`, bench::meshHash: the
+// same bits before and after a change that should not alter the cut), and
+// each stroke's first refusal), then a summary line (`summary ...`). Exit status 1 when a fused
 // mesh has a defect (a refusal is not one: the re-mesher refuses rather
 // than write a broken surface).
 //
@@ -235,7 +236,8 @@ int main(int argc, char** argv)
                 refused += strokeRefused;
             }
         }
-        const MeshCheck check = checkMesh(remesher.fusedMesh());
+        const Mesh fused = remesher.fusedMesh();
+        const MeshCheck check = checkMesh(fused);
         total.seeds += 1;
         total.strokes += all.size();
         total.stopped += stopped;
@@ -246,9 +248,10 @@ int main(int argc, char** argv)
         total.dirtySeeds += check.defects() != 0;
         total.updates += updates;
         total.worstMs = std::max(total.worstMs, worstMs);
-        std::printf("seed=%ld stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f updates=%zu worst_ms=%.1f%s\n",
+        std::printf("seed=%ld stopped=%zu stepped=%zu deferred=%zu refused=%zu defects=%zu ms=%.0f updates=%zu worst_ms=%.1f "
+                    "mesh=%016llx%s\n",
                     seed, stopped, stepped, deferred, refused, check.defects(), bench::msSince(ts), updates, worstMs,
-                    notes.c_str());
+                    static_cast<unsigned long long>(bench::meshHash(fused)), notes.c_str());
         if (check.defects() != 0) std::printf("%s\n", check.report().c_str());
         std::fflush(stdout);
     }
