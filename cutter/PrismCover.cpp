@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <tuple>
 
 namespace mtcut::cutter::remesh_detail {
 
@@ -68,8 +69,7 @@ Polytope cellBox(const Coord& c)
 /// face: a piece with a face on the clipping plane came out empty.)
 dvec3 crossing(const dvec3& a, double ga, const dvec3& b, double gb)
 {
-    const bool swap = b.x < a.x || (b.x == a.x && (b.y < a.y || (b.y == a.y && b.z < a.z)));
-    if (swap) return b + (gb / (gb - ga)) * (a - b);
+    if (std::tie(b.x, b.y, b.z) < std::tie(a.x, a.y, a.z)) return b + (gb / (gb - ga)) * (a - b);
     return a + (ga / (ga - gb)) * (b - a);
 }
 
