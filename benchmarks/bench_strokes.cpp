@@ -22,9 +22,9 @@
 // refused, checkMesh defects of the fused mesh, the live updates and the
 // slowest one's time, the fused mesh's hash (`mesh=`, bench::meshHash: the
 // same bits before and after a change that should not alter the cut), and
-// each stroke's first refusal), then a summary line (`summary ...`). Exit status 1 when a fused
-// mesh has a defect (a refusal is not one: the re-mesher refuses rather
-// than write a broken surface).
+// each stroke's first refusal), then a summary line (`summary ...`). Exit
+// status 1 when a fused mesh has a defect (a refusal is not one: the
+// re-mesher refuses rather than write a broken surface).
 //
 // Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
 //                      [--turn W] [--saw across|slide|both] [--tremor MM]
