@@ -122,6 +122,8 @@ public:
     /// splitSurface and conformPieces pass over what lies off a plane by
     /// far without asking signs (CellKernel::skipFarForTesting).
     bool mSkipFar = true;
+    bool mConformOpenOnly = true;
+    size_t mConformPassed = 0; ///< pieces conformPieces passed over (for tests)
     size_t mFarSkips = 0; ///< what they passed over (for tests)
 
 private:
@@ -139,6 +141,10 @@ private:
     {
         SmallVector<int, 8> v;
         SmallVector<uint64_t, 8> lab; // lab[i]: edge v[i] -> v[i+1]
+        /// A plane that crosses it (or the piece it was split from) left it
+        /// whole, outside that plane's junction zone (splitSurface): a
+        /// neighbour's split may end on its edges (conformPieces).
+        bool open = false;
     };
     struct Support
     {
@@ -877,6 +883,8 @@ private:
     int nodeOf(int vert, Tags& tags);
     /// The side of plane `id` a piece lies on: its first corner off the plane's, 0 if none.
     int pieceSign(const Poly& p, uint64_t id);
+    /// Whether p has corners strictly on both sides of plane id.
+    bool crosses(const Poly& p, uint64_t id);
     /// Per surface: split by the planes into mPieces, made conforming, classified
     /// (kept), slit chords given midpoints, traced into regions per side.
     void splitSurface(const Surface& s);
@@ -1366,6 +1374,7 @@ bool RemeshKernel::splitPoly(const Poly& in, uint64_t polyPlane, uint64_t p, std
     }
     for (int keep : {1, -1}) {
         Poly o;
+        o.open = in.open;
         for (size_t i = 0; i < n; ++i) {
             const size_t j = (i + 1) % n;
             const int sa = keep * sv[i], sb = keep * sv[j];
@@ -2163,6 +2172,17 @@ int RemeshKernel::nodeOf(int vert, Tags& tags)
     return id;
 }
 
+bool RemeshKernel::crosses(const Poly& p, uint64_t id)
+{
+    bool pos = false, neg = false;
+    for (int v : p.v) {
+        const int sg = sign(v, id);
+        pos |= sg > 0;
+        neg |= sg < 0;
+    }
+    return pos && neg;
+}
+
 int RemeshKernel::pieceSign(const Poly& p, uint64_t id)
 {
     for (int v : p.v) {
@@ -2212,7 +2232,13 @@ void RemeshKernel::splitSurface(const Surface& s)
             mFarSkips += outside;
             if (sp.owner && !outside)
                 for (const auto& sd : sp.owner->sides)
-                    if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) outside = true;
+                    if (sd.partner >= 0 && sd.orient * pieceSign(p, sd.id) < 0) {
+                        outside = true;
+                        // Left whole though the plane may cross it: a split
+                        // of a neighbour inside the zone can end on its edge.
+                        if (!p.open) pool[size_t(order[i])].open = crosses(p, sp.id);
+                        break;
+                    }
             made.clear();
             if (!outside && splitPoly(p, s.plane, sp.id, made)) {
                 if (!moving) { // the pieces before this one
@@ -2330,6 +2356,14 @@ void RemeshKernel::conformPieces()
         return {onLine.data() + begin, onLine.data() + onLine.size()};
     };
     for (Poly& p : pieces) {
+        // Only a piece that some crossing plane left whole (Poly::open) can
+        // have another's vertex inside an edge: every other piece was split
+        // by each plane that crosses it, at the points its neighbours were
+        // split at (one name, so one vertex).
+        if (!p.open && mConformOpenOnly) {
+            ++mConformPassed;
+            continue;
+        }
         // The piece with the points on its edges put in, built only once
         // an edge has one (most pieces have none).
         Poly q;
@@ -3059,6 +3093,10 @@ size_t CellKernel::nameMemoHitsForTesting() const { return mKernel->mMemoHits; }
 size_t CellKernel::cellNameMemoHitsForTesting() const { return mKernel->mCellMemoHits; }
 
 void CellKernel::skipFarForTesting(bool skip) { mKernel->mSkipFar = skip; }
+
+void CellKernel::conformOpenOnlyForTesting(bool only) { mKernel->mConformOpenOnly = only; }
+
+size_t CellKernel::conformPassedForTesting() const { return mKernel->mConformPassed; }
 
 size_t CellKernel::farSkipsForTesting() const { return mKernel->mFarSkips; }
 

@@ -1751,6 +1751,55 @@ TEST(Remesh, PassingOverFarPiecesChangesNoVertexOrTriangle)
     }
 }
 
+// Making pieces conform only where a crossing plane left a piece whole
+// outside its junction zone (CellKernel::conformOpenOnlyForTesting: only
+// there can a neighbour's split end inside a piece's edge) changes no bit of
+// any cell: random strokes on the phantom, a blade that turns on the 4 mm
+// head (its joints restrict splits) and a saw worked back and forth there,
+// both kerfs, every cut cell meshed both ways. Refusals too are the same.
+// Pieces are passed over, or this tests nothing; and it fails when no piece
+// is marked open (sawing: the open pieces take points).
+TEST(Remesh, ConformingOnlyOpenPiecesChangesNoVertexOrTriangle)
+{
+    auto compare = [](const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes, size_t& cells,
+                      size_t& passed) {
+        remesh_detail::CellKernel fast(vol, 400.0f), full(vol, 400.0f);
+        full.conformOpenOnlyForTesting(false);
+        forEachKernelCell(vol, kerf, strokes, [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) {
+            CutCellGeometry a, b;
+            const std::string whyA = remeshOrRefusal(fast, c, quads, kerf > 0, a);
+            const std::string whyB = remeshOrRefusal(full, c, quads, kerf > 0, b);
+            ASSERT_EQ(whyA, whyB) << "cell " << c;
+            ++cells;
+            ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(a.indexPositions == b.indexPositions) << "positions differ in cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(a.intoFace == b.intoFace && a.crossFree == b.crossFree) << "cell " << c << ", kerf " << kerf;
+        });
+        EXPECT_EQ(full.conformPassedForTesting(), 0u);
+        passed += fast.conformPassedForTesting();
+    };
+    vdb::PhantomOptions options;
+    options.dims = Coord(160, 160, 128);
+    const vdb::Volume phantom = vdb::makePhantom(options);
+    const std::string head = test::dataPath("vhm_head_4mm.nhdr");
+    const vdb::Volume headVol = head.empty() ? vdb::Volume() : vdb::readVolume(head);
+    const Mesh headMesh = head.empty() ? Mesh() : extractIsosurface(headVol, 400.0f, IsosurfaceOptions{nullptr, false});
+    for (double kerf : {0.0, 0.5}) {
+        size_t cells = 0, passed = 0;
+        for (uint32_t seed = 1; seed <= 3; ++seed)
+            compare(phantom, kerf, makeRandomStrokes(frameOf(phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0), cells,
+                    passed);
+        if (!head.empty()) {
+            compare(headVol, kerf, makeRandomStrokes(frameOf(headVol), 1013u, 4, 200, 0.8, 40.0), cells, passed);
+            compare(headVol, kerf, makeSawingStrokes(headMesh.positions, 101u, 4, SawMotion::Both), cells, passed);
+        }
+        std::printf("kerf %.1f: %zu cut cells equal, %zu pieces passed over by conformity\n", kerf, cells, passed);
+        EXPECT_GT(cells, 1000u);
+        EXPECT_GT(passed, cells) << "conformity passed over (almost) nothing"; // (most cut cells are air)
+    }
+}
+
 // The cell memo holds names made with one call's quads: a kernel that
 // re-meshes a cell with other quads (the next step of a stroke re-meshes
 // its cells) must not answer from the last call's names. Every cell cut by
