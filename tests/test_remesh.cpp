@@ -1251,6 +1251,42 @@ std::string remeshOrRefusal(remesh_detail::CellKernel& k, const Coord& c,
     return "";
 }
 
+/// Whether two kernels made the same cell: vertices, positions and
+/// triangles bit for bit, the same face flags and float-crossing verdict.
+::testing::AssertionResult sameCellGeometry(const CutCellGeometry& a, const CutCellGeometry& b)
+{
+    if (!(a.vertexIds == b.vertexIds)) return ::testing::AssertionFailure() << "vertices differ";
+    if (!(a.indexPositions == b.indexPositions)) return ::testing::AssertionFailure() << "positions differ";
+    if (!(a.indices == b.indices)) return ::testing::AssertionFailure() << "triangles differ";
+    if (!(a.intoFace == b.intoFace && a.crossFree == b.crossFree))
+        return ::testing::AssertionFailure() << "face flags or crossing verdicts differ";
+    return ::testing::AssertionSuccess();
+}
+
+/// The volumes of the tests that re-mesh every cut cell two ways: a
+/// phantom, and the 4 mm head (empty when absent) with its isosurface at
+/// 400 (for sawing strokes).
+struct TwoWayVolumes
+{
+    vdb::Volume phantom, head;
+    Mesh headMesh;
+    bool hasHead = false;
+};
+TwoWayVolumes twoWayVolumes()
+{
+    TwoWayVolumes v;
+    vdb::PhantomOptions options;
+    options.dims = Coord(160, 160, 128);
+    v.phantom = vdb::makePhantom(options);
+    const std::string head = test::dataPath("vhm_head_4mm.nhdr");
+    v.hasHead = !head.empty();
+    if (v.hasHead) {
+        v.head = vdb::readVolume(head);
+        v.headMesh = extractIsosurface(v.head, 400.0f, IsosurfaceOptions{nullptr, false});
+    }
+    return v;
+}
+
 /// Calls `each` with every cut cell of `strokes` on `vol` at `kerf` and the
 /// cell's quads as the kernel takes them.
 void forEachKernelCell(const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes,
@@ -1652,29 +1688,23 @@ TEST(Remesh, TheNameMemoChangesNoVertexOrTriangle)
             const std::string whyB = remeshOrRefusal(full, c, quads, kerf > 0, b);
             ASSERT_EQ(whyA, whyB) << "cell " << c;
             ++cells;
-            ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.indexPositions == b.indexPositions) << "positions differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(sameCellGeometry(a, b)) << "in cell " << c << ", kerf " << kerf;
         });
         EXPECT_EQ(full.nameMemoHitsForTesting(), 0u);
         EXPECT_EQ(full.cellNameMemoHitsForTesting(), 0u);
         hits += memo.nameMemoHitsForTesting();
         cellHits += memo.cellNameMemoHitsForTesting();
     };
-    vdb::PhantomOptions options;
-    options.dims = Coord(160, 160, 128);
-    const vdb::Volume phantom = vdb::makePhantom(options);
-    const std::string head = test::dataPath("vhm_head_4mm.nhdr");
-    const vdb::Volume headVol = head.empty() ? vdb::Volume() : vdb::readVolume(head);
+    const TwoWayVolumes vols = twoWayVolumes();
     for (double kerf : {0.0, 0.5}) {
         size_t cells = 0, hits = 0, cellHits = 0;
         for (uint32_t seed = 1; seed <= 4; ++seed)
-            compare(phantom, kerf, makeRandomStrokes(frameOf(phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0), cells,
-                    hits, cellHits);
-        if (!head.empty())
+            compare(vols.phantom, kerf, makeRandomStrokes(frameOf(vols.phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0),
+                    cells, hits, cellHits);
+        if (vols.hasHead)
             for (uint32_t seed : {1009u, 1019u})
-                compare(headVol, kerf,
-                        makeRandomStrokes(frameOf(headVol), seed, 4, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
+                compare(vols.head, kerf,
+                        makeRandomStrokes(frameOf(vols.head), seed, 4, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
                                           20.0 + 10.0 * (seed % 4)),
                         cells, hits, cellHits);
         std::printf("kerf %.1f: %zu cut cells equal, %zu namings answered by the tet memo, %zu by the cell memo\n", kerf,
@@ -1715,36 +1745,28 @@ TEST(Remesh, PassingOverFarPiecesChangesNoVertexOrTriangle)
             }
             ASSERT_EQ(whyA, whyB) << "cell " << c;
             ++cells;
-            ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.indexPositions == b.indexPositions) << "positions differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.intoFace == b.intoFace && a.crossFree == b.crossFree) << "cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(sameCellGeometry(a, b)) << "in cell " << c << ", kerf " << kerf;
         });
         EXPECT_EQ(full.farSkipsForTesting(), 0u);
         skips += fast.farSkipsForTesting();
     };
-    vdb::PhantomOptions options;
-    options.dims = Coord(160, 160, 128);
-    const vdb::Volume phantom = vdb::makePhantom(options);
-    const std::string head = test::dataPath("vhm_head_4mm.nhdr");
-    const vdb::Volume headVol = head.empty() ? vdb::Volume() : vdb::readVolume(head);
-    const Mesh headMesh = head.empty() ? Mesh() : extractIsosurface(headVol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const TwoWayVolumes vols = twoWayVolumes();
     for (double kerf : {0.0, 0.5}) {
         size_t cells = 0, skips = 0, sawCells = 0, sawSkips = 0;
         double fastMs = 0.0, fullMs = 0.0, sawFastMs = 0.0, sawFullMs = 0.0;
         for (uint32_t seed = 1; seed <= 3; ++seed)
-            compare(phantom, kerf, makeRandomStrokes(frameOf(phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0), cells,
-                    skips, fastMs, fullMs);
-        if (!head.empty())
+            compare(vols.phantom, kerf, makeRandomStrokes(frameOf(vols.phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0),
+                    cells, skips, fastMs, fullMs);
+        if (vols.hasHead)
             for (uint32_t seed : {100u, 105u})
-                compare(headVol, kerf, makeSawingStrokes(headMesh.positions, seed, 4, SawMotion::Both), sawCells, sawSkips,
-                        sawFastMs, sawFullMs);
+                compare(vols.head, kerf, makeSawingStrokes(vols.headMesh.positions, seed, 4, SawMotion::Both), sawCells,
+                        sawSkips, sawFastMs, sawFullMs);
         std::printf("kerf %.1f: random strokes %zu cut cells equal, %zu passed over, kernel %.0f / %.0f ms; sawing %zu "
                     "cells equal, %zu passed over, kernel %.0f / %.0f ms (passing over / not)\n",
                     kerf, cells, skips, fastMs, fullMs, sawCells, sawSkips, sawFastMs, sawFullMs);
         EXPECT_GT(cells, 1000u);
         EXPECT_GT(4 * skips, cells) << "(almost) nothing was passed over"; // (most cut cells are air)
-        if (!head.empty()) {
+        if (vols.hasHead) {
             EXPECT_GT(sawCells, 200u);
             EXPECT_GT(sawSkips, 1000 * sawCells) << "(almost) nothing was passed over while sawing";
         }
@@ -1771,28 +1793,20 @@ TEST(Remesh, ConformingOnlyOpenPiecesChangesNoVertexOrTriangle)
             const std::string whyB = remeshOrRefusal(full, c, quads, kerf > 0, b);
             ASSERT_EQ(whyA, whyB) << "cell " << c;
             ++cells;
-            ASSERT_TRUE(a.vertexIds == b.vertexIds) << "vertices differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.indexPositions == b.indexPositions) << "positions differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.indices == b.indices) << "triangles differ in cell " << c << ", kerf " << kerf;
-            ASSERT_TRUE(a.intoFace == b.intoFace && a.crossFree == b.crossFree) << "cell " << c << ", kerf " << kerf;
+            ASSERT_TRUE(sameCellGeometry(a, b)) << "in cell " << c << ", kerf " << kerf;
         });
         EXPECT_EQ(full.conformPassedForTesting(), 0u);
         passed += fast.conformPassedForTesting();
     };
-    vdb::PhantomOptions options;
-    options.dims = Coord(160, 160, 128);
-    const vdb::Volume phantom = vdb::makePhantom(options);
-    const std::string head = test::dataPath("vhm_head_4mm.nhdr");
-    const vdb::Volume headVol = head.empty() ? vdb::Volume() : vdb::readVolume(head);
-    const Mesh headMesh = head.empty() ? Mesh() : extractIsosurface(headVol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const TwoWayVolumes vols = twoWayVolumes();
     for (double kerf : {0.0, 0.5}) {
         size_t cells = 0, passed = 0;
         for (uint32_t seed = 1; seed <= 3; ++seed)
-            compare(phantom, kerf, makeRandomStrokes(frameOf(phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0), cells,
-                    passed);
-        if (!head.empty()) {
-            compare(headVol, kerf, makeRandomStrokes(frameOf(headVol), 1013u, 4, 200, 0.8, 40.0), cells, passed);
-            compare(headVol, kerf, makeSawingStrokes(headMesh.positions, 101u, 4, SawMotion::Both), cells, passed);
+            compare(vols.phantom, kerf, makeRandomStrokes(frameOf(vols.phantom), seed, 3, 300, 0.5 + 0.1 * (seed % 5), 40.0),
+                    cells, passed);
+        if (vols.hasHead) {
+            compare(vols.head, kerf, makeRandomStrokes(frameOf(vols.head), 1013u, 4, 200, 0.8, 40.0), cells, passed);
+            compare(vols.head, kerf, makeSawingStrokes(vols.headMesh.positions, 101u, 4, SawMotion::Both), cells, passed);
         }
         std::printf("kerf %.1f: %zu cut cells equal, %zu pieces passed over by conformity\n", kerf, cells, passed);
         EXPECT_GT(cells, 1000u);
