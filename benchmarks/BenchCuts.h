@@ -292,7 +292,8 @@ struct SizedCut
 /// each refused variant. Runs on the calling thread's TBB arena (limit it
 /// with tbb::global_control as the caller likes).
 inline SizedCut chooseCut(const CutScene& sc, size_t target, double kerf,
-                          const std::function<void(int variant, const std::string& why)>& onRefused = {})
+                          const std::function<void(int variant, const std::string& why)>& onRefused = {},
+                          int firstVariant = 0)
 {
     SizedCut cut;
     cut.target = target;
@@ -317,7 +318,7 @@ inline SizedCut chooseCut(const CutScene& sc, size_t target, double kerf,
             if (onRefused) onRefused(c.variant, e.what());
             return false;
         }
-    });
+    }, firstVariant);
     if (!ok) cut.note = "every stroke refused";
     return cut;
 }

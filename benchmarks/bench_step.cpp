@@ -15,7 +15,9 @@
 // the OpenVDB level-set route too.)
 //
 // Usage: bench_step [--kerf MM] [--target CELLS] [--threads N] [--reps N]
-//                   [--steps N] [--volume PATH]
+//                   [--steps N] [--first-variant N] [--volume PATH]
+// --first-variant N: the first stroke variant tried, as bench_cut's (0: a
+// level stroke along the grid; 1-3 pitched and yawed by a degree or two).
 // Defaults: kerf 0.5, target 419 (bench_cut's smallest cut: 425 cells),
 // one thread, 40 repeats of 8 steps, ../shared/data/vhm-head-dicom. Exits 0
 // with a note when the volume is absent, 2 on a bad argument, 1 when the
@@ -46,7 +48,7 @@ namespace {
 {
     std::fprintf(stderr,
                  "bench_step: %s\nusage: bench_step [--kerf MM] [--target CELLS] [--threads N] [--reps N] [--steps N] "
-                 "[--volume PATH]\n",
+                 "[--first-variant N] [--volume PATH]\n",
                  why.c_str());
     std::exit(2);
 }
@@ -65,7 +67,7 @@ int main(int argc, char** argv)
 {
     double kerf = 0.5;
     size_t target = 419;
-    int threads = 1, reps = 40, steps = 8;
+    int threads = 1, reps = 40, steps = 8, firstVariant = 0;
     std::string path = std::string(MTCUT_SHARED_DATA) + "/vhm-head-dicom";
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -83,6 +85,12 @@ int main(int argc, char** argv)
             reps = int(positive(a, v));
         } else if (a == "--steps") {
             steps = int(positive(a, v));
+        } else if (a == "--first-variant") {
+            char* end = nullptr;
+            const long n = std::strtol(v, &end, 10);
+            if (end == v || *end != '\0' || n < 0 || n >= bench::kStrokeVariants)
+                usage("--first-variant wants 0 to " + std::to_string(bench::kStrokeVariants - 1));
+            firstVariant = int(n);
         } else if (a == "--volume") {
             path = v;
         } else {
@@ -109,7 +117,7 @@ int main(int argc, char** argv)
     // (The smallest limit alive wins: this one ends before the baseline's.)
     std::optional<tbb::global_control> limit;
     limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(threads));
-    bench::SizedCut cut = bench::chooseCut(sc, target, kerf);
+    bench::SizedCut cut = bench::chooseCut(sc, target, kerf, {}, firstVariant);
     if (!cut.ok) {
         std::fprintf(stderr, "bench_step: no cut of about %zu cells accepted: %s\n", target, cut.note.c_str());
         return 1;
@@ -134,9 +142,9 @@ int main(int argc, char** argv)
     std::vector<double> sorted = ms;
     std::sort(sorted.begin(), sorted.end());
     auto at = [&](double q) { return 1e3 * sorted[size_t(q * double(sorted.size() - 1) + 0.5)]; };
-    std::printf("volume=%s kerf=%g target=%zu cells=%zu threads=%d steps=%zu median_us=%.1f q1_us=%.1f q3_us=%.1f "
-                "min_us=%.1f max_us=%.1f remeshed_per_step=%.2f\n",
-                sc.name.c_str(), kerf, target, cut.cells, threads, ms.size(), 1e3 * bench::median(ms), at(0.25), at(0.75),
+    std::printf("volume=%s kerf=%g target=%zu variant=%d cells=%zu threads=%d steps=%zu median_us=%.1f q1_us=%.1f "
+                "q3_us=%.1f min_us=%.1f max_us=%.1f remeshed_per_step=%.2f\n",
+                sc.name.c_str(), kerf, target, cut.variant, cut.cells, threads, ms.size(), 1e3 * bench::median(ms), at(0.25), at(0.75),
                 at(0.0), at(1.0), double(remeshed) / double(ms.size()));
     // Baseline: carve the whole volume and extract again, two threads.
     limit.reset();
