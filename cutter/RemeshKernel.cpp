@@ -122,9 +122,11 @@ public:
     /// splitSurface and conformPieces pass over what lies off a plane by
     /// far without asking signs (CellKernel::skipFarForTesting).
     bool mSkipFar = true;
-    bool mConformOpenOnly = true;
-    size_t mConformPassed = 0; ///< pieces conformPieces passed over (for tests)
     size_t mFarSkips = 0; ///< what they passed over (for tests)
+    /// conformPieces looks only at the pieces a crossing plane left whole
+    /// (Poly::open; CellKernel::conformOpenOnlyForTesting).
+    bool mConformOpenOnly = true;
+    size_t mConformPassed = 0; ///< pieces it passed over (for tests)
 
 private:
     // ---- per tet state
