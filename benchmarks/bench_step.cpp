@@ -18,6 +18,7 @@
 //                   [--steps N] [--first-variant N] [--volume PATH]
 // --first-variant N: the first stroke variant tried, as bench_cut's (0: a
 // level stroke along the grid; 1-3 pitched and yawed by a degree or two).
+// The isovalue is 400, bone on the VHM head (also for --volume).
 // Defaults: kerf 0.5, target 419 (bench_cut's smallest cut: 425 cells),
 // one thread, 40 repeats of 8 steps (all but the first quad of a shorter
 // cut), ../shared/data/vhm-head-dicom. Exits 0
