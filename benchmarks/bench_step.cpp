@@ -63,6 +63,9 @@ long positive(const std::string& flag, const char* v)
     return n;
 }
 
+/// The cut, its steps timed and the baseline; throws what reading or cutting throws.
+int run(const std::string& path, double kerf, size_t target, int threads, int reps, int steps, int firstVariant);
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -103,13 +106,19 @@ int main(int argc, char** argv)
         std::printf("bench_step: %s is absent; nothing to time\n", path.c_str());
         return 0;
     }
-    vdb::Volume vol;
     try {
-        vol = vdb::readVolume(path);
-    } catch (const std::exception& e) {
+        return run(path, kerf, target, threads, reps, steps, firstVariant);
+    } catch (const std::exception& e) { // an unreadable volume, no bone in the cut's plane
         std::fprintf(stderr, "bench_step: %s\n", e.what());
         return 1;
     }
+}
+
+namespace {
+
+int run(const std::string& path, double kerf, size_t target, int threads, int reps, int steps, int firstVariant)
+{
+    const vdb::Volume vol = vdb::readVolume(path);
     const Mesh uncut = extractIsosurface(vol, 400.0f);
     bench::CutScene sc;
     sc.name = std::filesystem::path(path).filename().string();
@@ -122,6 +131,10 @@ int main(int argc, char** argv)
     bench::SizedCut cut = bench::chooseCut(sc, target, kerf, {}, firstVariant);
     if (!cut.ok) {
         std::fprintf(stderr, "bench_step: no cut of about %zu cells accepted: %s\n", target, cut.note.c_str());
+        return 1;
+    }
+    if (cut.quads.size() < 2) {
+        std::fprintf(stderr, "bench_step: the cut is one quad; no step to time\n");
         return 1;
     }
     if (size_t(steps) >= cut.quads.size()) { // (as bench_cut: an air variant's stroke can be short)
@@ -169,3 +182,5 @@ int main(int argc, char** argv)
                 triangles, bench::median(again) / bench::median(ms));
     return 0;
 }
+
+} // namespace
