@@ -64,58 +64,6 @@ long positive(const std::string& flag, const char* v)
 }
 
 /// The cut, its steps timed and the baseline; throws what reading or cutting throws.
-int run(const std::string& path, double kerf, size_t target, int threads, int reps, int steps, int firstVariant);
-
-} // namespace
-
-int main(int argc, char** argv)
-{
-    double kerf = 0.5;
-    size_t target = 419;
-    int threads = 1, reps = 40, steps = 8, firstVariant = 0;
-    std::string path = std::string(MTCUT_SHARED_DATA) + "/vhm-head-dicom";
-    for (int i = 1; i < argc; ++i) {
-        const std::string a = argv[i];
-        if (i + 1 >= argc) usage("missing value after " + a);
-        const char* v = argv[++i];
-        if (a == "--kerf") {
-            char* end = nullptr;
-            kerf = std::strtod(v, &end);
-            if (end == v || *end != '\0' || !(kerf >= 0.0 && kerf <= 10.0)) usage("--kerf wants a width from 0 to 10 mm");
-        } else if (a == "--target") {
-            target = size_t(positive(a, v));
-        } else if (a == "--threads") {
-            threads = int(positive(a, v));
-        } else if (a == "--reps") {
-            reps = int(positive(a, v));
-        } else if (a == "--steps") {
-            steps = int(positive(a, v));
-        } else if (a == "--first-variant") {
-            char* end = nullptr;
-            const long n = std::strtol(v, &end, 10);
-            if (end == v || *end != '\0' || n < 0 || n >= bench::kStrokeVariants)
-                usage("--first-variant wants 0 to " + std::to_string(bench::kStrokeVariants - 1));
-            firstVariant = int(n);
-        } else if (a == "--volume") {
-            path = v;
-        } else {
-            usage("unknown option " + a);
-        }
-    }
-    if (!std::filesystem::exists(path)) {
-        std::printf("bench_step: %s is absent; nothing to time\n", path.c_str());
-        return 0;
-    }
-    try {
-        return run(path, kerf, target, threads, reps, steps, firstVariant);
-    } catch (const std::exception& e) { // an unreadable volume, no bone in the cut's plane
-        std::fprintf(stderr, "bench_step: %s\n", e.what());
-        return 1;
-    }
-}
-
-namespace {
-
 int run(const std::string& path, double kerf, size_t target, int threads, int reps, int steps, int firstVariant)
 {
     const vdb::Volume vol = vdb::readVolume(path);
@@ -184,3 +132,49 @@ int run(const std::string& path, double kerf, size_t target, int threads, int re
 }
 
 } // namespace
+
+int main(int argc, char** argv)
+{
+    double kerf = 0.5;
+    size_t target = 419;
+    int threads = 1, reps = 40, steps = 8, firstVariant = 0;
+    std::string path = std::string(MTCUT_SHARED_DATA) + "/vhm-head-dicom";
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (i + 1 >= argc) usage("missing value after " + a);
+        const char* v = argv[++i];
+        if (a == "--kerf") {
+            char* end = nullptr;
+            kerf = std::strtod(v, &end);
+            if (end == v || *end != '\0' || !(kerf >= 0.0 && kerf <= 10.0)) usage("--kerf wants a width from 0 to 10 mm");
+        } else if (a == "--target") {
+            target = size_t(positive(a, v));
+        } else if (a == "--threads") {
+            threads = int(positive(a, v));
+        } else if (a == "--reps") {
+            reps = int(positive(a, v));
+        } else if (a == "--steps") {
+            steps = int(positive(a, v));
+        } else if (a == "--first-variant") {
+            char* end = nullptr;
+            const long n = std::strtol(v, &end, 10);
+            if (end == v || *end != '\0' || n < 0 || n >= bench::kStrokeVariants)
+                usage("--first-variant wants 0 to " + std::to_string(bench::kStrokeVariants - 1));
+            firstVariant = int(n);
+        } else if (a == "--volume") {
+            path = v;
+        } else {
+            usage("unknown option " + a);
+        }
+    }
+    if (!std::filesystem::exists(path)) {
+        std::printf("bench_step: %s is absent; nothing to time\n", path.c_str());
+        return 0;
+    }
+    try {
+        return run(path, kerf, target, threads, reps, steps, firstVariant);
+    } catch (const std::exception& e) { // an unreadable volume, no bone in the cut's plane
+        std::fprintf(stderr, "bench_step: %s\n", e.what());
+        return 1;
+    }
+}
