@@ -377,6 +377,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
 {
     const size_t nv = out.indexPositions.size(), nt = out.indices.size() / 3;
     out.crossFree = false;
+    if (out.cap.size() != nt) throw std::logic_error("repairFloatFolds: one cap flag per triangle expected");
     if (nt == 0) return 0;
     // Exact (double) and written (float) world positions, as fusedMesh.
     // Held as float: GCC 12.2 at -O2 and above folded the round trip
@@ -1012,6 +1013,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         if (!alive[t]) continue;
         if (intoFace[t]) kept.intoFace.push_back(uint32_t(kept.indices.size() / 3));
         for (uint32_t w : tris[t]) kept.indices.push_back(newIndex[w]);
+        kept.cap.push_back(out.cap[t]);
     }
     out = std::move(kept);
     return removed;

@@ -183,9 +183,9 @@ std::vector<uint8_t> CutRemesher::bladeTriangles(const std::vector<uint32_t>& so
     std::vector<uint8_t> cellFlags;
     for (const auto& entry : mCells) {
         const CutCellGeometry& g = entry.second;
-        for (size_t i = 0; i + 2 < g.indices.size(); i += 3)
-            cellFlags.push_back(uint8_t(capPlaneOf(g.vertexIds[g.indices[i]], g.vertexIds[g.indices[i + 1]],
-                                                   g.vertexIds[g.indices[i + 2]]) != 0));
+        if (g.cap.size() != g.indices.size() / 3)
+            throw std::logic_error("bladeTriangles: cell " + remesh_detail::cellText(entry.first) + " has no cap flag per triangle");
+        cellFlags.insert(cellFlags.end(), g.cap.begin(), g.cap.end());
     }
     const size_t nt = mUncut.triangleCount();
     std::vector<uint8_t> flags(source.size(), 0);

@@ -1392,7 +1392,7 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
                     mKernels->local().remesh(c, quads, prism, again);
                     const CutCellGeometry& kept = mCells.at(c);
                     if (!(again.vertexIds == kept.vertexIds && again.indexPositions == kept.indexPositions &&
-                          again.indices == kept.indices))
+                          again.indices == kept.indices && again.cap == kept.cap))
                         throw std::logic_error("remesh: kept geometry differs from a re-mesh in cell " + cellText(c));
                 }
                 resigned.push_back({c, newList ? std::move(it->second.quads) : std::vector<QuadRef>(),

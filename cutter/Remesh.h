@@ -133,6 +133,12 @@ struct CutCellGeometry
     std::vector<CutVertexId> vertexIds;
     std::vector<glm::dvec3> indexPositions; ///< index space (voxels), one per vertex
     std::vector<uint32_t> indices;          ///< 3 per triangle, CCW seen from outside the solid
+    /// One per triangle: 1 when it is a piece of the blade's cut face (a
+    /// cap region of the kernel), 0 a piece of the isosurface. Carried, not
+    /// found from the names: a cap region joined across two quads' faces
+    /// that coincide (coplanar consecutive quads) has triangles whose three
+    /// vertices share no blade plane.
+    std::vector<uint8_t> cap;
     /// The triangles (ascending) that the float repair's face rule moved
     /// into a cell face (repairFloatFolds): the cell across that face may
     /// make the same one facing the other way, a pair that bounds nothing
@@ -148,6 +154,7 @@ struct CutCellGeometry
         vertexIds.clear();
         indexPositions.clear();
         indices.clear();
+        cap.clear();
         intoFace.clear();
         crossFree = false;
     }

@@ -3000,7 +3000,9 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
             }
             if (mArrangeCapture) {
                 auto& probe = (*mArrangeCapture)[size_t(mTet)].triangles;
+                auto& probeCap = (*mArrangeCapture)[size_t(mTet)].triangleCap;
                 for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+                    probeCap.push_back(uint8_t(r.cap != nullptr));
                     auto& tri = probe.emplace_back();
                     for (size_t c = 0; c < 3; ++c) {
                         const Node& nd = nodes[size_t(ptNode[size_t(tris[t + c])])];
@@ -3023,6 +3025,7 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                 }
                 out.indices.push_back(uint32_t(index));
             }
+            out.cap.insert(out.cap.end(), tris.size() / 3, uint8_t(r.cap != nullptr));
         }
     }
 }

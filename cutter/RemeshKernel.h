@@ -128,6 +128,7 @@ struct ArrangementProbe
     std::vector<VertexProbe> verts; ///< the regions' Steiner centres last
     std::vector<Surface> surfaces;
     std::vector<std::array<Corner, 3>> triangles; ///< as triangulateRegions emits them
+    std::vector<uint8_t> triangleCap;             ///< per triangle: 1 on a cap region (CutCellGeometry::cap)
 };
 
 /// A name the kernel gave a point in a tet (makeVertex, before it looks

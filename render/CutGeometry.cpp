@@ -68,6 +68,30 @@ glm::vec3 gradientNormal(const openvdb::FloatGrid::ConstAccessor& acc, const Coo
     return g / std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
 }
 
+/// The blade plane a cap triangle's vertices are welded under (Shading): the
+/// one all three lie on (capPlaneOf); for a triangle of a cap region joined
+/// across two quads' coincident faces, which may have none, the lowest blade
+/// plane two of them lie on, else the first vertex's first one. The joined
+/// faces are one plane, so a vertex keyed both ways gets one normal twice.
+uint64_t capKeyPlane(const cutter::CutCellGeometry& geom, const uint32_t* corner)
+{
+    const cutter::CutVertexId* v[3] = {&geom.vertexIds[corner[0]], &geom.vertexIds[corner[1]], &geom.vertexIds[corner[2]]};
+    if (const uint64_t p = cutter::capPlaneOf(*v[0], *v[1], *v[2])) return p;
+    auto on = [](const cutter::CutVertexId& x, uint64_t p) {
+        return std::find(x.planes.begin(), x.planes.begin() + x.planeCount, p) != x.planes.begin() + x.planeCount;
+    };
+    uint64_t best = 0;
+    for (int a = 0; a < 3; ++a)
+        for (int i = 0; i < v[a]->planeCount; ++i) {
+            const uint64_t p = v[a]->planes[size_t(i)];
+            if (cutter::isBladePlaneId(p) && (best == 0 || p < best) && on(*v[(a + 1) % 3], p)) best = p;
+        }
+    if (best) return best;
+    for (int i = 0; i < v[0]->planeCount; ++i)
+        if (cutter::isBladePlaneId(v[0]->planes[size_t(i)])) return v[0]->planes[size_t(i)];
+    return 1; // (not reached: a cap vertex lies on a blade plane)
+}
+
 } // namespace
 
 CutGeometry cutGeometryOf(const cutter::CutRemesher& remesher, const vdb::Volume& volume, float isovalue,
@@ -103,11 +127,13 @@ CutGeometry cutGeometryOfCells(const std::vector<std::pair<openvdb::Coord, const
     std::vector<uint8_t> smooth; // 1: the normal is final (gradient); 0: area-weighted below
     for (const auto& [cell, geomPtr] : cells) {
         const cutter::CutCellGeometry& geom = *geomPtr;
+        if (geom.cap.size() != geom.indices.size() / 3)
+            throw std::invalid_argument("cutGeometryOfCells: a cell without one cap flag per triangle");
         for (size_t i = 0; i < geom.indices.size(); i += 3) {
             const uint32_t* corner = &geom.indices[i];
-            const uint64_t plane =
-                cutter::capPlaneOf(geom.vertexIds[corner[0]], geom.vertexIds[corner[1]], geom.vertexIds[corner[2]]);
-            out.triangleIsCap.push_back(uint8_t(plane != 0));
+            const bool cap = geom.cap[i / 3] != 0;
+            const uint64_t plane = cap ? capKeyPlane(geom, corner) : 0;
+            out.triangleIsCap.push_back(uint8_t(cap));
             m.triangleVoxels.push_back(glm::ivec3(cell.x(), cell.y(), cell.z()));
             for (int j = 0; j < 3; ++j) {
                 const uint32_t v = corner[j];

@@ -134,6 +134,7 @@ GpuArrangedTet parseArrangedTet(const uint64_t* w, size_t size)
     for (size_t i = 0; i < triangles; ++i, ++at) {
         const uint64_t x = w[at], mask = (uint64_t(1) << 21) - 1;
         t.triangles.push_back({int(x & mask), int(x >> 21 & mask), int(x >> 42 & mask)});
+        t.triangleCap.push_back(uint8_t(x >> 63));
     }
     for (size_t i = 0; i < nodes; ++i) {
         need(1, "a truncated node table");
@@ -589,6 +590,7 @@ std::vector<GpuCutCell> GpuCutKernel::cutCells(const cutter::PackedKernelInput& 
         }
         cutter::CutCellGeometry& g = cell.geometry;
         cell.tetTriangles[t.tet % 5] = uint32_t(t.triangles.size());
+        g.cap.insert(g.cap.end(), t.triangleCap.begin(), t.triangleCap.end());
         for (const std::array<int, 3>& tri : t.triangles)
             for (int n : tri) {
                 if (n < 0 || size_t(n) >= t.nodes.size() || size_t(t.nodes[size_t(n)].vert) >= t.verts.size())

@@ -113,6 +113,7 @@ struct GpuArrangedTet
     std::vector<Surface> surfaces;   ///< empty when `fail`
     std::vector<Node> nodes;         ///< empty when `fail`
     std::vector<std::array<int, 3>> triangles; ///< nodes, CCW seen from outside the solid; empty when `fail`
+    std::vector<uint8_t> triangleCap;          ///< per triangle: 1 on a cap region (bit 63 of its word)
 };
 
 /// The text buildProgram puts in front of the cut pass's shader `name`

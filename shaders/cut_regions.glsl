@@ -507,12 +507,13 @@ void polyOfLoop(int l)
     for (int i = 0; i < gLoopPts[l]; ++i) poly2AddCorner(gLoopPt[l] + i);
 }
 
-/// Appends the triangles of poly2Tri (point indices) to the record as nodes.
-void putTriangles()
+/// Appends the triangles of poly2Tri (point indices) to the record as nodes
+/// (21 bits each), bit 63 set on a cap region's (CutCellGeometry::cap).
+void putTriangles(bool cap)
 {
     for (int t = 0; t + 2 < poly2TriCount; t += 3) {
         put(uint64_t(gPtNode[poly2Tri[t]]) | uint64_t(gPtNode[poly2Tri[t + 1]]) << 21 |
-            uint64_t(gPtNode[poly2Tri[t + 2]]) << 42);
+            uint64_t(gPtNode[poly2Tri[t + 2]]) << 42 | (cap ? 1ul << 63 : 0ul));
         gRC(4) = gRC(4) + 1;
     }
 }
@@ -716,7 +717,7 @@ void triangulateRegion(int r)
             gFail |= kFailRegions;
             return;
         }
-        putTriangles();
+        putTriangles(q >= 0);
     }
 }
 
@@ -763,30 +764,6 @@ float blockValue(ivec3 cell, ivec3 g)
 {
     const ivec3 d = g - cell + ivec3(1);
     return kBlock[64u * gCell + uint(d.x + 4 * d.y + 16 * d.z)];
-}
-
-/// Remesh.cpp isBladePlaneId.
-bool isBladePlaneId(uint64_t p)
-{
-    if (p < (1ul << 36) || (p & kBoundaryLabel) != 0ul) return false;
-    return (p & 15ul) <= uint64_t(kMinusKind); // quad, sides, caps, junctions, offsets
-}
-
-bool vOnPlane(int v, uint64_t p)
-{
-    for (int i = 0; i < vPlaneCount(v); ++i)
-        if (gVPlanes(8 * v + i) == p) return true;
-    return false;
-}
-
-/// Remesh.cpp capPlaneOf: a blade plane all three vertices lie on.
-bool isCapTriangle(int a, int b, int c)
-{
-    for (int i = 0; i < vPlaneCount(a); ++i) {
-        const uint64_t p = gVPlanes(8 * a + i);
-        if (isBladePlaneId(p) && vOnPlane(b, p) && vOnPlane(c, p)) return true;
-    }
-    return false;
 }
 
 ivec3 gridVertexCoord(uint64_t id)
@@ -871,7 +848,7 @@ void emitTriangles(uint tet)
         const int v[3] = int[3](gNodeVert(n[0]), gNodeVert(n[1]), gNodeVert(n[2]));
         vec3 pos[3];
         for (int k = 0; k < 3; ++k) pos[k] = worldPosition(gVPos(v[k]));
-        const bool cap = isCapTriangle(v[0], v[1], v[2]);
+        const bool cap = (w >> 63) != 0ul;
         const vec3 c = cross(pos[1] - pos[0], pos[2] - pos[0]);
         const float cl = length(c);
         const vec3 faceNormal = cl > 0.0 ? c / cl : vec3(0.0, 0.0, 1.0);

@@ -1523,6 +1523,7 @@ TEST(CutProps, CellsAQuadListsButReachesInNoTetAreKept)
         if (broken || g.indices.size() < 6) return;
         broken = true;
         g.indices.resize(g.indices.size() - 3);
+        g.cap.pop_back();
     });
     EXPECT_THROW(live.update(mask), std::runtime_error);
     ASSERT_TRUE(broken);

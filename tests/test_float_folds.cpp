@@ -77,7 +77,11 @@ struct Builder
         g.indexPositions.push_back(p);
         return uint32_t(g.vertexIds.size() - 1);
     }
-    void tri(uint32_t a, uint32_t b, uint32_t c) { g.indices.insert(g.indices.end(), {a, b, c}); }
+    void tri(uint32_t a, uint32_t b, uint32_t c)
+    {
+        g.indices.insert(g.indices.end(), {a, b, c});
+        g.cap.push_back(0);
+    }
 };
 
 using KeyEdge = std::pair<CutVertexId, CutVertexId>;

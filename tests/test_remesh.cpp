@@ -262,8 +262,19 @@ TEST(Remesh, SphereCutByAKerfSlabGivesTwoShellsAndLosesTheSlab)
             const double sphere = 4.0 / 3.0 * M_PI * R * R * R;
             const double bound = std::abs(v0 - sphere) + double(mask.cutCellCount()) / 6.0;
             EXPECT_NEAR(v0 - sum, slab, bound) << "kerf " << kerf << " y = " << yCut;
-            std::printf("kerf %g y=%g: cut cells %zu, triangles %zu, removed %.3f mm^3 (slab %.3f, bound %.3f)\n", kerf,
-                        yCut, mask.cutCellCount(), c.fused.triangleCount(), v0 - sum, slab, bound);
+            // The cut faces lie on the slab's faces y = c -+ w/2, each about its
+            // disc (the MT surface lies inside the sphere by less than a voxel);
+            // the larger fragment holds the centre, so its face is the nearer one.
+            const double yNear = std::min(std::abs(yCut - kerf / 2), std::abs(yCut + kerf / 2));
+            const double yFar = std::max(std::abs(yCut - kerf / 2), std::abs(yCut + kerf / 2));
+            for (const auto& [f, y] : {std::pair<size_t, double>{0, yNear}, {1, yFar}}) {
+                EXPECT_LT(c.fragments[f].cutArea, M_PI * (R * R - y * y)) << "kerf " << kerf << " y = " << yCut;
+                EXPECT_GT(c.fragments[f].cutArea, M_PI * ((R - 1.0) * (R - 1.0) - y * y)) << "kerf " << kerf << " y = " << yCut;
+            }
+            std::printf("kerf %g y=%g: cut cells %zu, triangles %zu, removed %.3f mm^3 (slab %.3f, bound %.3f), cut faces "
+                        "%.2f and %.2f mm^2\n",
+                        kerf, yCut, mask.cutCellCount(), c.fused.triangleCount(), v0 - sum, slab, bound,
+                        c.fragments[0].cutArea, c.fragments[1].cutArea);
             expectUntouchedOutside(uncut, c.fused, mask, remesher);
         }
     }
@@ -1258,6 +1269,7 @@ std::string remeshOrRefusal(remesh_detail::CellKernel& k, const Coord& c,
     if (!(a.vertexIds == b.vertexIds)) return ::testing::AssertionFailure() << "vertices differ";
     if (!(a.indexPositions == b.indexPositions)) return ::testing::AssertionFailure() << "positions differ";
     if (!(a.indices == b.indices)) return ::testing::AssertionFailure() << "triangles differ";
+    if (!(a.cap == b.cap)) return ::testing::AssertionFailure() << "cap flags differ";
     if (!(a.intoFace == b.intoFace && a.crossFree == b.crossFree))
         return ::testing::AssertionFailure() << "face flags or crossing verdicts differ";
     return ::testing::AssertionSuccess();

@@ -218,6 +218,7 @@ std::string arrangementDifference(const render::GpuArrangedTet& g, const cutter:
             if (g.nodes[size_t(n)].vert != want.vert) return "triangle " + std::to_string(t) + ": vertex";
             if (g.nodes[size_t(n)].tags != want.tags) return "triangle " + std::to_string(t) + ": tags";
         }
+    if (g.triangleCap != c.triangleCap) return "cap flags";
     return {};
 }
 
@@ -449,6 +450,7 @@ TEST(CutKernelGpu, RecoveredCutGeometryEqualsTheCpuKernels)
                 std::string why;
                 if (g.vertexIds != want.vertexIds) why = "vertices";
                 else if (g.indices != want.indices) why = "triangles";
+                else if (g.cap != want.cap) why = "cap flags";
                 else
                     for (size_t v = 0; v < want.indexPositions.size(); ++v) {
                         bool same = true;
@@ -514,6 +516,7 @@ TEST(CutKernelGpu, AStripThinnerThanDoubleIsTriangulatedAsTheCpu)
         triangles += want.indices.size() / 3;
         EXPECT_TRUE(got.cells[i].vertexIds == want.vertexIds) << "cell " << i;
         EXPECT_EQ(got.cells[i].indices, want.indices) << "cell " << i;
+        EXPECT_EQ(got.cells[i].cap, want.cap) << "cell " << i;
     }
     std::printf("tooth seed 9124, 6 quads: %zu cells round (60, 73, 122), %zu triangles, %zu made by the GPU\n",
                 cells.size(), triangles, got.byGpu);
@@ -551,6 +554,7 @@ void expectGpuCellsAsTheCpu(const vdb::Volume& vol, float iso, const CutMask& ma
         triangles += want.indices.size() / 3;
         EXPECT_TRUE(got.cells[i].vertexIds == want.vertexIds) << "cell " << i;
         EXPECT_EQ(got.cells[i].indices, want.indices) << "cell " << i;
+        EXPECT_EQ(got.cells[i].cap, want.cap) << "cell " << i;
     }
     std::printf("%s: %zu cells round (%d, %d, %d), %zu triangles, %zu made by the GPU\n", what.c_str(), cells.size(),
                 at.x(), at.y(), at.z(), triangles, got.byGpu);
