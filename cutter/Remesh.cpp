@@ -1427,9 +1427,14 @@ size_t CutRemesher::update(const CutMask& mask, Interrupter* interrupter)
             for (size_t j = range.begin(); j != range.end(); ++j) {
                 if (cancelled.load(std::memory_order_relaxed)) return;
                 try {
-                    if (mCellSource && mCellSource(jobs[j].cell, *jobs[j].out))
+                    if (mCellSource && mCellSource(jobs[j].cell, *jobs[j].out)) {
+                        const CutCellGeometry& g = *jobs[j].out;
+                        if (g.cap.size() != g.indices.size() / 3)
+                            throw std::invalid_argument("CutRemesher::update: the cell source gave cell " +
+                                                        remesh_detail::cellText(jobs[j].cell) +
+                                                        " without one cap flag per triangle");
                         sourced.fetch_add(1, std::memory_order_relaxed);
-                    else
+                    } else
                         kernel.remesh(jobs[j].cell, jobs[j].quads, prism, *jobs[j].out);
                 } catch (...) {
                     jobs[j].error = std::current_exception();

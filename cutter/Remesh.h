@@ -254,6 +254,8 @@ public:
     /// CellKernel::remesh makes it from the mask's quads, and the kernel is
     /// not run; false: the kernel makes it. The fusion and the local check
     /// are the same either way. Empty (the default): always the kernel.
+    /// Geometry without one cap flag per triangle makes update() throw
+    /// std::invalid_argument naming the cell (the re-mesher as before).
     using CellSource = std::function<bool(const openvdb::Coord&, CutCellGeometry&)>;
     void setCellSource(CellSource source) { mCellSource = std::move(source); }
     /// The cells of the last successful update() that the cell source gave.
@@ -290,7 +292,10 @@ public:
     /// ascending, each cell's triangles in order). Cost O(mesh).
     Mesh fusedMesh(std::vector<uint32_t>* source = nullptr) const;
     /// For each triangle of a fusedMesh() (its `source`): 1 when it lies on
-    /// the blade (a cut face: capPlaneOf the cell's triangle), else 0.
+    /// the blade (a cut face: CutCellGeometry::cap of the cell's triangle),
+    /// else 0. Throws std::logic_error for a cell without one flag per
+    /// triangle, std::invalid_argument for a source that is not this
+    /// remesher's.
     std::vector<uint8_t> bladeTriangles(const std::vector<uint32_t>& source) const;
 
     /// The cut cells' new geometry only (no uncut triangles), cells ascending.
@@ -387,7 +392,9 @@ std::string refusalOf(CutRemesher& remesher, const CutMask& mask);
 bool isBladePlaneId(uint64_t planeId);
 
 /// The blade plane (isBladePlaneId) that all three vertices lie on, i.e. the
-/// supporting plane of a cap triangle; 0 for a piece of the isosurface.
+/// supporting plane of a cap triangle; 0 for a piece of the isosurface, and
+/// for a cap triangle of a region joined across two quads' coincident faces
+/// whose vertices share none (CutCellGeometry::cap tells cut faces).
 uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexId& c);
 
 /// The float world position (mm) that fusedMesh() writes for an index-space

@@ -857,7 +857,7 @@ TEST(Remesh, ACellSourceIsFusedAndCheckedAsTheKernelsCells)
         ASSERT_GT(meshed, 10u);
         const Mesh want = cpu.fusedMesh();
         const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
-        for (int mode : {0, 1, 2}) { // all given; every other cell given; one given broken
+        for (int mode : {0, 1, 2, 3}) { // all given; every other cell given; one given broken; one without cap flags
             CutRemesher sourced(ball.vol, 0.0f, ball.uncut);
             size_t asked = 0;
             std::mutex m;
@@ -868,13 +868,31 @@ TEST(Remesh, ACellSourceIsFusedAndCheckedAsTheKernelsCells)
                 if (mode == 1 && asked++ % 2) return false;
                 if (mode != 1) ++asked;
                 out = cells.at(c);
-                if (mode == 2 && !isBroken && out.indices.size() >= 3) {
+                if (mode >= 2 && !isBroken && out.indices.size() >= 3) {
                     isBroken = true;
                     broken = c;
-                    out.indices.resize(out.indices.size() - 3);
+                    if (mode == 2) {
+                        out.indices.resize(out.indices.size() - 3);
+                        out.cap.pop_back();
+                    } else {
+                        out.cap.clear();
+                    }
                 }
                 return true;
             });
+            if (mode == 3) {
+                std::string message;
+                try {
+                    sourced.update(mask);
+                } catch (const std::invalid_argument& e) {
+                    message = e.what();
+                }
+                ASSERT_TRUE(isBroken);
+                EXPECT_NE(message.find("cap flag"), std::string::npos) << "geometry without cap flags was taken";
+                EXPECT_NE(message.find(remesh_detail::cellText(broken)), std::string::npos) << message;
+                EXPECT_TRUE(sameMesh(sourced.fusedMesh(), ball.uncut)) << "the re-mesher changed";
+                continue;
+            }
             if (mode == 2) {
                 std::string message;
                 try {

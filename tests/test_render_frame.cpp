@@ -89,6 +89,12 @@ std::vector<Frame> checkOracle(const vdb::Volume& vol, float iso, const cutter::
     const CutGeometry shadedCut = cutGeometryOf(remesher, vol, iso, CutNormals::Shading);
     EXPECT_EQ(shadedCut.mesh.indices.size(), cut.mesh.indices.size());
     EXPECT_EQ(shadedCut.triangleIsCap, cut.triangleIsCap);
+    if (!remesher.cells().empty()) { // a cell without one cap flag per triangle is refused, not read past
+        cutter::CutCellGeometry extraFlag = remesher.cells().begin()->second;
+        extraFlag.cap.push_back(1);
+        EXPECT_THROW(cutGeometryOfCells({{remesher.cells().begin()->first, &extraFlag}}, vol, iso, CutNormals::Shading),
+                     std::invalid_argument);
+    }
     std::vector<uint32_t> uncutIds, cutIds;
     discardFragmentIds(remesher, fused, source, uncutIds, cutIds);
     const std::vector<uint32_t> fusedIds = fragmentIdsOf(fused);
