@@ -38,15 +38,6 @@ double epsAt(const dvec3& x)
 /// cross: thousands; an ordinary tet: a few dozen).
 constexpr size_t kFarVertices = 64;
 
-/// Kerf > 0: two prism faces of different quads (coplanar consecutive quads'
-/// offset faces) whose planes differ by less than this share of the tie
-/// (epsAt) at every corner of a tet are one surface there (capSurfaces). The
-/// planes of one flat stroke differ by rounding only: not at all on a level
-/// stroke, by 1.2e-3 of the tie at most on bench_step's pitched one, and no
-/// pair of faces measured there lay between 1/16 and 1e6 ties apart. A point
-/// on either plane is then on the other by the tie, however it was made.
-constexpr double kCoincident = 1.0 / 16.0;
-
 /// A point farther than kApart (1 + |x|) from a plane is off it beyond any
 /// tie (epsAt) the arrangement's vertices can make.
 constexpr double kApart = 1e-9;
@@ -136,10 +127,6 @@ public:
     /// (Poly::open; CellKernel::conformOpenOnlyForTesting).
     bool mConformOpenOnly = true;
     size_t mConformPassed = 0; ///< pieces it passed over (for tests)
-    /// capSurfaces joins coinciding faces of different quads
-    /// (CellKernel::joinCoincidentFacesForTesting).
-    bool mJoinCoincident = true;
-    size_t mCoincidentJoins = 0; ///< faces it joined so (for tests)
 
 private:
     // ---- per tet state
@@ -845,14 +832,10 @@ private:
         uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
         const QuadGeom* quad; // cap: its quad
         /// Kerf > 0: further prisms with this very face plane (a rim shared
-        /// along the stroke, facing the same way), or with a face plane that
-        /// coincides with it over the tet (kCoincident: coplanar consecutive
-        /// quads' offset faces): one surface, whose pieces are kept where any
-        /// of these prisms' rule keeps them, so the faces merge into one
-        /// region (no corner where one prism's face ends inside the other's,
-        /// which the neighbouring cell need not see; no triangle edge along
-        /// the mitre between them). Its triangles' vertices need not share a
-        /// blade plane: CutCellGeometry::cap says which are cut face.
+        /// along the stroke, facing the same way): one surface, whose pieces
+        /// are kept where any of these prisms' rule keeps them, so the faces
+        /// merge into one region (no corner where one prism's face ends
+        /// inside the other's, which the neighbouring cell need not see).
         SmallVector<const QuadGeom*, 2> also;
         int sides;           // cap: bit 0 = + side output, bit 1 = - side output
         dvec3 normal;        // reference normal (pieces are CCW around it)
@@ -1968,28 +1951,14 @@ void RemeshKernel::capSurfaces()
     SmallVector<Corners, 8> sectionOf;       // per new surface: its section's corners
     Corners at;
     double h[4];
-    // Two planes that agree at the tet's corners, so everywhere in it, far
-    // inside the tie (kCoincident of epsAt): each one's vertices are on the other.
-    auto coincident = [&](const Plane& a, const Plane& b) {
-        for (int i = 0; i < 4; ++i)
-            if (!(std::abs(a.h(mT.p[i]) - b.h(mT.p[i])) <= kCoincident * epsAt(mT.p[i]))) return false;
-        return true;
-    };
     for (const FacePlane& fp : facePlanes) {
         const QuadGeom* q = fp.q;
         if (mPrism) {
-            // The same face plane, or another quad's that coincides with it
-            // over the tet (coplanar consecutive quads: their offset faces),
-            // facing the same way: joined, so the region runs on across the
-            // mitre between them instead of ending at it on both sides.
-            size_t k = first;
-            while (k < surfaces.size() && !(glm::dot(surfaces[k].normal, fp.normal) > 0 &&
-                                            (surfaces[k].plane == fp.id ||
-                                             (mJoinCoincident && coincident(faceOf[k - first]->plane, fp.plane)))))
-                ++k;
-            if (k < surfaces.size()) {
-                mCoincidentJoins += surfaces[k].plane != fp.id;
-                surfaces[k].also.push_back(q);
+            auto same = std::find_if(surfaces.begin() + std::ptrdiff_t(first), surfaces.end(), [&](const Surface& o) {
+                return o.plane == fp.id && glm::dot(o.normal, fp.normal) > 0;
+            });
+            if (same != surfaces.end()) {
+                same->also.push_back(q);
                 continue;
             }
         }
@@ -3131,8 +3100,6 @@ size_t CellKernel::cellNameMemoHitsForTesting() const { return mKernel->mCellMem
 void CellKernel::skipFarForTesting(bool skip) { mKernel->mSkipFar = skip; }
 
 void CellKernel::conformOpenOnlyForTesting(bool only) { mKernel->mConformOpenOnly = only; }
-void CellKernel::joinCoincidentFacesForTesting(bool join) { mKernel->mJoinCoincident = join; }
-size_t CellKernel::coincidentJoinsForTesting() const { return mKernel->mCoincidentJoins; }
 
 size_t CellKernel::conformPassedForTesting() const { return mKernel->mConformPassed; }
 
