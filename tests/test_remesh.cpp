@@ -685,6 +685,7 @@ void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
     }
     for (auto [a, b, c] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
         for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
+    g.cap.insert(g.cap.end(), 4, 0);
 }
 
 /// The refusal message (empty: none) of a fresh remesher's update of `mask`
