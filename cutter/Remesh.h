@@ -135,9 +135,10 @@ struct CutCellGeometry
     std::vector<uint32_t> indices;          ///< 3 per triangle, CCW seen from outside the solid
     /// One per triangle: 1 when it is a piece of the blade's cut face (a
     /// cap region of the kernel), 0 a piece of the isosurface. Carried, not
-    /// found from the names: a cap region joined across two quads' faces
-    /// that coincide (coplanar consecutive quads) has triangles whose three
-    /// vertices share no blade plane.
+    /// found from the names: a cap triangle's three vertices need not share
+    /// a blade plane (4 mm head sawing at kerf 0: 8 of 2.66 M triangles),
+    /// nor would those of a cap region joined across two coplanar quads'
+    /// faces (branch wip/coincident-join-2).
     std::vector<uint8_t> cap;
     /// The triangles (ascending) that the float repair's face rule moved
     /// into a cell face (repairFloatFolds): the cell across that face may
@@ -393,8 +394,8 @@ bool isBladePlaneId(uint64_t planeId);
 
 /// The blade plane (isBladePlaneId) that all three vertices lie on, i.e. the
 /// supporting plane of a cap triangle; 0 for a piece of the isosurface, and
-/// for a cap triangle of a region joined across two quads' coincident faces
-/// whose vertices share none (CutCellGeometry::cap tells cut faces).
+/// for a cap triangle whose vertices share none (CutCellGeometry::cap tells
+/// cut faces).
 uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexId& c);
 
 /// The float world position (mm) that fusedMesh() writes for an index-space
