@@ -137,8 +137,8 @@ struct CutCellGeometry
     /// cap region of the kernel), 0 a piece of the isosurface. Carried, not
     /// found from the names: a cap triangle's three vertices need not share
     /// a blade plane (4 mm head sawing at kerf 0: 8 of 2.66 M triangles),
-    /// nor would those of a cap region joined across two coplanar quads'
-    /// faces (branch wip/coincident-join-2).
+    /// nor do those of a cap region joined across two coplanar quads'
+    /// coincident faces (kerf > 0, RemeshKernel's capSurfaces).
     std::vector<uint8_t> cap;
     /// The triangles (ascending) that the float repair's face rule moved
     /// into a cell face (repairFloatFolds): the cell across that face may
@@ -394,8 +394,8 @@ bool isBladePlaneId(uint64_t planeId);
 
 /// The blade plane (isBladePlaneId) that all three vertices lie on, i.e. the
 /// supporting plane of a cap triangle; 0 for a piece of the isosurface, and
-/// for a cap triangle whose vertices share none (CutCellGeometry::cap tells
-/// cut faces).
+/// for a cap triangle whose vertices share none (a region joined across
+/// coincident faces; CutCellGeometry::cap tells cut faces).
 uint64_t capPlaneOf(const CutVertexId& a, const CutVertexId& b, const CutVertexId& c);
 
 /// The float world position (mm) that fusedMesh() writes for an index-space

@@ -38,6 +38,15 @@ double epsAt(const dvec3& x)
 /// cross: thousands; an ordinary tet: a few dozen).
 constexpr size_t kFarVertices = 64;
 
+/// Kerf > 0: two prism faces of different quads (coplanar consecutive quads'
+/// offset faces) whose planes differ by less than this share of the tie
+/// (epsAt) at every corner of a tet are one surface there (capSurfaces). The
+/// planes of one flat stroke differ by rounding only: not at all on a level
+/// stroke, by 1.2e-3 of the tie at most on bench_step's pitched one, and no
+/// pair of faces measured there lay between 1/16 and 1e6 ties apart. A point
+/// on either plane is then on the other by the tie, however it was made.
+constexpr double kCoincident = 1.0 / 16.0;
+
 /// A point farther than kApart (1 + |x|) from a plane is off it beyond any
 /// tie (epsAt) the arrangement's vertices can make.
 constexpr double kApart = 1e-9;
@@ -127,6 +136,10 @@ public:
     /// (Poly::open; CellKernel::conformOpenOnlyForTesting).
     bool mConformOpenOnly = true;
     size_t mConformPassed = 0; ///< pieces it passed over (for tests)
+    /// capSurfaces joins coinciding faces of different quads
+    /// (CellKernel::joinCoincidentFacesForTesting).
+    bool mJoinCoincident = true;
+    size_t mCoincidentJoins = 0; ///< faces it joined so (for tests)
 
 private:
     // ---- per tet state
@@ -832,10 +845,14 @@ private:
         uint64_t plane;      // supporting plane id (ISO_A/B or a quad plane)
         const QuadGeom* quad; // cap: its quad
         /// Kerf > 0: further prisms with this very face plane (a rim shared
-        /// along the stroke, facing the same way): one surface, whose pieces
-        /// are kept where any of these prisms' rule keeps them, so the faces
-        /// merge into one region (no corner where one prism's face ends
-        /// inside the other's, which the neighbouring cell need not see).
+        /// along the stroke, facing the same way), or with a face plane that
+        /// coincides with it over the tet (kCoincident: coplanar consecutive
+        /// quads' offset faces): one surface, whose pieces are kept where any
+        /// of these prisms' rule keeps them, so the faces merge into one
+        /// region (no corner where one prism's face ends inside the other's,
+        /// which the neighbouring cell need not see; no triangle edge along
+        /// the mitre between them). Its triangles' vertices need not share a
+        /// blade plane: CutCellGeometry::cap says which are cut face.
         SmallVector<const QuadGeom*, 2> also;
         int sides;           // cap: bit 0 = + side output, bit 1 = - side output
         dvec3 normal;        // reference normal (pieces are CCW around it)
@@ -880,6 +897,18 @@ private:
     /// the closed prism, its face `face` aside) and the solid P, or (kerf > 0,
     /// `face` a mitre) does the partner prism hold all of it?
     bool capOutside(const QuadGeom& q, uint64_t face, const SmallVector<std::pair<uint8_t, dvec3>, 8>& at) const;
+    /// Two planes that agree at the tet's corners, so everywhere in it, far
+    /// inside the tie (kCoincident of epsAt): each one's vertices are on the other.
+    bool coincidentOverTet(const Plane& a, const Plane& b) const
+    {
+        for (int i = 0; i < 4; ++i)
+            if (!(std::abs(a.h(mT.p[i]) - b.h(mT.p[i])) <= kCoincident * epsAt(mT.p[i]))) return false;
+        return true;
+    }
+    /// Kerf > 0: the id of the surface a face `id` of another id is joined to
+    /// (capSurfaces: one of its also-prisms' faces coinciding with its plane,
+    /// facing the same way), else `id`. Asked of kept surfaces only.
+    uint64_t joinedSurfaceId(uint64_t id) const;
     void chooseSplitOrder();
     /// The node of `vert` with these side tags (sorted in place), made if new.
     int nodeOf(int vert, Tags& tags);
@@ -1954,11 +1983,18 @@ void RemeshKernel::capSurfaces()
     for (const FacePlane& fp : facePlanes) {
         const QuadGeom* q = fp.q;
         if (mPrism) {
-            auto same = std::find_if(surfaces.begin() + std::ptrdiff_t(first), surfaces.end(), [&](const Surface& o) {
-                return o.plane == fp.id && glm::dot(o.normal, fp.normal) > 0;
-            });
-            if (same != surfaces.end()) {
-                same->also.push_back(q);
+            // The same face plane, or another quad's that coincides with it
+            // over the tet (coplanar consecutive quads: their offset faces),
+            // facing the same way: joined, so the region runs on across the
+            // mitre between them instead of ending at it on both sides.
+            size_t k = first;
+            while (k < surfaces.size() && !(glm::dot(surfaces[k].normal, fp.normal) > 0 &&
+                                            (surfaces[k].plane == fp.id ||
+                                             (mJoinCoincident && coincidentOverTet(faceOf[k - first]->plane, fp.plane)))))
+                ++k;
+            if (k < surfaces.size()) {
+                mCoincidentJoins += surfaces[k].plane != fp.id;
+                surfaces[k].also.push_back(q);
                 continue;
             }
         }
@@ -2022,6 +2058,23 @@ void RemeshKernel::capSurfaces()
         ++kept;
     }
     surfaces.erase(surfaces.begin() + std::ptrdiff_t(kept), surfaces.end());
+}
+
+uint64_t RemeshKernel::joinedSurfaceId(uint64_t id) const
+{
+    if (!mJoinCoincident) return id;
+    for (const Surface& s : mSurfaces) {
+        if (s.also.empty() || s.plane == id) continue;
+        const Plane* plane = nullptr; // the surface's own face plane
+        for (const auto& sd : s.quad->sides)
+            if (sd.id == s.plane) plane = &sd.plane;
+        if (!plane) continue;
+        for (const QuadGeom* q : s.also)
+            for (const auto& sd : q->sides)
+                if (sd.id == id && glm::dot(sd.orient * sd.plane.n, s.normal) > 0 && coincidentOverTet(*plane, sd.plane))
+                    return s.plane;
+    }
+    return id;
 }
 
 bool RemeshKernel::capOutside(const QuadGeom& q, uint64_t face, const SmallVector<std::pair<uint8_t, dvec3>, 8>& at) const
@@ -2801,7 +2854,13 @@ void RemeshKernel::markCorners(SmallVector<char, 64>& corner)
             const size_t n = l.nodes.size();
             for (size_t i = 0; i < n; ++i) {
                 const uint64_t in = l.labels[(i + n - 1) % n], outL = l.labels[i];
-                bool c = in != outL;
+                // Two faces joined into one surface are one plane here: a
+                // region bounded by both turns no corner where one gives way
+                // to the other (at the mitre between them), as the joined
+                // region runs straight through that point, and the tet
+                // beside may hold either (a rim face on a grid plane cut by
+                // a level stroke's offset faces: the sphere's third stroke).
+                bool c = in != outL && (!mPrism || joinedSurfaceId(in) != joinedSurfaceId(outL));
                 if (!c) {
                     const dvec3& a = mVerts[size_t(nodes[size_t(l.nodes[(i + n - 1) % n])].vert)].pos;
                     const dvec3& b = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)].pos;
@@ -3100,6 +3159,8 @@ size_t CellKernel::cellNameMemoHitsForTesting() const { return mKernel->mCellMem
 void CellKernel::skipFarForTesting(bool skip) { mKernel->mSkipFar = skip; }
 
 void CellKernel::conformOpenOnlyForTesting(bool only) { mKernel->mConformOpenOnly = only; }
+void CellKernel::joinCoincidentFacesForTesting(bool join) { mKernel->mJoinCoincident = join; }
+size_t CellKernel::coincidentJoinsForTesting() const { return mKernel->mCoincidentJoins; }
 
 size_t CellKernel::conformPassedForTesting() const { return mKernel->mConformPassed; }
 

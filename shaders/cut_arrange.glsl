@@ -704,14 +704,35 @@ bool capOutside(int q, uint64_t face, uint ps[4], uvec2 ppBits[12], int n)
     return an == 0 && clipTo(src, 2, cn, D4GET(gIso.planeBits, 1), 1.0lf) == 0;
 }
 
+/// RemeshKernel.cpp kCoincident: planes closer than this share of the tie
+/// at a tet's corners are one there.
+const double kCoincident = 1.0lf / 16.0lf;
+
+/// RemeshKernel::capSurfaces' coincident: planes a and b agree at the tet's
+/// corners (so everywhere in it) far inside the tie.
+bool coincidentPlanes(dvec4 a, dvec4 b)
+{
+    for (int i = 0; i < 4; ++i) {
+        const dvec3 p = D3GET(gT.pBits, i);
+        precise double d = planeH(a, p) - planeH(b, p);
+        if (!(abs(d) <= kCoincident * epsAt(p))) return false;
+    }
+    return true;
+}
+
+/// The plane of cap surface s (its quad's plane, or the prism face's).
+dvec4 capPlane(int s);
+
 /// RemeshKernel::capSurfaces, first pass: a quad's plane (zero kerf) or
 /// each face of its prism (kerf > 0) through the tet as a surface (no
-/// polygon yet), or joined to an earlier one with its plane (kerf > 0).
+/// polygon yet), or joined to an earlier one facing the same way with its
+/// plane or one that coincides with it over the tet (kerf > 0).
 void capFace(int q, uint64_t id, dvec4 plane, dvec3 normal, int first)
 {
     if (uPrism) {
         for (int o = first; o < gSurfaceCount; ++o)
-            if (u64(gSPlane[o]) == id && dot3(D3GET(gSNormalBits, o), normal) > 0.0lf) {
+            if (dot3(D3GET(gSNormalBits, o), normal) > 0.0lf &&
+                (u64(gSPlane[o]) == id || coincidentPlanes(capPlane(o), plane))) {
                 if (gSAlsoCount[o] == 4) {
                     gFail |= kFailSurfaces;
                     return;

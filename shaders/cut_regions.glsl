@@ -473,6 +473,28 @@ bool onOwnRim(int v)
     return false;
 }
 
+/// RemeshKernel::joinedSurfaceId: the id of the surface that face `id` of
+/// another id is joined to (capFace: a face of one of its joined prisms that
+/// coincides with its plane, facing the same way), else `id`.
+uint64_t joinedSurfaceId(uint64_t id)
+{
+    for (int s = 0; s < gSurfaceCount; ++s) {
+        const uint64_t own = u64(gSPlane[s]);
+        if (gSAlsoCount[s] == 0 || own == id) continue;
+        const dvec4 plane = capPlane(s);
+        const dvec3 normal = D3GET(gSNormalBits, s);
+        for (int k = 0; k < gSAlsoCount[s]; ++k) {
+            const int q = gSAlso[4 * s + k];
+            for (uint x = kQuads[q].firstSide; x < kQuads[q].firstSide + kQuads[q].sideCount; ++x) {
+                if (kSides[x].id != id) continue;
+                precise dvec3 n = kSides[x].orient * kSides[x].plane.xyz;
+                if (dot3(n, normal) > 0.0lf && coincidentPlanes(plane, kSides[x].plane)) return own;
+            }
+        }
+    }
+    return id;
+}
+
 /// RemeshKernel::markCorners: gNodeCorner of every node of every loop.
 void markCorners()
 {
@@ -482,6 +504,7 @@ void markCorners()
         for (int i = 0; i < n; ++i) {
             const int prev = start + (i + n - 1) % n, at = start + i, next = start + (i + 1) % n;
             bool c = gLoopLabel(prev) != gLoopLabel(at);
+            if (c && uPrism) c = joinedSurfaceId(gLoopLabel(prev)) != joinedSurfaceId(gLoopLabel(at));
             if (!c) {
                 const dvec3 a = gVPos(gNodeVert(gLoopNode(prev))), b = gVPos(gNodeVert(gLoopNode(at))),
                             d = gVPos(gNodeVert(gLoopNode(next)));

@@ -265,6 +265,8 @@ TEST(Remesh, SphereCutByAKerfSlabGivesTwoShellsAndLosesTheSlab)
             // The cut faces lie on the slab's faces y = c -+ w/2, each about its
             // disc (the MT surface lies inside the sphere by less than a voxel);
             // the larger fragment holds the centre, so its face is the nearer one.
+            // (The level stroke's quads are coplanar: their faces are joined
+            // across the mitres, CutCellGeometry::cap.)
             const double yNear = std::min(std::abs(yCut - kerf / 2), std::abs(yCut + kerf / 2));
             const double yFar = std::max(std::abs(yCut - kerf / 2), std::abs(yCut + kerf / 2));
             for (const auto& [f, y] : {std::pair<size_t, double>{0, yNear}, {1, yFar}}) {
@@ -1842,6 +1844,113 @@ TEST(Remesh, ConformingOnlyOpenPiecesChangesNoVertexOrTriangle)
         std::printf("kerf %.1f: %zu cut cells equal, %zu pieces passed over by conformity\n", kerf, cells, passed);
         EXPECT_GT(cells, 1000u);
         EXPECT_GT(passed, cells) << "conformity passed over (almost) nothing"; // (most cut cells are air)
+    }
+}
+
+// Kerf > 0: a prism face that coincides over a tet with another quad's,
+// facing the same way, is joined to it (CellKernel::
+// joinCoincidentFacesForTesting): a level stroke's consecutive quads are
+// coplanar, and their offset faces run on across the mitre between them as
+// one region. Every cut cell of level strokes (the phantom, the 4 mm head),
+// random strokes and sawing, meshed both ways: the same refusals; where
+// nothing was joined, the same bits; where faces were, the same area, cut
+// face area (CutCellGeometry::cap) and volume under the cell's triangles.
+// The level strokes join faces and make fewer triangles (it fails when
+// nothing is joined), and cut by the re-mesher they fuse clean.
+TEST(Remesh, JoiningCoincidentFacesKeepsEachCellsAreaAndVolume)
+{
+    struct Sums
+    {
+        double area = 0.0, capArea = 0.0, volume = 0.0; // index space; volume: under the triangles, from the cell's corner
+    };
+    auto sums = [](const Coord& c, const CutCellGeometry& g) {
+        Sums s;
+        const dvec3 o(c.x(), c.y(), c.z());
+        for (size_t t = 0; t + 2 < g.indices.size(); t += 3) {
+            const dvec3 a = g.indexPositions[g.indices[t]] - o, b = g.indexPositions[g.indices[t + 1]] - o,
+                        d = g.indexPositions[g.indices[t + 2]] - o;
+            const double area = 0.5 * glm::length(glm::cross(b - a, d - a));
+            s.area += area;
+            if (g.cap[t / 3]) s.capArea += area;
+            s.volume += glm::dot(a, glm::cross(b, d)) / 6.0;
+        }
+        return s;
+    };
+    struct Tally
+    {
+        size_t cells = 0, joinedCells = 0, joins = 0, trianglesJoined = 0, trianglesApart = 0;
+    };
+    auto compare = [&](const vdb::Volume& vol, double kerf, const std::vector<std::vector<Pose>>& strokes, Tally& t) {
+        remesh_detail::CellKernel joined(vol, 400.0f), apart(vol, 400.0f);
+        apart.joinCoincidentFacesForTesting(false);
+        forEachKernelCell(vol, kerf, strokes, [&](const Coord& c, const std::vector<remesh_detail::QuadGeom>& quads) {
+            CutCellGeometry a, b;
+            const size_t before = joined.coincidentJoinsForTesting();
+            const std::string whyA = remeshOrRefusal(joined, c, quads, kerf > 0, a);
+            const std::string whyB = remeshOrRefusal(apart, c, quads, kerf > 0, b);
+            ASSERT_EQ(whyA, whyB) << "cell " << c;
+            ++t.cells;
+            t.trianglesJoined += a.indices.size() / 3;
+            t.trianglesApart += b.indices.size() / 3;
+            const size_t joins = joined.coincidentJoinsForTesting() - before;
+            if (joins == 0) {
+                ASSERT_TRUE(sameCellGeometry(a, b)) << "in cell " << c << ", kerf " << kerf << " (nothing joined)";
+                return;
+            }
+            ++t.joinedCells;
+            t.joins += joins;
+            ASSERT_EQ(a.cap.size(), a.indices.size() / 3);
+            const Sums x = sums(c, a), y = sums(c, b);
+            EXPECT_NEAR(x.area, y.area, 1e-9) << "cell " << c << ", kerf " << kerf;
+            EXPECT_NEAR(x.capArea, y.capArea, 1e-9) << "cell " << c << ", kerf " << kerf;
+            EXPECT_NEAR(x.volume, y.volume, 1e-9) << "cell " << c << ", kerf " << kerf;
+        });
+        EXPECT_EQ(apart.coincidentJoinsForTesting(), 0u);
+    };
+    // A level stroke across the middle of `mesh`'s box, the blade down from above it.
+    auto level = [](const Mesh& mesh, double depthShare) {
+        glm::dvec3 lo(1e300), hi(-1e300);
+        for (const glm::vec3& p : mesh.positions) {
+            lo = glm::min(lo, glm::dvec3(p));
+            hi = glm::max(hi, glm::dvec3(p));
+        }
+        const double y = 0.5 * (lo.y + hi.y) + 0.3;
+        return std::vector<std::vector<Pose>>{straightStroke(dvec3(lo.x - 5, y, hi.z + 2), dvec3(hi.x + 5, y, hi.z + 2),
+                                                             dvec3(0, 0, -1), 2 + depthShare * (hi.z - lo.z), 200)};
+    };
+    const TwoWayVolumes vols = twoWayVolumes();
+    const Mesh phantomMesh = extractIsosurface(vols.phantom, 400.0f, IsosurfaceOptions{nullptr, false});
+    for (double kerf : {0.5, 1.3}) {
+        Tally flat, other;
+        compare(vols.phantom, kerf, level(phantomMesh, 0.6), flat);
+        if (vols.hasHead) compare(vols.head, kerf, level(vols.headMesh, 0.5), flat);
+        compare(vols.phantom, kerf, makeRandomStrokes(frameOf(vols.phantom), 7u, 3, 300, 0.7, 40.0), other);
+        if (vols.hasHead) compare(vols.head, kerf, makeSawingStrokes(vols.headMesh.positions, 101u, 4, SawMotion::Both), other);
+        std::printf("kerf %.1f: level strokes %zu cut cells, %zu joined (%zu faces), %zu triangles instead of %zu; "
+                    "random and sawing %zu cells, %zu joined, %zu triangles instead of %zu\n",
+                    kerf, flat.cells, flat.joinedCells, flat.joins, flat.trianglesJoined, flat.trianglesApart, other.cells,
+                    other.joinedCells, other.trianglesJoined, other.trianglesApart);
+        EXPECT_GT(flat.joinedCells, 100u) << "a level stroke joined (almost) no faces";
+        EXPECT_LT(flat.trianglesJoined, flat.trianglesApart);
+    }
+    // The level strokes cut by the re-mesher (local check, fusion): clean, the cut faces on the blade.
+    auto fused = [&](const vdb::Volume& vol, const Mesh& mesh, double kerf, const char* what) {
+        CutMask mask(frameOf(vol), kerf);
+        for (const auto& poses : level(mesh, 0.5)) addStroke(mask, poses);
+        CutRemesher remesher(vol, 400.0f, mesh);
+        remesher.update(mask);
+        std::vector<uint32_t> source;
+        const Mesh m = remesher.fusedMesh(&source);
+        const MeshCheck check = checkMesh(m);
+        EXPECT_TRUE(check.ok()) << what << ", kerf " << kerf << "\n" << check.report();
+        double cut = 0.0;
+        for (const Fragment& f : fragmentsOf(m, remesher.bladeTriangles(source))) cut += f.cutArea;
+        EXPECT_GT(cut, 0.0) << what << ", kerf " << kerf;
+        std::printf("%s, level stroke, kerf %.1f: %zu triangles, %.1f mm^2 of cut face\n", what, kerf, m.triangleCount(), cut);
+    };
+    for (double kerf : {0.5, 1.3}) {
+        fused(vols.phantom, phantomMesh, kerf, "phantom");
+        if (vols.hasHead) fused(vols.head, vols.headMesh, kerf, "4 mm head");
     }
 }
 

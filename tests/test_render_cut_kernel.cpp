@@ -227,6 +227,7 @@ struct ArrangeTally
     size_t strokes = 0, cells = 0, tets = 0, refusedCells = 0, overCapacity = 0, loopLimit = 0, refusedBoth = 0, differ = 0;
     uint32_t capacityBits = 0; ///< which capacities (cut_arrange.glsl kFail*) were met
     size_t vertices = 0, pieces = 0, kept = 0, steiner = 0, midpoints = 0, caps = 0, triangles = 0, tagged = 0;
+    size_t joins = 0; ///< prism faces the CPU joined to another quad's coinciding one (coincidentJoinsForTesting)
     std::string first;
 };
 
@@ -309,6 +310,7 @@ ArrangeTally compareArrangements(const render::GpuCutKernel& gpu, const vdb::Vol
             }
         }
     }
+    t.joins = cpu.coincidentJoinsForTesting();
     return t;
 }
 
@@ -365,6 +367,25 @@ TEST(CutKernelGpu, ArrangementEqualsTheCpuKernelsPieceForPiece)
         EXPECT_EQ(t.differ, 0u) << t.first;
         EXPECT_GT(t.midpoints, 0u);
         EXPECT_GT(t.tets, 500u);
+    }
+    // Kerf > 0, level strokes (consecutive quads coplanar, one with the
+    // blade pitched): their offset faces are joined across the mitres
+    // (capFace's coincident planes; the cap flags of the triangles compared),
+    // which the random strokes above never make.
+    {
+        const vdb::Volume sphere = test::sphereVolume();
+        const ArrangeTally t = compareArrangements(gpu, sphere, 0.0f, 0.5, 0, 2, [&](uint32_t i) {
+            const glm::dvec3 dir = i == 0 ? glm::dvec3(0, 0, -1) : glm::normalize(glm::dvec3(0, 0.3, -1));
+            return std::make_unique<RandomCut>(
+                sphere, 0.0f, 0.5,
+                std::vector<std::vector<cutter::Pose>>{
+                    test::straightStroke({-25, 0.37 + 2.1 * i, 22}, {25, 0.37 + 2.1 * i, 22}, dir, 30.0, 100)});
+        });
+        report("sphere, level strokes, kerf 0.5", t);
+        std::printf("sphere, level strokes, kerf 0.5: %zu faces joined\n", t.joins);
+        EXPECT_EQ(t.differ, 0u) << t.first;
+        EXPECT_GT(t.joins, 100u);
+        EXPECT_LE(t.overCapacity + t.loopLimit, t.tets / 100);
     }
     // Bad calls are errors, not reads past the input.
     const RandomCut cut(vol, 400.0f, 0.0, 1);
