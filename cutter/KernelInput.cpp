@@ -65,6 +65,7 @@ PackedKernelInput packKernelInput(const vdb::Volume& volume, float isovalue, con
                 ps.partnerId = s.partnerId;
                 ps.orient = s.orient;
                 ps.partner = s.partner;
+                ps.fold = s.fold ? 1 : 0;
                 for (int e = 0; e < 2; ++e) {
                     ps.cornerSides[2 * e] = s.cornerSides[size_t(e)].first;
                     ps.cornerSides[2 * e + 1] = s.cornerSides[size_t(e)].second;

@@ -170,6 +170,31 @@ bool isJunctionEdge(const CutMask& mask, const QuadRef& ref, const dvec3& a, con
     return false;
 }
 
+/// The plane through the stick p0 -> p1 (index space) that bisects the angle
+/// between two quads folded onto one side of it (centroids cl, cu, unit
+/// normals nl, nu; lower quad first, so both quads get the same plane): each
+/// quad's direction away from the stick in its own plane, a; the plane holds
+/// the stick and al + au, so its normal is along al - au. False when the
+/// two directions agree to 1e-9 (one plane: no wedge between them).
+bool foldMitre(const dvec3& cl, const dvec3& nl, const dvec3& cu, const dvec3& nu, const dvec3& p0, const dvec3& p1,
+               Plane& mp)
+{
+    const dvec3 t = p1 - p0;
+    auto away = [&](const dvec3& c, const dvec3& n) {
+        dvec3 a = glm::cross(n, t);
+        const double l = glm::length(a);
+        if (!(l > 0.0)) return dvec3(0.0);
+        a /= l;
+        return glm::dot(a, c - p0) < 0.0 ? -a : a;
+    };
+    const dvec3 d = away(cl, nl) - away(cu, nu);
+    const double len = glm::length(d);
+    if (!(len > 1e-9)) return false;
+    mp.n = d / len;
+    mp.d = glm::dot(mp.n, p0);
+    return true;
+}
+
 /// The rim side of quad `ref` through world corner p other than the edge (p, other), or 0.
 uint64_t rimSideAt(const CutMask& mask, const QuadRef& ref, const dvec3& p, const dvec3& other)
 {
@@ -219,12 +244,31 @@ QuadGeom makeQuadGeom(const CutMask& mask, const QuadRef& ref)
             if (lexLess(p1, p0)) std::swap(p0, p1);
             const dvec3 mdir = glm::cross(nl + nu, p1 - p0);
             const double len = glm::length(mdir);
-            if (!(len > 1e-12)) continue;
             Plane mp;
-            mp.n = mdir / len;
-            mp.d = glm::dot(mp.n, p0);
-            const double own = mp.h(centre), other = mp.h(centroidOf(o, frame));
-            if (!(own * other < 0.0)) continue; // folded back onto itself: keep as rim
+            const dvec3 oc = centroidOf(o, frame);
+            double own = 0.0, other = 0.0;
+            if (len > 1e-12) {
+                mp.n = mdir / len;
+                mp.d = glm::dot(mp.n, p0);
+                own = mp.h(centre);
+                other = mp.h(oc);
+            }
+            if (!(own * other < 0.0)) {
+                // The normals agree where the quads fold back onto one side
+                // of the stick (a zigzag's turn with the base sliding along
+                // the blade, which orients the quads), or point opposite ways
+                // along a straight stroke (their sum 0: no such plane). The
+                // plane that bisects the angle between the quads parts them
+                // instead; without it both would end in a rim there and the
+                // wedge between them would touch the outside along the stick
+                // (tooth, kerf 0, sharp turns, seed 74005: an edge used twice
+                // each way in cell (32, 63, 105)).
+                if (!foldMitre(lower ? centre : oc, nl, lower ? oc : centre, nu, p0, p1, mp)) continue;
+                own = mp.h(centre);
+                other = mp.h(oc);
+                if (!(own * other < 0.0)) continue; // the quads in one plane: the kernel refuses them
+                side.fold = true;
+            }
             side.id = planeIdOf(ref.stroke, lower ? ref.quad : uint32_t(oq), kJunctionKind);
             side.plane = mp;
             side.orient = own > 0 ? 1.0 : -1.0;
@@ -889,7 +933,7 @@ std::array<uint64_t, 2> kernelInputDigest(const Coord& cell, const std::vector<Q
             put(s.id);
             putPlane(s.plane);
             putD(s.orient);
-            put(uint64_t(int64_t(s.partner)));
+            put(uint64_t(int64_t(s.partner)) ^ (s.fold ? uint64_t(1) << 62 : 0));
             put(s.partnerId);
             for (const auto& cs : s.cornerSides) {
                 put(cs.first);

@@ -2727,10 +2727,11 @@ void RemeshKernel::traceRegions(const Surface& s, int side, const SmallVector<ch
             const QuadGeom* o = quadById(sd.partnerId);
             if (!o) continue;
             if (sd.orient * pieceSign(piece, sd.id) < 0) { // the piece is on the partner's half
-                if (o == s.quad) return side;
+                // (a fold: the partner's side there is r's other side)
+                if (o == s.quad) return sd.fold ? -side : side;
                 const int sg = pieceSign(piece, o->id);
                 if (sg == 0) throw std::runtime_error("remesh: coplanar overlapping quads in cell " + cellText(mCell));
-                return sg;
+                return sd.fold ? -sg : sg;
             }
         }
         const int sg = pieceSign(piece, r->id);

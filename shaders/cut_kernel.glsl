@@ -83,7 +83,7 @@ struct KernelSide
     uint64_t partnerId;
     double orient; // inside the quad: orient * h >= 0
     int partner;   // junction partner's index in the cell's list (-1: rim)
-    uint pad;
+    int fold;      // zero kerf: the stroke doubles back there (a side goes on as the partner's other)
     uint64_t cornerSides[4];
 };
 

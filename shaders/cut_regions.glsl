@@ -170,10 +170,11 @@ int stripSide(int i, int r, int v, int s, int side)
         const int o = reachingQuadById(kSides[sd].partnerId);
         if (o < 0) continue;
         if (kSides[sd].orient * double(pieceSign(0, i, kSides[sd].id)) < 0.0lf) { // on the partner's half
-            if (o == gSQuad[s]) return side;
+            const int flip = kSides[sd].fold != 0 ? -1 : 1; // a fold: the partner's side there is r's other side
+            if (o == gSQuad[s]) return flip * side;
             const int sg = pieceSign(0, i, kQuads[o].id);
             if (sg == 0) gFail |= kRefused; // coplanar overlapping quads
-            return sg;
+            return flip * sg;
         }
     }
     const int sg = pieceSign(0, i, kQuads[r].id);

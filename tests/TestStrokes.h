@@ -4,6 +4,7 @@
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 
+#include <cmath>
 #include <vector>
 
 namespace mtcut::test {
@@ -56,6 +57,34 @@ inline void addRimCrossingStroke(cutter::CutMask& mask)
         const glm::dvec3 c[4] = {base[i], glm::dvec3(base[i].x, base[i].y, o.z + 10.0),
                                  glm::dvec3(base[i + 1].x, base[i + 1].y, o.z + 10.0), base[i + 1]};
         mask.addQuad(cutter::makeQuad(c, 4, i));
+    }
+}
+
+/// A stroke that doubles back at an angle, as one new stroke of `mask`: two
+/// quads between three vertical sticks 40 mm long through the tests' sphere
+/// (radius 15 mm round the origin), the first from x = -4.69 to the stick at
+/// (3.31, 0.27) mm, the second from that stick back along a line 20 degrees
+/// off the first's (x decreasing), so both quads lie on one side of the
+/// stick they share (a zigzag's turn; the stick runs through cells (22, 19,
+/// k) there). A quad's normal follows its base's motion (makeQuad), so the
+/// second's points the other way from the first's; with `normalsAgree` the
+/// second quad's corners are listed from its far stick back and its normal
+/// agrees with the first's, as a pivoting blade's can (a base that slides
+/// along the blade leaves the orientation to rounding: the tooth at kerf 0,
+/// sharp turns, seed 74005, quads 77 and 78 of stroke 2). Zero kerf: the
+/// wedge of solid between the two quads and the solid outside them meet
+/// along the stick, each with its own copy of it.
+inline void addFoldedStroke(cutter::CutMask& mask, bool normalsAgree)
+{
+    const double pi = 3.14159265358979323846, a = 20.0 * pi / 180.0;
+    const glm::dvec3 b(3.31, 0.27, 0.13), up(0, 0, 20);
+    const glm::dvec3 base[3] = {b + glm::dvec3(-8, 0, 0), b, b + 7.0 * glm::dvec3(-std::cos(a), std::sin(a), 0)};
+    mask.beginStroke();
+    for (uint32_t i = 0; i < 2; ++i) {
+        const glm::dvec3 &p = base[i], &q = base[i + 1];
+        const glm::dvec3 c[4] = {p - up, p + up, q + up, q - up};
+        const glm::dvec3 r[4] = {q - up, q + up, p + up, p - up};
+        mask.addQuad(cutter::makeQuad(i == 1 && normalsAgree ? r : c, 4, i));
     }
 }
 

@@ -2194,6 +2194,19 @@ TEST(CutPropsDefects, AChordAlongAnotherQuadEndsAtThatQuadsRim)
     expectCleanCutUpToQuad(path, 18018, 0.0, {3, 46}, 400.0f, 1.0);
 }
 
+// The tooth at kerf 0, random strokes with sharp turns, seed 74005, stroke 2
+// to quad 78: the blade pivots about its base (the base sliding along the
+// blade), so quads 77 and 78 lie on one side of the stick they share with
+// their normals agreeing (makeQuad orients them by the base's motion). The
+// junction was a rim of both, and in cell (32, 63, 105) the edges along the
+// stick were used twice each way (the live stroke stopped there). It is a
+// fold now (AStrokeThatDoublesBackAtAnAngleCutsBothSidesOfEachQuad below).
+TEST(CutPropsDefects, AZigzagWhoseQuadsFoldWithAgreeingNormalsIsClean)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    expectCleanCutUpToQuad(path, 74005, 0.0, {2, 78}, 400.0f, 1.0);
+}
+
 // The same on the sphere, made by hand (TestStrokes.h: addRimCrossingStroke):
 // three quads, the third across the first's base line. The point where it
 // crosses was one vertex for both sides of the third quad's slit (refused:
@@ -2211,6 +2224,71 @@ TEST(CutPropsDefects, AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim
     const MeshCheck check = checkMesh(fused);
     EXPECT_TRUE(check.ok()) << check.report();
     EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
+}
+
+// A stroke that doubles back at an angle on the sphere (TestStrokes.h:
+// addFoldedStroke): two quads 20 degrees apart on one side of the stick they
+// share. With their normals pointing opposite ways (the base reversed) the
+// plane that bisects the two quads' normals parts them, a junction as any.
+// With the normals agreeing it does not, and the junction was a rim of both
+// quads, so the wedge of solid between them and the solid outside met along
+// the stick: each edge there used twice each way (refused; the tooth at kerf
+// 0, sharp turns, seed 74005, stroke 2 at quad 78, stopped so in cell (32,
+// 63, 105)). Such a junction is a fold now: its plane bisects the wedge, and
+// each side of one quad's slit goes on as the other's other side. Zero kerf:
+// one fragment of the uncut volume, whose cut faces are both sides of both
+// quads' sections of the sphere (bounded by the sections of radius R and R -
+// 1: the MT surface lies inside the sphere by less than a voxel), the same
+// both ways.
+TEST(CutPropsDefects, AStrokeThatDoublesBackAtAnAngleCutsBothSidesOfEachQuad)
+{
+    size_t firstTriangles = 0;
+    double firstCutArea = 0.0;
+    for (const bool normalsAgree : {false, true}) {
+        SCOPED_TRACE(normalsAgree ? "normals agree" : "normals opposite");
+        const Solid sphere = sphereSolid();
+        const vdb::Volume vol = volumeOf(sphere);
+        const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
+        CutMask mask(frameOf(vol), 0.0);
+        test::addFoldedStroke(mask, normalsAgree);
+        CutRemesher remesher(vol, 0.0f, uncut);
+        const UpdateResult u = tryUpdate(remesher, mask);
+        ASSERT_EQ(u.outcome, Outcome::Ok) << u.message;
+        std::vector<uint32_t> source;
+        const Mesh fused = remesher.fusedMesh(&source);
+        const MeshCheck check = checkMesh(fused);
+        EXPECT_TRUE(check.ok()) << check.report();
+        EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
+        const std::vector<Fragment> frags = fragmentsOf(fused, remesher.bladeTriangles(source));
+        ASSERT_EQ(frags.size(), 1u);
+        EXPECT_NEAR(frags[0].volume, meshVolume(uncut), 1e-6 * meshVolume(uncut));
+        // A vertical strip t0 <= t <= t1 of the plane at distance d from the
+        // centre, through a ball of radius r: the integral of 2 sqrt(rho^2 - t^2).
+        auto section = [](double r, double d, double t0, double t1) {
+            const double rho = std::sqrt(r * r - d * d);
+            auto f = [rho](double t) {
+                t = std::clamp(t, -rho, rho);
+                return t * std::sqrt(rho * rho - t * t) + rho * rho * std::asin(t / rho);
+            };
+            return f(t1) - f(t0);
+        };
+        const double a = 20.0 * M_PI / 180.0, bx = 3.31, by = 0.27;
+        const double d1 = bx * std::sin(a) + by * std::cos(a), t1 = -bx * std::cos(a) + by * std::sin(a);
+        auto both = [&](double r) { return 2.0 * (section(r, by, bx - 8.0, bx) + section(r, d1, t1, t1 + 7.0)); };
+        EXPECT_LT(frags[0].cutArea, both(15.0));
+        EXPECT_GT(frags[0].cutArea, both(14.0));
+        if (!normalsAgree) {
+            firstTriangles = fused.triangleCount();
+            firstCutArea = frags[0].cutArea;
+        } else { // the same cut, the mitre's plane made the other way
+            EXPECT_EQ(fused.triangleCount(), firstTriangles);
+            EXPECT_NEAR(frags[0].cutArea, firstCutArea, 1e-9 * firstCutArea);
+        }
+        std::printf("folded stroke, normals %s: %zu cut cells, %zu triangles, cut faces %.2f mm^2 (sections: %.2f of "
+                    "radius 15, %.2f of 14)\n",
+                    normalsAgree ? "agree" : "opposite", mask.cutCellCount(), fused.triangleCount(), frags[0].cutArea,
+                    both(15.0), both(14.0));
+    }
 }
 
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every

@@ -771,6 +771,21 @@ TEST(CutKernelGpu, AStrokeTurnedBackAcrossItsStartIsSplitAsTheCpu)
     expectGpuCellsAsTheCpu(vol, 0.0f, mask, openvdb::Coord(20, 19, 19), false, "sphere, a stroke across its start");
 }
 
+// A stroke that doubles back at an angle with the two quads' normals agreeing
+// (TestStrokes.h: addFoldedStroke; CutPropsDefects.AStrokeThatDoublesBack...):
+// the junction is a fold, whose sides go on as the partner's other sides, on
+// the GPU as on the CPU (stripSide in cut_regions.glsl), in the cells round
+// the stick deep inside the sphere and where it leaves the isosurface.
+TEST(CutKernelGpu, AStrokeThatDoublesBackIsCutAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    const vdb::Volume vol = test::sphereVolume();
+    CutMask mask(cutter::frameOf(vol), 0.0);
+    test::addFoldedStroke(mask, true);
+    expectGpuCellsAsTheCpu(vol, 0.0f, mask, openvdb::Coord(22, 19, 19), false, "sphere, a folded stroke, inside");
+    expectGpuCellsAsTheCpu(vol, 0.0f, mask, openvdb::Coord(22, 19, 33), false, "sphere, a folded stroke, at the surface");
+}
+
 // Pass 3 drawn from the GPU's own output: the cut pass's triangles written
 // into its draw buffers and drawn with glDrawArraysIndirect over the
 // discard pass, on the sphere cut by the slanted stroke, against the CPU:
