@@ -73,12 +73,16 @@ inline void addRimCrossingStroke(cutter::CutMask& mask)
 /// along the blade leaves the orientation to rounding: the tooth at kerf 0,
 /// sharp turns, seed 74005, quads 77 and 78 of stroke 2). Zero kerf: the
 /// wedge of solid between the two quads and the solid outside them meet
-/// along the stick, each with its own copy of it.
-inline void addFoldedStroke(cutter::CutMask& mask, bool normalsAgree)
+/// along the stick, each with its own copy of it. With `straight` the second
+/// quad goes straight on instead (to x = 10.31, in the first one's plane),
+/// and `normalsAgree` false makes the two normals exactly opposite (their
+/// sum 0).
+inline void addFoldedStroke(cutter::CutMask& mask, bool normalsAgree, bool straight = false)
 {
     const double pi = 3.14159265358979323846, a = 20.0 * pi / 180.0;
     const glm::dvec3 b(3.31, 0.27, 0.13), up(0, 0, 20);
-    const glm::dvec3 base[3] = {b + glm::dvec3(-8, 0, 0), b, b + 7.0 * glm::dvec3(-std::cos(a), std::sin(a), 0)};
+    const glm::dvec3 base[3] = {b + glm::dvec3(-8, 0, 0), b,
+                                straight ? b + glm::dvec3(7, 0, 0) : b + 7.0 * glm::dvec3(-std::cos(a), std::sin(a), 0)};
     mask.beginStroke();
     for (uint32_t i = 0; i < 2; ++i) {
         const glm::dvec3 &p = base[i], &q = base[i + 1];

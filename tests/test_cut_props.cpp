@@ -2291,6 +2291,55 @@ TEST(CutPropsDefects, AStrokeThatDoublesBackAtAnAngleCutsBothSidesOfEachQuad)
     }
 }
 
+// The fold's other case (TestStrokes.h: addFoldedStroke, straight): two quads
+// in one plane, the second going straight on, with their normals exactly
+// opposite, so the plane that would bisect theirs is not defined (their sum
+// is 0). The junction was a rim of both (refused: the solid either side of
+// the slit met along the stick). Now it is a fold mitre across the stick,
+// and the cut is the one the same quads make with their normals agreeing: one
+// fragment of the uncut volume with one slit, whose cut faces are both sides
+// of the strip's section of the sphere, the same triangles both ways.
+TEST(CutPropsDefects, AStraightStrokeWhoseNormalsTurnOverIsOneSlit)
+{
+    size_t firstTriangles = 0;
+    double firstCutArea = 0.0;
+    for (const bool normalsAgree : {true, false}) {
+        SCOPED_TRACE(normalsAgree ? "normals agree" : "normals opposite");
+        const vdb::Volume vol = volumeOf(sphereSolid());
+        const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
+        CutMask mask(frameOf(vol), 0.0);
+        test::addFoldedStroke(mask, normalsAgree, true);
+        CutRemesher remesher(vol, 0.0f, uncut);
+        const UpdateResult u = tryUpdate(remesher, mask);
+        ASSERT_EQ(u.outcome, Outcome::Ok) << u.message;
+        std::vector<uint32_t> source;
+        const Mesh fused = remesher.fusedMesh(&source);
+        const MeshCheck check = checkMesh(fused);
+        EXPECT_TRUE(check.ok()) << check.report();
+        const std::vector<Fragment> frags = fragmentsOf(fused, remesher.bladeTriangles(source));
+        ASSERT_EQ(frags.size(), 1u);
+        EXPECT_NEAR(frags[0].volume, meshVolume(uncut), 1e-6 * meshVolume(uncut));
+        // Both sides of the strip -4.69 <= x <= 10.31 of the plane y = 0.27.
+        auto section = [](double r) {
+            const double rho = std::sqrt(r * r - 0.27 * 0.27);
+            auto f = [rho](double t) { return t * std::sqrt(rho * rho - t * t) + rho * rho * std::asin(t / rho); };
+            return 2.0 * (f(10.31) - f(-4.69));
+        };
+        EXPECT_LT(frags[0].cutArea, section(15.0));
+        EXPECT_GT(frags[0].cutArea, section(14.0));
+        if (normalsAgree) {
+            firstTriangles = fused.triangleCount();
+            firstCutArea = frags[0].cutArea;
+        } else {
+            EXPECT_EQ(fused.triangleCount(), firstTriangles);
+            EXPECT_NEAR(frags[0].cutArea, firstCutArea, 1e-9 * firstCutArea);
+        }
+        std::printf("straight stroke, normals %s: %zu triangles, cut faces %.2f mm^2 (sections %.2f and %.2f)\n",
+                    normalsAgree ? "agree" : "opposite", fused.triangleCount(), frags[0].cutArea, section(15.0),
+                    section(14.0));
+    }
+}
+
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
 // quad: with quad 41 of stroke 3 the blade crosses the grid edge (65..66,
 // 37, 83) 8e-5 mm from the isosurface's vertex on it, and the solid between
