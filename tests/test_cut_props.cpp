@@ -2226,6 +2226,71 @@ TEST(CutPropsDefects, AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim
     EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
 }
 
+namespace {
+
+/// The area of the strip t0 <= t <= t1 (across the ball, spanning it up and
+/// down) of a plane at distance d from the centre of a ball of radius r: the
+/// integral of 2 sqrt(rho^2 - t^2), rho^2 = r^2 - d^2.
+double stripSection(double r, double d, double t0, double t1)
+{
+    const double rho = std::sqrt(r * r - d * d);
+    auto f = [rho](double t) {
+        t = std::clamp(t, -rho, rho);
+        return t * std::sqrt(rho * rho - t * t) + rho * rho * std::asin(t / rho);
+    };
+    return f(t1) - f(t0);
+}
+
+struct FoldedCut
+{
+    size_t triangles = 0;
+    double cutArea = 0.0; ///< mm^2
+};
+
+/// The sphere cut at kerf 0 by addFoldedStroke(normalsAgree, straight)
+/// (TestStrokes.h), checked: accepted, clean, no touch off the blade, one
+/// fragment of the uncut volume (zero kerf removes nothing).
+void cutTheSphereWithAFoldedStroke(bool normalsAgree, bool straight, FoldedCut& out)
+{
+    SCOPED_TRACE(std::string(straight ? "straight" : "folded") + (normalsAgree ? ", normals agree" : ", normals opposite"));
+    const vdb::Volume vol = volumeOf(sphereSolid());
+    const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    test::addFoldedStroke(mask, normalsAgree, straight);
+    CutRemesher remesher(vol, 0.0f, uncut);
+    const UpdateResult u = tryUpdate(remesher, mask);
+    ASSERT_EQ(u.outcome, Outcome::Ok) << u.message;
+    std::vector<uint32_t> source;
+    const Mesh fused = remesher.fusedMesh(&source);
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
+    const std::vector<Fragment> frags = fragmentsOf(fused, remesher.bladeTriangles(source));
+    ASSERT_EQ(frags.size(), 1u);
+    EXPECT_NEAR(frags[0].volume, meshVolume(uncut), 1e-6 * meshVolume(uncut));
+    out.triangles = fused.triangleCount();
+    out.cutArea = frags[0].cutArea;
+    std::printf("%s stroke, normals %s: %zu cut cells, %zu triangles, cut faces %.2f mm^2\n",
+                straight ? "straight" : "folded", normalsAgree ? "agree" : "opposite", mask.cutCellCount(),
+                out.triangles, out.cutArea);
+}
+
+/// Both ways of one cut: cut faces within the sections of radius 14 and 15 mm
+/// (the MT surface lies inside the sphere by less than a voxel), and the same
+/// triangles and cut area.
+void expectOneCutBothWays(const FoldedCut& a, const FoldedCut& b, double section14, double section15)
+{
+    for (const FoldedCut* c : {&a, &b}) {
+        EXPECT_LT(c->cutArea, section15);
+        EXPECT_GT(c->cutArea, section14);
+    }
+    EXPECT_EQ(a.triangles, b.triangles);
+    EXPECT_NEAR(a.cutArea, b.cutArea, 1e-9 * a.cutArea);
+    std::printf("  sections of radius 14 and 15 mm: %.2f and %.2f mm^2\n", section14, section15);
+}
+
+} // namespace
+
 // A stroke that doubles back at an angle on the sphere (TestStrokes.h:
 // addFoldedStroke): two quads 20 degrees apart on one side of the stick they
 // share. With their normals pointing opposite ways (the base reversed) the
@@ -2237,58 +2302,18 @@ TEST(CutPropsDefects, AStrokeTurnedBackAcrossItsStartIsSplitWhereItCrossesTheRim
 // 63, 105)). Such a junction is a fold now: its plane bisects the wedge, and
 // each side of one quad's slit goes on as the other's other side. Zero kerf:
 // one fragment of the uncut volume, whose cut faces are both sides of both
-// quads' sections of the sphere (bounded by the sections of radius R and R -
-// 1: the MT surface lies inside the sphere by less than a voxel), the same
-// both ways.
+// quads' sections of the sphere, the same both ways.
 TEST(CutPropsDefects, AStrokeThatDoublesBackAtAnAngleCutsBothSidesOfEachQuad)
 {
-    size_t firstTriangles = 0;
-    double firstCutArea = 0.0;
-    for (const bool normalsAgree : {false, true}) {
-        SCOPED_TRACE(normalsAgree ? "normals agree" : "normals opposite");
-        const Solid sphere = sphereSolid();
-        const vdb::Volume vol = volumeOf(sphere);
-        const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
-        CutMask mask(frameOf(vol), 0.0);
-        test::addFoldedStroke(mask, normalsAgree);
-        CutRemesher remesher(vol, 0.0f, uncut);
-        const UpdateResult u = tryUpdate(remesher, mask);
-        ASSERT_EQ(u.outcome, Outcome::Ok) << u.message;
-        std::vector<uint32_t> source;
-        const Mesh fused = remesher.fusedMesh(&source);
-        const MeshCheck check = checkMesh(fused);
-        EXPECT_TRUE(check.ok()) << check.report();
-        EXPECT_EQ(touchesNearCut(fused, remesher, mask, 1e-3).offBlade, 0u);
-        const std::vector<Fragment> frags = fragmentsOf(fused, remesher.bladeTriangles(source));
-        ASSERT_EQ(frags.size(), 1u);
-        EXPECT_NEAR(frags[0].volume, meshVolume(uncut), 1e-6 * meshVolume(uncut));
-        // A vertical strip t0 <= t <= t1 of the plane at distance d from the
-        // centre, through a ball of radius r: the integral of 2 sqrt(rho^2 - t^2).
-        auto section = [](double r, double d, double t0, double t1) {
-            const double rho = std::sqrt(r * r - d * d);
-            auto f = [rho](double t) {
-                t = std::clamp(t, -rho, rho);
-                return t * std::sqrt(rho * rho - t * t) + rho * rho * std::asin(t / rho);
-            };
-            return f(t1) - f(t0);
-        };
-        const double a = 20.0 * M_PI / 180.0, bx = 3.31, by = 0.27;
-        const double d1 = bx * std::sin(a) + by * std::cos(a), t1 = -bx * std::cos(a) + by * std::sin(a);
-        auto both = [&](double r) { return 2.0 * (section(r, by, bx - 8.0, bx) + section(r, d1, t1, t1 + 7.0)); };
-        EXPECT_LT(frags[0].cutArea, both(15.0));
-        EXPECT_GT(frags[0].cutArea, both(14.0));
-        if (!normalsAgree) {
-            firstTriangles = fused.triangleCount();
-            firstCutArea = frags[0].cutArea;
-        } else { // the same cut, the mitre's plane made the other way
-            EXPECT_EQ(fused.triangleCount(), firstTriangles);
-            EXPECT_NEAR(frags[0].cutArea, firstCutArea, 1e-9 * firstCutArea);
-        }
-        std::printf("folded stroke, normals %s: %zu cut cells, %zu triangles, cut faces %.2f mm^2 (sections: %.2f of "
-                    "radius 15, %.2f of 14)\n",
-                    normalsAgree ? "agree" : "opposite", mask.cutCellCount(), fused.triangleCount(), frags[0].cutArea,
-                    both(15.0), both(14.0));
-    }
+    FoldedCut opposite, agree;
+    ASSERT_NO_FATAL_FAILURE(cutTheSphereWithAFoldedStroke(false, false, opposite));
+    ASSERT_NO_FATAL_FAILURE(cutTheSphereWithAFoldedStroke(true, false, agree));
+    // The first quad on the plane y = 0.27 from x = -4.69 to 3.31; the second
+    // on the plane at distance d1 from the centre, 7 mm on from t1.
+    const double a = 20.0 * M_PI / 180.0, bx = 3.31, by = 0.27;
+    const double d1 = bx * std::sin(a) + by * std::cos(a), t1 = -bx * std::cos(a) + by * std::sin(a);
+    auto both = [&](double r) { return 2.0 * (stripSection(r, by, bx - 8.0, bx) + stripSection(r, d1, t1, t1 + 7.0)); };
+    expectOneCutBothWays(opposite, agree, both(14.0), both(15.0));
 }
 
 // The fold's other case (TestStrokes.h: addFoldedStroke, straight): two quads
@@ -2301,43 +2326,12 @@ TEST(CutPropsDefects, AStrokeThatDoublesBackAtAnAngleCutsBothSidesOfEachQuad)
 // of the strip's section of the sphere, the same triangles both ways.
 TEST(CutPropsDefects, AStraightStrokeWhoseNormalsTurnOverIsOneSlit)
 {
-    size_t firstTriangles = 0;
-    double firstCutArea = 0.0;
-    for (const bool normalsAgree : {true, false}) {
-        SCOPED_TRACE(normalsAgree ? "normals agree" : "normals opposite");
-        const vdb::Volume vol = volumeOf(sphereSolid());
-        const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
-        CutMask mask(frameOf(vol), 0.0);
-        test::addFoldedStroke(mask, normalsAgree, true);
-        CutRemesher remesher(vol, 0.0f, uncut);
-        const UpdateResult u = tryUpdate(remesher, mask);
-        ASSERT_EQ(u.outcome, Outcome::Ok) << u.message;
-        std::vector<uint32_t> source;
-        const Mesh fused = remesher.fusedMesh(&source);
-        const MeshCheck check = checkMesh(fused);
-        EXPECT_TRUE(check.ok()) << check.report();
-        const std::vector<Fragment> frags = fragmentsOf(fused, remesher.bladeTriangles(source));
-        ASSERT_EQ(frags.size(), 1u);
-        EXPECT_NEAR(frags[0].volume, meshVolume(uncut), 1e-6 * meshVolume(uncut));
-        // Both sides of the strip -4.69 <= x <= 10.31 of the plane y = 0.27.
-        auto section = [](double r) {
-            const double rho = std::sqrt(r * r - 0.27 * 0.27);
-            auto f = [rho](double t) { return t * std::sqrt(rho * rho - t * t) + rho * rho * std::asin(t / rho); };
-            return 2.0 * (f(10.31) - f(-4.69));
-        };
-        EXPECT_LT(frags[0].cutArea, section(15.0));
-        EXPECT_GT(frags[0].cutArea, section(14.0));
-        if (normalsAgree) {
-            firstTriangles = fused.triangleCount();
-            firstCutArea = frags[0].cutArea;
-        } else {
-            EXPECT_EQ(fused.triangleCount(), firstTriangles);
-            EXPECT_NEAR(frags[0].cutArea, firstCutArea, 1e-9 * firstCutArea);
-        }
-        std::printf("straight stroke, normals %s: %zu triangles, cut faces %.2f mm^2 (sections %.2f and %.2f)\n",
-                    normalsAgree ? "agree" : "opposite", fused.triangleCount(), frags[0].cutArea, section(15.0),
-                    section(14.0));
-    }
+    FoldedCut agree, opposite;
+    ASSERT_NO_FATAL_FAILURE(cutTheSphereWithAFoldedStroke(true, true, agree));
+    ASSERT_NO_FATAL_FAILURE(cutTheSphereWithAFoldedStroke(false, true, opposite));
+    // Both sides of the strip -4.69 <= x <= 10.31 of the plane y = 0.27.
+    auto both = [](double r) { return 2.0 * stripSection(r, 0.27, -4.69, 10.31); };
+    expectOneCutBothWays(agree, opposite, both(14.0), both(15.0));
 }
 
 // The 2 mm head at kerf 0, random strokes seed 8023, updated after every
