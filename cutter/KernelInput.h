@@ -51,7 +51,7 @@ struct PackedKernelSide
     uint64_t partnerId = 0;
     double orient = 1.0;  ///< inside the quad: orient * h >= 0
     int32_t partner = -1; ///< junction: the partner quad's index in the cell's list (-1: rim; quadCount: not in the cell)
-    int32_t fold = 0;     ///< zero kerf: a junction where the stroke doubles back (QuadGeom::Side::fold)
+    int32_t fold = 0;     ///< zero kerf: the partner's side goes on as the other side (QuadGeom::Side::fold)
     uint64_t cornerSides[4] = {0, 0, 0, 0}; ///< (own, partner's) rim side at each end of a junction
 };
 static_assert(sizeof(PackedKernelSide) == 96, "std430 layout of KernelSide");

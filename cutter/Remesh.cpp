@@ -171,10 +171,12 @@ bool isJunctionEdge(const CutMask& mask, const QuadRef& ref, const dvec3& a, con
 }
 
 /// The plane through the stick p0 -> p1 (index space) that bisects the angle
-/// between two quads folded onto one side of it (centroids cl, cu, unit
-/// normals nl, nu; lower quad first, so both quads get the same plane): each
-/// quad's direction away from the stick in its own plane, a; the plane holds
-/// the stick and al + au, so its normal is along al - au. False when the
+/// between the two quads meeting at it (centroids cl, cu, unit normals nl,
+/// nu; lower quad first, so both quads get the same plane), whichever way
+/// their normals point: each quad's direction away from the stick in its own
+/// plane, a; the plane holds the stick and al + au, so its normal is along
+/// al - au. Used where the plane bisecting the normals fails (a fold with the
+/// normals agreeing, a straight stroke with them opposite). False when the
 /// two directions agree to 1e-9 (one plane: no wedge between them).
 bool foldMitre(const dvec3& cl, const dvec3& nl, const dvec3& cu, const dvec3& nu, const dvec3& p0, const dvec3& p1,
                Plane& mp)

@@ -37,9 +37,10 @@
 // of a stroke meet on a junction plane through their shared stick that parts
 // them, and each side of one quad's slit goes on as a side of the next: the
 // same side where the plane bisects the two quads' planes, the other side
-// where the stroke doubles back with both normals agreeing (both quads on
-// one side of the stick, the plane bisecting the wedge between them:
-// QuadGeom::Side::fold). Any number of quads per cell.
+// where that plane does not part them (the stroke doubles back with both
+// normals agreeing, both quads on one side of the stick, or goes straight on
+// with them opposite) and the plane bisects the angle between the quads
+// (QuadGeom::Side::fold). Any number of quads per cell.
 //
 // Kerf w > 0 (DESIGN invariant 7 and its sketch): each quad's removed region
 // is a closed convex prism, the slab |h| <= w/2 around the quad's plane

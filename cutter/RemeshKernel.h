@@ -82,11 +82,12 @@ struct QuadGeom
         /// the partner's (0 when none); a point on both is one corner of the strip.
         std::array<std::pair<uint64_t, uint64_t>, 2> cornerSides{};
         /// Zero kerf, a junction where the plane that bisects the two quads'
-        /// planes does not part them (the stroke doubles back with both
-        /// normals agreeing: both quads on one side of the shared edge). The
-        /// plane bisects the angle between the two quads instead, and each
-        /// side of this quad's slit goes on as the partner's other side (the
-        /// wedge between them lies above one quad and below the other).
+        /// planes does not part them: the stroke doubles back with both
+        /// normals agreeing (both quads on one side of the shared edge), or
+        /// goes straight on with them opposite. The plane bisects the angle
+        /// between the two quads instead, and each side of this quad's slit
+        /// goes on as the partner's other side (a fold's wedge lies above one
+        /// quad and below the other).
         bool fold = false;
     };
     std::vector<Side> sides;

@@ -83,7 +83,7 @@ struct KernelSide
     uint64_t partnerId;
     double orient; // inside the quad: orient * h >= 0
     int partner;   // junction partner's index in the cell's list (-1: rim)
-    int fold;      // zero kerf: the stroke doubles back there (a side goes on as the partner's other)
+    int fold;      // zero kerf: a side goes on as the partner's other side (QuadGeom::Side::fold)
     uint64_t cornerSides[4];
 };
 
