@@ -4,6 +4,8 @@
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
 
+#include <glm/trigonometric.hpp>
+
 #include <cmath>
 #include <vector>
 
@@ -79,7 +81,7 @@ inline void addRimCrossingStroke(cutter::CutMask& mask)
 /// sum 0).
 inline void addFoldedStroke(cutter::CutMask& mask, bool normalsAgree, bool straight = false)
 {
-    const double pi = 3.14159265358979323846, a = 20.0 * pi / 180.0;
+    const double a = glm::radians(20.0);
     const glm::dvec3 b(3.31, 0.27, 0.13), up(0, 0, 20);
     const glm::dvec3 base[3] = {b + glm::dvec3(-8, 0, 0), b,
                                 straight ? b + glm::dvec3(7, 0, 0) : b + 7.0 * glm::dvec3(-std::cos(a), std::sin(a), 0)};
