@@ -875,16 +875,9 @@ std::array<uint64_t, 2> kernelInputDigest(const Coord& cell, const std::vector<Q
 {
     constexpr double kFar = 1e-6;
     std::array<uint64_t, 2> h{0x9e3779b97f4a7c15ull, 0xc2b2ae3d27d4eb4full};
-    auto mix = [](uint64_t x) {
-        x ^= x >> 30;
-        x *= 0xbf58476d1ce4e5b9ull;
-        x ^= x >> 27;
-        x *= 0x94d049bb133111ebull;
-        return x ^ (x >> 31);
-    };
     auto put = [&](uint64_t w) {
-        h[0] = mix(h[0] ^ w) + 0x632be59bd9b4e019ull;
-        h[1] = mix((h[1] + w) * 0xff51afd7ed558ccdull) ^ (h[1] >> 17);
+        h[0] = mixBits(h[0] ^ w) + 0x632be59bd9b4e019ull;
+        h[1] = mixBits((h[1] + w) * 0xff51afd7ed558ccdull) ^ (h[1] >> 17);
     };
     auto putD = [&](double d) {
         uint64_t w;

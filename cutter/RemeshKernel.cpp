@@ -33,6 +33,24 @@ double epsAt(const dvec3& x)
     return 1e-13 * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}));
 }
 
+/// A Steiner midpoint's name holds a word for each end of its chord: a hash
+/// of the end's name, top bit clear and bit 62 set (above every plane id),
+/// so the name is the same in every cell that closes the chord. Each word
+/// is mixed through all of the name (mixBits, per field):
+/// CutVertexIdHash, a hash-table hash, differs only in its low bits for two
+/// names that differ in the kind of one plane (a quad's plane and its rim
+/// side), and those bits were shifted out, so two chords of one quad that
+/// share an end got one midpoint name and one vertex (2 mm head, kerf 0,
+/// sawing along the blade, seed 75101: a cap piece folded over itself, "open
+/// boundary loop"). As midpointWord in cut_arrange.glsl.
+uint64_t midpointWord(const CutVertexId& key)
+{
+    uint64_t h = mixBits(0x9e3779b97f4a7c15ull ^ (uint64_t(key.dim) << 16 | uint64_t(key.planeCount) << 8));
+    for (uint64_t f : key.feature) h = mixBits(h ^ f);
+    for (int i = 0; i < key.planeCount; ++i) h = mixBits(h ^ key.planes[size_t(i)]);
+    return h >> 2 | uint64_t(1) << 62;
+}
+
 /// conformPieces passes over vertices far from an edge's line without their
 /// signs in a surface of more vertices than this (a cell where many prisms
 /// cross: thousands; an ordinary tet: a few dozen).
@@ -2566,8 +2584,7 @@ void RemeshKernel::insertSlitMidpoints(const SmallVector<char, 32>& kept)
                     const double t = glm::dot(mid - mVerts[size_t(u)].pos, d) / glm::dot(d, d);
                     if (!(t > 0.0 && t < 1.0)) continue;
                 }
-                uint64_t hu = CutVertexIdHash()(vu.key) >> 2 | uint64_t(1) << 62;
-                uint64_t hw = CutVertexIdHash()(vw.key) >> 2 | uint64_t(1) << 62;
+                const uint64_t hu = midpointWord(vu.key), hw = midpointWord(vw.key);
                 PlaneList planes{kMid, r->id, std::min(hu, hw), std::max(hu, hw)};
                 const uint8_t sup = uint8_t(vu.support | vw.support);
                 if (bits(sup) < 4) {

@@ -42,6 +42,17 @@ constexpr int kCapKinds[2] = {5, 6};
 /// plane of the removed region that the isosurface only touches there.
 constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 
+/// splitmix64's finaliser: every bit of x moves about half the bits out
+/// (the input digests of cells, the words of a Steiner midpoint's name).
+inline uint64_t mixBits(uint64_t x)
+{
+    x ^= x >> 30;
+    x *= 0xbf58476d1ce4e5b9ull;
+    x ^= x >> 27;
+    x *= 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+
 inline uint64_t planeIdOf(uint32_t stroke, uint32_t quad, int kind)
 {
     return (uint64_t(stroke) << 36) | (uint64_t(quad) << 4) | uint64_t(kind);

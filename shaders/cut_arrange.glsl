@@ -155,14 +155,23 @@ int vPlaneCount(int v) { return int((gVMeta(v) >> 4) & 15u); }
 uint vSupport(int v) { return (gVMeta(v) >> 8) & 15u; }
 bool vSteiner(int v) { return ((gVMeta(v) >> 12) & 1u) != 0u; }
 
-/// CutVertexIdHash of vertex v's name (no tags).
-uint64_t vHash(int v)
+/// A Steiner midpoint's word for one end of its chord: midpointWord
+/// (RemeshKernel.cpp), splitmix64's finaliser over every field of the name.
+uint64_t mixWord(uint64_t x)
+{
+    x ^= x >> 30;
+    x *= 0xbf58476d1ce4e5b9ul;
+    x ^= x >> 27;
+    x *= 0x94d049bb133111ebul;
+    return x ^ (x >> 31);
+}
+uint64_t midpointWord(int v)
 {
     const int pc = vPlaneCount(v);
-    uint64_t h = 1469598103934665603ul ^ (uint64_t(vDim(v)) << 16 | uint64_t(pc) << 8);
-    for (int i = 0; i < 3; ++i) h ^= gVFeature(3 * v + i) + 0x9e3779b97f4a7c15ul + (h << 6) + (h >> 2);
-    for (int i = 0; i < pc; ++i) h ^= gVPlanes(8 * v + i) + 0x9e3779b97f4a7c15ul + (h << 6) + (h >> 2);
-    return h;
+    uint64_t h = mixWord(0x9e3779b97f4a7c15ul ^ (uint64_t(vDim(v)) << 16 | uint64_t(pc) << 8));
+    for (int i = 0; i < 3; ++i) h = mixWord(h ^ gVFeature(3 * v + i));
+    for (int i = 0; i < pc; ++i) h = mixWord(h ^ gVPlanes(8 * v + i));
+    return (h >> 2) | (1ul << 62);
 }
 
 /// featureKey: the simplex's sorted grid vertex ids (dim < 3), or the cell and tet.
@@ -1345,7 +1354,7 @@ void insertSlitMidpoints()
                     r = gMidQuad[m];
                 }
             if (a < 0) continue;
-            const uint64_t ha = (vHash(a) >> 2) | (1ul << 62), hb = (vHash(b) >> 2) | (1ul << 62);
+            const uint64_t ha = midpointWord(a), hb = midpointWord(b);
             uvec2 planes[8];
             int count = 0;
             planes[count++] = b64(kMid);
