@@ -606,3 +606,38 @@ TEST(LiveStroke, ASecondRefusalAmongTheWaitingQuadsIsSteppedRoundInItsTurn)
     MTCUT_REQUIRE_DATA(head, "vhm-head-dicom");
     EXPECT_EQ(expectSteppedRound(head, 3.0, 14123, 3, 400.0f), 2u);
 }
+
+// Two chords of one quad's slit that share an end: the 2 mm head at 400,
+// kerf 0, a saw slid along its blade (makeSawingStrokes, seed 75101, stroke
+// 0, as bench_strokes --saw slide). In cell (104, 74, 115), tet 3, quad
+// 62's cap holds the chords 59-60 and 60-65, ends that differ only in the
+// kind of one plane (quad 64's plane, its rim side). A chord's Steiner
+// midpoint is named by a word for each end, a hash of the end's name; the
+// words were CutVertexIdHash shifted right by two, which for such ends
+// differs only in the bits shifted out: one name, one vertex for both
+// midpoints, a cap piece folded over itself ("open boundary loop"), and the
+// stroke stopped at 64 of its 148 quads. Each word now mixes all of the
+// name (midpointWord). Updated after every quad, the stroke is accepted
+// whole, equal to the cut from scratch and clean.
+TEST(LiveStroke, TwoChordsOfAQuadThatShareAnEndHaveTwoMidpoints)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const float iso = 400.0f;
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, iso, uncut);
+    const std::vector<Quad> quads =
+        filterStroke(makeSawingStrokes(uncut.positions, 75101, 1, SawMotion::Slide).at(0), mask.frame());
+    ASSERT_EQ(quads.size(), 148u);
+    LiveStroke live(mask, remesher);
+    for (size_t q = 0; q < quads.size(); ++q) {
+        ASSERT_TRUE(live.add(quads[q])) << "stopped before quad " << q;
+        const LiveStroke::Result r = q + 1 < quads.size() ? live.update() : live.finish();
+        ASSERT_NE(r.outcome, LiveStroke::Outcome::Stopped) << "quad " << q << ": " << r.refusal;
+        EXPECT_FALSE(r.steppedRound) << "quad " << q << ": " << r.refusal;
+    }
+    EXPECT_FALSE(live.stopped());
+    EXPECT_EQ(mask.quadCount(mask.strokeCount()), quads.size());
+    expectSameAsFromScratch(vol, iso, uncut, mask, remesher);
+}

@@ -1195,3 +1195,33 @@ TEST(CutKernelGpu, BadDrawInputIsRefusedAndLeavesTheDrawAsItWas)
     EXPECT_EQ(keysAfter.back(), (std::array<uint32_t, 2>{~0u, ~0u}));
     render::checkGlError("BadDrawInputIsRefusedAndLeavesTheDrawAsItWas");
 }
+
+// Two chords of one quad's slit that share an end (LiveStroke.TwoChordsOfA
+// QuadThatShareAnEndHaveTwoMidpoints): the 2 mm head at kerf 0, a saw slid
+// along its blade, seed 75101, stroke 0. To quad 71, cell (104, 74, 115)
+// holds, on quad 62's cap, two chords whose ends' names differ in the kind
+// of one plane; their Steiner midpoints are two vertices (midpointWord; the
+// words before named them alike, on the GPU as on the CPU). Its tet 3 meets
+// llvmpipe's loop limit (there the CPU makes the cell; on a GPU the GPU
+// does); the cells round it, and those round quads 62-64 alone, most of them
+// made by the GPU, hold midpoints named as the CPU names them.
+TEST(CutKernelGpu, TwoChordsOfAQuadThatShareAnEndHaveTwoMidpointsAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const cutter::Mesh uncut = cutter::extractIsosurface(vol, 400.0f, cutter::IsosurfaceOptions{nullptr, false});
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(
+        cutter::makeSawingStrokes(uncut.positions, 75101, 1, cutter::SawMotion::Slide).at(0), cutter::frameOf(vol));
+    ASSERT_EQ(quads.size(), 148u);
+    const openvdb::Coord at(104, 74, 115);
+    for (const auto& [first, last] : {std::pair<size_t, size_t>{0, 71}, {62, 64}}) {
+        CutMask mask(cutter::frameOf(vol), 0.0);
+        mask.beginStroke();
+        for (size_t q = first; q <= last; ++q) mask.addQuad(quads[q]);
+        const std::string what = "2 mm head, sawing seed 75101, stroke 0, quads " + std::to_string(first) + "-" +
+                                 std::to_string(last);
+        expectGpuCellsAsTheCpu(vol, 400.0f, mask, at, true, what);
+        expectGpuTetsAsTheCpu(vol, 400.0f, mask, at, 4);
+    }
+}
