@@ -2624,9 +2624,18 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
     const double len = glm::length(d);
     if (!(len > 0.0)) return false;
     // The kept pieces' edge that goes on from `cur` along `dir`, or -1 (the
-    // pieces conform, so any two such edges end at one vertex).
+    // pieces conform, so any two such edges end at one vertex). Along: off
+    // the line through `cur` by at most 1e-9 of its length, or by two ties
+    // (epsAt): a point named on two nearly parallel planes is placed within
+    // the tie of both, and its distance from the chord's line can be all
+    // of that (2 mm head, kerf 0, sawing along the blade, seed 75120: a
+    // point of quad 28's rim on quad 26's chord in face x = 82, 3e-12 voxel
+    // off it; the walk stopped there in cell (82, 16, 54) and not in (81,
+    // 16, 54), where quad 28 is not, so only one of the two cells took the
+    // chord's midpoint: an open edge). As chordNext in cut_arrange.glsl.
     auto next = [&](int cur, const dvec3& dir) {
         const dvec3& c = mVerts[size_t(cur)].pos;
+        const double tie = 2.0 * epsAt(c);
         for (size_t i = 0; i < mPieces.size(); ++i) {
             if (!kept[i]) continue;
             const auto& v = mPieces[i].v;
@@ -2635,7 +2644,7 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
                 for (int y : {v[(k + 1) % v.size()], v[(k + v.size() - 1) % v.size()]}) {
                     const dvec3 e = mVerts[size_t(y)].pos - c;
                     const double el = glm::length(e);
-                    if (el > 0.0 && glm::dot(e, dir) > 0.0 && glm::length(glm::cross(e, dir)) <= 1e-9 * el * len &&
+                    if (el > 0.0 && glm::dot(e, dir) > 0.0 && glm::length(glm::cross(e, dir)) <= (1e-9 * el + tie) * len &&
                         sign(y, r.id) == 0)
                         return y;
                 }

@@ -1188,14 +1188,15 @@ int chordClass(int v, int r)
 }
 
 /// RemeshKernel::splitChord's next: the kept pieces' edge (region 0) that
-/// goes on from `cur` along `dir` on quad r's plane, or -1 (-2: more such
-/// neighbours than it holds). The neighbours along dir first, in the CPU's
+/// goes on from `cur` along `dir` (off its line by 1e-9 of the edge's length
+/// or two ties at most) on quad r's plane, or -1 (-2: more such neighbours
+/// than it holds). The neighbours along dir first, in the CPU's
 /// order, then the first on r's plane: signOf's loops stay out of the loop
 /// over the pieces.
 int chordNext(int cur, dvec3 dir, int r)
 {
     const precise dvec3 c = gVPos(cur);
-    const double len = length3(dir);
+    const double len = length3(dir), tie = 2.0lf * epsAt(c);
     int along[4];
     int n = 0;
     bool more = false;
@@ -1208,7 +1209,7 @@ int chordNext(int cur, dvec3 dir, int r)
                 const int y = pieceV(0, i, h == 0 ? (k + 1) % m : (k + m - 1) % m);
                 const precise dvec3 e = gVPos(y) - c;
                 const double el = length3(e);
-                if (!(el > 0.0lf && dot3(e, dir) > 0.0lf && length3(cross3(e, dir)) <= 1e-9lf * el * len)) continue;
+                if (!(el > 0.0lf && dot3(e, dir) > 0.0lf && length3(cross3(e, dir)) <= (1e-9lf * el + tie) * len)) continue;
                 if (n < 4) along[n++] = y;
                 else more = true;
             }
