@@ -1225,3 +1225,35 @@ TEST(CutKernelGpu, TwoChordsOfAQuadThatShareAnEndHaveTwoMidpointsAsTheCpu)
         expectGpuTetsAsTheCpu(vol, 400.0f, mask, at, 4);
     }
 }
+
+// A chord's walk that passes a point placed off its line by the tie
+// (LiveStroke.AChordsWalkPassesAPointOffItsLineByTheTie): the 2 mm head at
+// kerf 0, sawing along the blade, seed 75120, strokes 0 and 1 whole and
+// stroke 2 to quad 35. In face x = 82 quad 26's chord passes a point of
+// quad 28's rim 3e-12 voxel off it in cell (82, 16, 54); chordNext walks on
+// past it (two ties off the line), on the GPU as on the CPU, and both cells
+// of the face give the chord its midpoint. On llvmpipe that tet (2 of (82,
+// 16, 54)) meets the loop limit, with these quads and with quads 26-28
+// alone, so there the CPU makes it and the GPU's walk is compared only in
+// the tets round it; on a GPU it makes both cells.
+TEST(CutKernelGpu, AChordsWalkPassesAPointOffItsLineByTheTieAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const cutter::Mesh uncut = cutter::extractIsosurface(vol, 400.0f, cutter::IsosurfaceOptions{nullptr, false});
+    CutMask mask(cutter::frameOf(vol), 0.0);
+    const auto strokes = cutter::makeSawingStrokes(uncut.positions, 75120, 3, cutter::SawMotion::Slide);
+    for (size_t s = 0; s < 3; ++s) {
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
+        if (s == 2) {
+            ASSERT_EQ(quads.size(), 74u);
+        }
+        mask.beginStroke();
+        for (size_t q = 0; q < quads.size() && (s < 2 || q <= 35); ++q) mask.addQuad(quads[q]);
+    }
+    for (const openvdb::Coord& at : {openvdb::Coord(82, 16, 54), openvdb::Coord(81, 16, 54)}) {
+        expectGpuCellsAsTheCpu(vol, 400.0f, mask, at, true, "2 mm head, sawing seed 75120, stroke 2 to quad 35");
+        expectGpuTetsAsTheCpu(vol, 400.0f, mask, at, 1);
+    }
+}
