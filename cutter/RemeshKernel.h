@@ -42,8 +42,9 @@ constexpr int kCapKinds[2] = {5, 6};
 /// plane of the removed region that the isosurface only touches there.
 constexpr uint64_t kPinchTag = uint64_t(1) << 63;
 
-/// splitmix64's finaliser: every bit of x moves about half the bits out
-/// (the input digests of cells, the words of a Steiner midpoint's name).
+/// splitmix64's finaliser: a bijection of 64-bit words in which each input
+/// bit flips about half of the output bits (the input digests of cells, the
+/// words of a Steiner midpoint's name; mixWord in cut_arrange.glsl).
 inline uint64_t mixBits(uint64_t x)
 {
     x ^= x >> 30;
