@@ -372,6 +372,35 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
     return moved;
 }
 
+namespace {
+
+/// Two vertices of a cell with different tags that a round's collapse may
+/// still join: neither a copy of a pinch (kPinchTag), not copies of one
+/// point (the same name but for the tags), and on no slit on opposite sides
+/// (a tag of one quad's plane, minus on one and plus on the other). A
+/// vertex on one side of a slit and one off it, or on the same side of it,
+/// lie on one sheet there: a tetrahedron-private vertex moved from one onto
+/// the other changes only the cell's own triangles, whose link and folds the
+/// collapse asks as for any other (tooth at 400, kerf 0, sliding saw seed
+/// 75409, stroke 1, quad 62: a slit chord's midpoint 1.5e-5 mm from the
+/// junction point of two quads and from a point of the next quad's plane,
+/// the three tagged {q54-}, {q54-, q55+} and {}: their triangle had no area
+/// once written and nothing could join them).
+bool sidesAgree(const CutVertexId& a, const CutVertexId& b)
+{
+    for (uint8_t i = 0; i < a.tagCount; ++i)
+        if (a.tags[i] & kPinchTag) return false;
+    for (uint8_t j = 0; j < b.tagCount; ++j)
+        if (b.tags[j] & kPinchTag) return false;
+    if (a.dim == b.dim && a.feature == b.feature && a.planeCount == b.planeCount && a.planes == b.planes) return false;
+    for (uint8_t i = 0; i < a.tagCount; ++i)
+        for (uint8_t j = 0; j < b.tagCount; ++j)
+            if ((a.tags[i] >> 1) == (b.tags[j] >> 1) && a.tags[i] != b.tags[j]) return false;
+    return true;
+}
+
+} // namespace
+
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
                         CutCellGeometry& out, bool crossings)
 {
@@ -720,7 +749,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     /// cell's boundary (one triangle).
     auto collapse = [&](uint32_t p, uint32_t q, bool onFace, bool intoFaceOk = false) {
         const CutVertexId &ip = out.vertexIds[p], &iq = out.vertexIds[q];
-        if (ip.tagCount != iq.tagCount || ip.tags != iq.tags) return false; // copies of one point stay apart
+        if ((ip.tagCount != iq.tagCount || ip.tags != iq.tags) && (onFace || !sidesAgree(ip, iq))) return false;
         trianglesAt(p, atP);
         trianglesAt(q, atQ);
         std::vector<size_t> onEdge;

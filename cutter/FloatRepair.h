@@ -143,7 +143,10 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   other end's facing the opposite way (a tetrahedron of the cell's own, a
 ///   spike of solid thinner than a float step), those pairs go too, and the
 ///   tetrahedron with them; repeated while it mends.
-/// Copies of one point (side or pinch tags differ) are never joined.
+/// Copies of one point (side or pinch tags differ) are never joined, nor
+/// points on opposite sides of one slit; the face rule joins only points of
+/// the same tags, a round also points whose tags differ on no slit's side
+/// (one on a slit's side, the other off it or on the same side).
 /// With `crossings` (a cut with a width: CellKernel runs it on every cell,
 /// a second pass after the first without), then also, in rounds, an edge of a triangle that crosses or
 /// touches another triangle of the cell once written (as the local check

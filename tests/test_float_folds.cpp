@@ -276,6 +276,53 @@ TEST(FloatFolds, CopiesOfOnePointStayApart)
     EXPECT_EQ(g.indices, copy.indices);
 }
 
+// Two different points a float step apart, one on a zero-kerf slit's minus
+// side and one off the slit (or on the same side of it and of another quad's
+// slit too) lie on one sheet: a round joins them as any others (tooth at
+// 400, kerf 0, a saw slid along its blade, seed 75409, stroke 1, quad 62: a
+// slit chord's midpoint {q54-}, the junction point {q54-, q55+} and a point
+// of quad 55's plane {} within 1.5e-5 mm, their triangle of no area once
+// written, and no pair of them could be joined). Points on opposite sides of
+// one slit, and copies of a pinch, stay apart.
+TEST(FloatFolds, PointsOnOneSideOfASlitAFloatStepApartBecomeOne)
+{
+    auto tagged = [](const std::vector<uint64_t>& tags, CutVertexId v) {
+        v.tagCount = uint8_t(tags.size());
+        size_t i = 0;
+        for (uint64_t t : tags) v.tags[i++] = t;
+        return v;
+    };
+    struct Case
+    {
+        std::vector<uint64_t> p, r;
+        size_t joined;
+    };
+    const uint64_t minus7 = 7u << 1 | 1u, plus7 = 7u << 1, plus9 = 9u << 1, kPinch = mtcut::cutter::remesh_detail::kPinchTag;
+    const std::vector<Case> cases{Case{{minus7}, {}, 1}, Case{{minus7}, {minus7, plus9}, 1}, Case{{}, {plus9}, 1},
+                                  Case{{minus7}, {plus7}, 0}, Case{{minus7}, {minus7 | kPinch}, 0},
+                                  Case{{kPinch | 1u}, {}, 0}};
+    for (const Case& c : cases) {
+        CutCellGeometry g = twoInnerVertices(1e-7);
+        g.vertexIds[4] = tagged(c.p, g.vertexIds[4]);
+        g.vertexIds[5] = tagged(c.r, g.vertexIds[5]);
+        const size_t tagsP = c.p.size(), tagsR = c.r.size();
+        SCOPED_TRACE("tags " + std::to_string(tagsP) + " and " + std::to_string(tagsR) + ", joined " +
+                     std::to_string(c.joined));
+        const dvec3 origin(1000.0), spacing(1.0);
+        ASSERT_EQ(foldedInFloat(g, origin, spacing), 2u); // the premise
+        const CutCellGeometry copy = g;
+        const auto before = boundary(g);
+        EXPECT_EQ(repairFloatFolds(Coord(0, 0, 0), openvdb::Vec3d(1000.0), openvdb::Vec3d(1.0), g), c.joined);
+        if (c.joined) {
+            EXPECT_EQ(g.vertexIds.size(), 5u);
+            EXPECT_EQ(foldedInFloat(g, origin, spacing), 0u);
+            EXPECT_EQ(boundary(g), before);
+        } else {
+            EXPECT_EQ(g.indices, copy.indices);
+        }
+    }
+}
+
 /// The plane y = 0.5 across cell (cx,0,0), cx = 0 or 1, whose boundary on
 /// the face x = 1 they share holds two vertices d apart (z): two vertices
 /// inside a tet face there, or (onDiagonal) the lower one on the face's
