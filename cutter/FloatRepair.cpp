@@ -864,6 +864,19 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             for (uint32_t& w : moved)
                 if (w == p) w = q;
             if (folded(moved, normal[t])) return false;
+            // Nor onto a triangle of q's facing the other way: the edge was
+            // one of a tetrahedron of the cell's own (the link condition
+            // holds there), which would be crushed into a shell of two
+            // triangles and no volume (2 mm head, kerf 0, sawing across the
+            // blade, seed 78105: a fold's collapse of a 2e-3 mm edge between
+            // points of three slits' sides). Along a short edge such a
+            // tetrahedron goes as a whole (above).
+            for (size_t u : atQ) {
+                const auto& o = tris[u];
+                for (int r = 0; r < 3; ++r)
+                    if (o[size_t(r)] == moved[0] && o[size_t((r + 1) % 3)] == moved[2] && o[size_t((r + 2) % 3)] == moved[1])
+                        return false;
+            }
             if (intoFaceOk) continue;
             // A triangle in a cell face: the next cell may have it too.
             if (faces[moved[0]] & faces[moved[1]] & faces[moved[2]]) return false;

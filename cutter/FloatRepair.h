@@ -133,7 +133,9 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 ///   first), is collapsed where it can be: a vertex private to the cell
 ///   (inside it, off its faces, so no other cell names it) moves onto the
 ///   edge's other end and the two triangles on that edge go, only when that
-///   keeps the surface a 2-manifold (the ends share no neighbour but the two apexes), folds
+///   keeps the surface a 2-manifold (the ends share no neighbour but the two apexes, and no
+///   triangle comes to lie on another facing the other way: a tetrahedron of the cell's own
+///   crushed into two triangles, which the link condition alone allows), folds
 ///   nothing else over (every remaining triangle at the moved vertex keeps
 ///   its exact orientation in float) and puts no triangle into a cell face
 ///   (the next cell may hold the same one), nor an edge it did not have (the cell across

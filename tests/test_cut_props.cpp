@@ -1277,6 +1277,30 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
     EXPECT_LT(3 * quadsWide, quads);
 }
 
+// A saw swung across its blade on the 2 mm head at kerf 0 (seed 78105, its
+// first two strokes, each cut whole): in cell (111, 56, 66) a tetrahedron of
+// the cell's own, between the sides of three slits, had a face of no area
+// once written, and the float repair's collapse of its 2e-3 mm edge crushed
+// it into two triangles lying on each other, a flat shell inside the solid
+// (checkMesh: wrong way for its nesting). Each cut is clean.
+TEST(CutPropsDefects, ASawAcrossTheBladeAtKerf0CrushesNoTetrahedron)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    int stroke = 0;
+    for (const std::vector<Pose>& poses : makeSawingStrokes(uncut.positions, 78105, 2, SawMotion::Across)) {
+        SCOPED_TRACE("stroke " + std::to_string(stroke++));
+        mask.beginStroke();
+        for (const Quad& q : filterStroke(poses, mask.frame())) mask.addQuad(q);
+        ASSERT_NO_THROW(remesher.update(mask));
+        const MeshCheck check = checkMesh(remesher.fusedMesh());
+        EXPECT_TRUE(check.ok()) << check.report();
+    }
+}
+
 // Hand-made strokes on the 4 mm and 2 mm heads (straight, curved, a figure
 // eight and a loop that cross themselves, two strokes crossing, blades in the
 // grid planes x = i, y = j, z = k and through grid vertices), each on a fresh

@@ -249,6 +249,45 @@ TEST(FloatFolds, ATetrahedronWithAnEdgeBelowAFloatStepGoesAsAWhole)
     EXPECT_EQ(foldedInFloat(g, origin, spacing), 0u);
 }
 
+// A tetrahedron of the cell's own whose edges are all longer than a short
+// edge, one face of no area once written (a point 1e-6 mm off the line of
+// two others at 1000 mm, where a float step is 6.1e-5). The link condition
+// holds for each of its edges, but every collapse crushes it into two
+// triangles facing each other, a shell of no volume (2 mm head, kerf 0,
+// sawing across the blade, seed 78105). None is made: it stays whole.
+TEST(FloatFolds, ATetrahedronIsNotCrushedIntoTwoTriangles)
+{
+    const Coord cell(0, 0, 0);
+    Builder b;
+    const std::array<dvec3, 4> at{dvec3(0.5, 0.5, 0.5), dvec3(0.6, 0.5, 0.5), dvec3(0.55, 0.5 + 1e-6, 0.5),
+                                  dvec3(0.55, 0.6, 0.6)};
+    std::array<uint32_t, 4> v{};
+    for (int i = 0; i < 4; ++i) v[size_t(i)] = b.add(innerVertex(cell, 1, 300 + uint64_t(i)), at[size_t(i)]);
+    for (int l = 0; l < 4; ++l) { // each face facing away from the fourth vertex
+        std::array<int, 3> f{};
+        for (int i = 0, n = 0; i < 4; ++i)
+            if (i != l) f[size_t(n++)] = i;
+        const dvec3 nrm = glm::cross(at[size_t(f[1])] - at[size_t(f[0])], at[size_t(f[2])] - at[size_t(f[0])]);
+        if (glm::dot(nrm, at[size_t(l)] - at[size_t(f[0])]) > 0) std::swap(f[1], f[2]);
+        b.tri(v[size_t(f[0])], v[size_t(f[1])], v[size_t(f[2])]);
+    }
+    CutCellGeometry g = b.g;
+    const dvec3 origin(1000.0), spacing(1.0);
+    ASSERT_EQ(foldedInFloat(g, origin, spacing), 1u); // the premise: a fold to mend, no short edge
+    repairFloatFolds(cell, openvdb::Vec3d(1000.0), openvdb::Vec3d(1.0), g);
+    const size_t n = g.indices.size() / 3;
+    for (size_t t = 0; t < n; ++t)
+        for (size_t u = t + 1; u < n; ++u) {
+            std::array<uint32_t, 3> x{g.indices[3 * t], g.indices[3 * t + 1], g.indices[3 * t + 2]};
+            std::array<uint32_t, 3> y{g.indices[3 * u], g.indices[3 * u + 2], g.indices[3 * u + 1]};
+            std::sort(x.begin(), x.end());
+            std::sort(y.begin(), y.end());
+            EXPECT_NE(x, y) << "triangles " << t << " and " << u << " lie on each other";
+        }
+    EXPECT_EQ(n, 4u);
+    EXPECT_TRUE(boundary(g).empty());
+}
+
 TEST(FloatFolds, WhatFloatHoldsApartIsLeftAlone)
 {
     // Near the origin a float step is 6e-8 mm; 1e-3 voxel is thousands.
