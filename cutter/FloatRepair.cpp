@@ -374,6 +374,108 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 
 namespace {
 
+/// A shell of the cell's own (every vertex private to the cell: no other
+/// cell has one of its triangles, so it is closed here) thinner than a short
+/// edge (three times its volume over its area, its inradius when it is a
+/// tetrahedron) goes as a whole: once written it has no inside, and nothing
+/// of it can be told from the solid it touches (2 mm head, kerf 0, a saw
+/// swung across its blade, seeds 78113 and 78119: a tetrahedron of solid
+/// between three slits' sides and the isosurface, 0.02-0.1 mm long and 1e-7
+/// mm thick, judged inside the fragment whose sheets it lies on: wrong way
+/// for its nesting). Such a shell need not fold once written (flat, each
+/// face keeps its side), so it is looked for in every cell. Returns the
+/// vertices removed; the others keep their order, as do the triangles.
+size_t dropThinShellsOfTheCell(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
+                               CutCellGeometry& out)
+{
+    // (On the stack, and out early: this runs for every cell, and a shell
+    // of the cell's own is rare.)
+    const size_t nv = out.vertexIds.size(), nt = out.indices.size() / 3;
+    SmallVector<char, 128> own(nv, 0);
+    for (size_t i = 0; i < nv; ++i) own[i] = cellFaces(out.vertexIds[i], cell) == 0;
+    bool any = false;
+    for (size_t t = 0; t < nt && !any; ++t)
+        any = own[out.indices[3 * t]] && own[out.indices[3 * t + 1]] && own[out.indices[3 * t + 2]];
+    if (!any) return 0;
+    SmallVector<uint32_t, 128> root(nv);
+    for (uint32_t v = 0; v < uint32_t(nv); ++v) root[v] = v;
+    auto find = [&](uint32_t v) {
+        while (root[v] != v) v = root[v] = root[root[v]];
+        return v;
+    };
+    for (size_t t = 0; t < nt; ++t)
+        for (int k = 1; k < 3; ++k) root[find(out.indices[3 * t + size_t(k)])] = find(out.indices[3 * t]);
+    // A component is the cell's own when none of its vertices is on a cell
+    // face (own[root] cleared otherwise); only its used vertices count.
+    SmallVector<char, 128> used(nv, 0);
+    for (uint32_t i : out.indices) used[i] = 1;
+    SmallVector<char, 128> whole(nv, 0); // by root: used, and every vertex the cell's own
+    for (uint32_t v = 0; v < uint32_t(nv); ++v)
+        if (used[v]) whole[find(v)] = 1;
+    for (uint32_t v = 0; v < uint32_t(nv); ++v)
+        if (used[v] && !own[v]) whole[find(v)] = 0;
+    any = false;
+    for (uint32_t v = 0; v < uint32_t(nv) && !any; ++v) any = whole[v] != 0;
+    if (!any) return 0;
+    // Per such component: 6 V and 2 A, from its first corner.
+    struct Sums
+    {
+        double volume6 = 0.0, area2 = 0.0;
+        dvec3 at{0.0};
+        bool seen = false;
+    };
+    SmallVector<Sums, 8> sums;
+    SmallVector<uint32_t, 8> roots;
+    for (size_t t = 0; t < nt; ++t) {
+        const uint32_t r = find(out.indices[3 * t]);
+        if (!whole[r]) continue;
+        const size_t i = size_t(std::find(roots.begin(), roots.end(), r) - roots.begin());
+        if (i == roots.size()) {
+            roots.push_back(r);
+            sums.emplace_back();
+        }
+        std::array<dvec3, 3> c;
+        for (int k = 0; k < 3; ++k)
+            c[size_t(k)] = exactWorldPosition(origin, spacing, out.indexPositions[out.indices[3 * t + size_t(k)]]);
+        Sums& m = sums[i];
+        if (!m.seen) m.at = c[0], m.seen = true;
+        const dvec3 a = c[0] - m.at, b = c[1] - m.at, d = c[2] - m.at;
+        m.volume6 += glm::dot(a, glm::cross(b, d));
+        m.area2 += glm::length(glm::cross(b - a, d - a));
+    }
+    const double shortEdge = floatShortAt(boxExtent(origin, spacing, cell, cell + Coord(1)));
+    bool dropping = false;
+    for (size_t i = 0; i < roots.size(); ++i) {
+        const bool thin = std::abs(sums[i].volume6) < shortEdge * sums[i].area2; // 3 V / A < shortEdge
+        whole[roots[i]] = thin ? 1 : 0;
+        dropping = dropping || thin;
+    }
+    if (!dropping) return 0;
+    CutCellGeometry kept;
+    std::vector<uint32_t> newIndex(nv, UINT32_MAX);
+    size_t removed = 0;
+    for (uint32_t v = 0; v < uint32_t(nv); ++v) {
+        if (used[v] && whole[find(v)]) {
+            ++removed;
+            continue;
+        }
+        newIndex[v] = uint32_t(kept.vertexIds.size());
+        kept.vertexIds.push_back(out.vertexIds[v]);
+        kept.indexPositions.push_back(out.indexPositions[v]);
+    }
+    size_t k = 0; // out.intoFace (ascending)
+    for (size_t t = 0; t < nt; ++t) {
+        while (k < out.intoFace.size() && out.intoFace[k] < t) ++k;
+        if (whole[find(out.indices[3 * t])]) continue;
+        if (k < out.intoFace.size() && out.intoFace[k] == t) kept.intoFace.push_back(uint32_t(kept.indices.size() / 3));
+        for (int j = 0; j < 3; ++j) kept.indices.push_back(newIndex[out.indices[3 * t + size_t(j)]]);
+        kept.cap.push_back(out.cap[t]);
+    }
+    kept.crossFree = out.crossFree;
+    out = std::move(kept);
+    return removed;
+}
+
 /// Two vertices of a cell with different tags that a round's collapse may
 /// still join: neither a copy of a pinch (kPinchTag), not copies of one
 /// point (the same name but for the tags), and on no slit on opposite sides
@@ -404,10 +506,12 @@ bool sidesAgree(const CutVertexId& a, const CutVertexId& b)
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
                         CutCellGeometry& out, bool crossings)
 {
+    if (out.cap.size() != out.indices.size() / 3)
+        throw std::logic_error("repairFloatFolds: one cap flag per triangle expected");
+    const size_t thin = dropThinShellsOfTheCell(cell, origin, spacing, out);
     const size_t nv = out.indexPositions.size(), nt = out.indices.size() / 3;
     out.crossFree = false;
-    if (out.cap.size() != nt) throw std::logic_error("repairFloatFolds: one cap flag per triangle expected");
-    if (nt == 0) return 0;
+    if (nt == 0) return thin;
     // Exact (double) and written (float) world positions, as fusedMesh.
     // Held as float: GCC 12.2 at -O2 and above folded the round trip
     // dvec3(double(float(x)), double(float(y)), ..) of the two lanes it
@@ -620,7 +724,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     }
     if (!any) {
         out.crossFree = crossings; // (crossingTriangles found none)
-        return 0;
+        return thin;
     }
 
     knowFaces();
@@ -1041,7 +1145,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         }
         if (!mended) break;
     }
-    if (!removed) return 0;
+    if (!removed) return thin;
     // Compact: drop the merged vertices (keeping the others' order) and the collapsed triangles.
     std::vector<uint32_t> newIndex(nv, UINT32_MAX);
     CutCellGeometry kept;
@@ -1058,7 +1162,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         kept.cap.push_back(out.cap[t]);
     }
     out = std::move(kept);
-    return removed;
+    return removed + thin;
 }
 
 } // namespace mtcut::cutter::remesh_detail

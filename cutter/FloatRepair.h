@@ -96,7 +96,11 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 /// kFloatStepsShort float steps can (its ends round apart across a
 /// neighbour, or a vertex just off a cell face rounds onto the face and
 /// touches the next cell's triangles), or a face's section doubles back on
-/// itself once written. Mended in two steps, both
+/// itself once written. First, in every cell, a shell of the cell's own
+/// (every vertex private to it) thinner than a short edge (3 V / A, its
+/// inradius when a tetrahedron) goes as a whole: once written it has no
+/// inside, and lies on the solid it touches (a tetrahedron 1e-7 mm thick
+/// between three slits' sides at kerf 0). Then mended in two steps, all
 /// deterministic (a function of `out` and the transform), so incremental,
 /// from-scratch and undone geometry stay equal:
 /// - a vertex inside one cell face (in a tet face there or on the face's

@@ -1277,27 +1277,33 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
     EXPECT_LT(3 * quadsWide, quads);
 }
 
-// A saw swung across its blade on the 2 mm head at kerf 0 (seed 78105, its
-// first two strokes, each cut whole): in cell (111, 56, 66) a tetrahedron of
-// the cell's own, between the sides of three slits, had a face of no area
-// once written, and the float repair's collapse of its 2e-3 mm edge crushed
-// it into two triangles lying on each other, a flat shell inside the solid
-// (checkMesh: wrong way for its nesting). Each cut is clean.
-TEST(CutPropsDefects, ASawAcrossTheBladeAtKerf0CrushesNoTetrahedron)
+// A saw swung across its blade on the 2 mm head at kerf 0, its strokes cut
+// whole one after another: each cut is clean. Seed 78105 (two strokes): in
+// cell (111, 56, 66) a tetrahedron of solid between three slits' sides had a
+// face of no area once written, and the float repair's collapse of one of
+// its edges (2e-3 mm) crushed it into two triangles lying on each other, a
+// flat shell inside the solid (checkMesh: wrong way for its nesting).
+// Seed 78119 (four strokes): a tetrahedron of solid 1e-7 mm thick between
+// three slits' sides and the isosurface, a fragment of its own, judged
+// inside the fragment whose sheets it lay on; a shell of the cell's own
+// thinner than a float step now goes as a whole.
+TEST(CutPropsDefects, ASawAcrossTheBladeAtKerf0IsCleanStrokeByStroke)
 {
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
     const vdb::Volume vol = vdb::readVolume(path);
     const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 0.0);
-    CutRemesher remesher(vol, 400.0f, uncut);
-    int stroke = 0;
-    for (const std::vector<Pose>& poses : makeSawingStrokes(uncut.positions, 78105, 2, SawMotion::Across)) {
-        SCOPED_TRACE("stroke " + std::to_string(stroke++));
-        mask.beginStroke();
-        for (const Quad& q : filterStroke(poses, mask.frame())) mask.addQuad(q);
-        ASSERT_NO_THROW(remesher.update(mask));
-        const MeshCheck check = checkMesh(remesher.fusedMesh());
-        EXPECT_TRUE(check.ok()) << check.report();
+    for (const auto& [seed, strokes] : {std::pair{78105u, 2}, std::pair{78119u, 4}}) {
+        CutMask mask(frameOf(vol), 0.0);
+        CutRemesher remesher(vol, 400.0f, uncut);
+        int stroke = 0;
+        for (const std::vector<Pose>& poses : makeSawingStrokes(uncut.positions, seed, strokes, SawMotion::Across)) {
+            SCOPED_TRACE("seed " + std::to_string(seed) + " stroke " + std::to_string(stroke++));
+            mask.beginStroke();
+            for (const Quad& q : filterStroke(poses, mask.frame())) mask.addQuad(q);
+            ASSERT_NO_THROW(remesher.update(mask));
+            const MeshCheck check = checkMesh(remesher.fusedMesh());
+            EXPECT_TRUE(check.ok()) << check.report();
+        }
     }
 }
 
