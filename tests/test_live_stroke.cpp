@@ -626,29 +626,19 @@ void expectSlidingSawAcceptedWhole(uint32_t seed, size_t stroke, size_t quadsInS
 {
     SCOPED_TRACE("seed " + std::to_string(seed) + " stroke " + std::to_string(stroke));
     MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
-    const float iso = 400.0f;
-    const vdb::Volume vol = vdb::readVolume(path);
-    const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 0.0);
-    CutRemesher remesher(vol, iso, uncut);
-    const auto strokes = makeSawingStrokes(uncut.positions, seed, int(stroke) + 1, SawMotion::Slide);
-    for (size_t s = 0; s < stroke; ++s) {
-        mask.beginStroke();
-        for (const Quad& q : filterStroke(strokes[s], mask.frame())) mask.addQuad(q);
-        remesher.update(mask);
-    }
-    const std::vector<Quad> quads = filterStroke(strokes[stroke], mask.frame());
-    ASSERT_EQ(quads.size(), quadsInStroke);
-    LiveStroke live(mask, remesher);
-    for (size_t q = 0; q < quads.size(); ++q) {
-        ASSERT_TRUE(live.add(quads[q])) << "stopped before quad " << q;
-        const LiveStroke::Result r = q + 1 < quads.size() ? live.update() : live.finish();
+    const SawMotion slide = SawMotion::Slide;
+    StrokeCut cut(path, 0.0, seed, stroke, 400.0f, &slide);
+    ASSERT_EQ(cut.quads.size(), quadsInStroke);
+    LiveStroke live(cut.mask, cut.remesher);
+    for (size_t q = 0; q < cut.quads.size(); ++q) {
+        ASSERT_TRUE(live.add(cut.quads[q])) << "stopped before quad " << q;
+        const LiveStroke::Result r = q + 1 < cut.quads.size() ? live.update() : live.finish();
         ASSERT_NE(r.outcome, LiveStroke::Outcome::Stopped) << "quad " << q << ": " << r.refusal;
         EXPECT_FALSE(r.steppedRound) << "quad " << q << ": " << r.refusal;
     }
     EXPECT_FALSE(live.stopped());
-    EXPECT_EQ(mask.quadCount(mask.strokeCount()), quads.size());
-    expectSameAsFromScratch(vol, iso, uncut, mask, remesher);
+    EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), cut.quads.size());
+    cut.expectSameAsFromScratch();
 }
 
 /// The same on `name` (in the shared data) at 400, kerf 0: the sliding
@@ -659,29 +649,19 @@ void expectSlidingSawStepAccepted(const char* name, uint32_t seed, size_t stroke
 {
     SCOPED_TRACE(std::string(name) + " seed " + std::to_string(seed) + " stroke " + std::to_string(stroke));
     MTCUT_REQUIRE_DATA(path, name);
-    const float iso = 400.0f;
-    const vdb::Volume vol = vdb::readVolume(path);
-    const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
-    CutMask mask(frameOf(vol), 0.0);
-    CutRemesher remesher(vol, iso, uncut);
-    const auto strokes = makeSawingStrokes(uncut.positions, seed, int(stroke) + 1, SawMotion::Slide);
-    for (size_t s = 0; s < stroke; ++s) {
-        mask.beginStroke();
-        for (const Quad& q : filterStroke(strokes[s], mask.frame())) mask.addQuad(q);
-        remesher.update(mask);
-    }
-    const std::vector<Quad> quads = filterStroke(strokes[stroke], mask.frame());
-    ASSERT_EQ(quads.size(), quadsInStroke);
-    mask.beginStroke();
-    for (size_t q = 0; q < step; ++q) mask.addQuad(quads[q]);
-    ASSERT_NO_THROW(remesher.update(mask)) << "the quads before " << step;
-    mask.addQuad(quads[step]);
+    const SawMotion slide = SawMotion::Slide;
+    StrokeCut cut(path, 0.0, seed, stroke, 400.0f, &slide);
+    ASSERT_EQ(cut.quads.size(), quadsInStroke);
+    cut.mask.beginStroke();
+    for (size_t q = 0; q < step; ++q) cut.mask.addQuad(cut.quads[q]);
+    ASSERT_NO_THROW(cut.remesher.update(cut.mask)) << "the quads before " << step;
+    cut.mask.addQuad(cut.quads[step]);
     try {
-        remesher.update(mask);
+        cut.remesher.update(cut.mask);
     } catch (const std::exception& e) {
         FAIL() << "quad " << step << " refused: " << e.what();
     }
-    expectSameAsFromScratch(vol, iso, uncut, mask, remesher);
+    cut.expectSameAsFromScratch();
 }
 
 } // namespace
