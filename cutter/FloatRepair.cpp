@@ -746,6 +746,15 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             if (alive[t] && (tris[t][0] == v || tris[t][1] == v || tris[t][2] == v)) list.push_back(t);
     };
     std::vector<size_t> atP, atQ;
+    // Whether one of `list`'s triangles is `v` facing the other way.
+    auto reversedAmong = [&](const std::array<uint32_t, 3>& v, const std::vector<size_t>& list) {
+        for (size_t u : list) {
+            const auto& o = tris[u];
+            for (int r = 0; r < 3; ++r)
+                if (o[size_t(r)] == v[0] && o[size_t((r + 1) % 3)] == v[2] && o[size_t((r + 2) % 3)] == v[1]) return true;
+        }
+        return false;
+    };
     auto neighbours = [&](const std::vector<size_t>& list, uint32_t v) {
         std::vector<uint32_t> n;
         for (size_t t : list)
@@ -950,14 +959,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 std::array<uint32_t, 3> moved = tris[t];
                 for (uint32_t& w : moved)
                     if (w == p) w = q;
-                bool twin = false;
-                for (size_t u : atQ) {
-                    const auto& o = tris[u];
-                    for (int r = 0; r < 3 && !twin; ++r)
-                        twin = o[size_t(r)] == moved[0] && o[size_t((r + 1) % 3)] == moved[2] &&
-                               o[size_t((r + 2) % 3)] == moved[1];
-                }
-                allCancel = twin;
+                allCancel = reversedAmong(moved, atQ);
             }
             if (allCancel) return collapseCancelling(p, q, onEdge);
         }
@@ -969,18 +971,13 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 if (w == p) w = q;
             if (folded(moved, normal[t])) return false;
             // Nor onto a triangle of q's facing the other way: the edge was
-            // one of a tetrahedron of the cell's own (the link condition
-            // holds there), which would be crushed into a shell of two
-            // triangles and no volume (2 mm head, kerf 0, sawing across the
-            // blade, seed 78105: a fold's collapse of a 2e-3 mm edge between
-            // points of three slits' sides). Along a short edge such a
-            // tetrahedron goes as a whole (above).
-            for (size_t u : atQ) {
-                const auto& o = tris[u];
-                for (int r = 0; r < 3; ++r)
-                    if (o[size_t(r)] == moved[0] && o[size_t((r + 1) % 3)] == moved[2] && o[size_t((r + 2) % 3)] == moved[1])
-                        return false;
-            }
+            // one of a tetrahedron (the link condition holds there), which
+            // would be crushed into a shell of two triangles and no volume
+            // (2 mm head, kerf 0, sawing across the blade, seed 78105: a
+            // fold's collapse of a 2e-3 mm edge between points of three
+            // slits' sides). Along a short edge such a tetrahedron goes as a
+            // whole (above).
+            if (reversedAmong(moved, atQ)) return false;
             if (intoFaceOk) continue;
             // A triangle in a cell face: the next cell may have it too.
             if (faces[moved[0]] & faces[moved[1]] & faces[moved[2]]) return false;
