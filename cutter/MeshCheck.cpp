@@ -13,6 +13,8 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
+#include <string>
+#include <tuple>
 
 namespace mtcut::cutter {
 
@@ -27,6 +29,48 @@ bool validTriangle(const Mesh& mesh, size_t t)
 bool finite(const glm::vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
 
 glm::dvec3 pos(const Mesh& mesh, uint32_t v) { return glm::dvec3(mesh.positions[v]); }
+
+/// Keeps, of each kind, the MeshCheck::kSitesPerKind sites of lowest key,
+/// ordered by kind, then key.
+void trimSites(std::vector<DefectSite>& sites)
+{
+    std::sort(sites.begin(), sites.end(), [](const DefectSite& x, const DefectSite& y) {
+        return std::tie(x.kind, x.key) < std::tie(y.kind, y.key);
+    });
+    std::vector<DefectSite> kept;
+    for (size_t i = 0, run = 0; i < sites.size(); ++i) {
+        run = i > 0 && sites[i].kind == sites[i - 1].kind ? run + 1 : 0;
+        if (run < MeshCheck::kSitesPerKind) kept.push_back(sites[i]);
+    }
+    sites = std::move(kept);
+}
+
+/// A site at triangle t (any of its valid indices' positions when
+/// `position` is null) with the voxel of t where the mesh has them.
+DefectSite siteAt(const Mesh& mesh, DefectSite::Kind kind, uint64_t key, std::string what, size_t t,
+                  const glm::dvec3* position)
+{
+    DefectSite site;
+    site.kind = kind;
+    site.key = key;
+    site.what = std::move(what);
+    if (position) {
+        site.hasPosition = true;
+        site.position = *position;
+    }
+    if (mesh.triangleVoxels.size() * 3 == mesh.indices.size() && t < mesh.triangleVoxels.size()) {
+        site.hasVoxel = true;
+        site.voxel = mesh.triangleVoxels[t];
+    }
+    return site;
+}
+
+glm::dvec3 centroid(const Mesh& mesh, size_t t)
+{
+    return (glm::dvec3(mesh.positions[mesh.indices[3 * t]]) + glm::dvec3(mesh.positions[mesh.indices[3 * t + 1]]) +
+            glm::dvec3(mesh.positions[mesh.indices[3 * t + 2]])) /
+           3.0;
+}
 
 /// Union-find with path halving.
 struct DisjointSets
@@ -281,6 +325,34 @@ size_t MeshCheck::defects() const
            degenerateTriangles + nonFiniteTriangles + negativeVolumeShells + malformedArrays;
 }
 
+const char* DefectSite::name(Kind kind)
+{
+    switch (kind) {
+    case Kind::BadIndexTriangle: return "bad_index_triangle";
+    case Kind::NonFiniteTriangle: return "non_finite_triangle";
+    case Kind::DegenerateTriangle: return "degenerate_triangle";
+    case Kind::BoundaryEdge: return "boundary_edge";
+    case Kind::NonManifoldEdge: return "non_manifold_edge";
+    case Kind::InconsistentEdge: return "inconsistent_edge";
+    case Kind::NonManifoldVertex: return "non_manifold_vertex";
+    case Kind::WrongWayShell: return "wrong_way_shell";
+    }
+    return "unknown";
+}
+
+std::string DefectSite::describe() const
+{
+    std::string label = name(kind);
+    std::replace(label.begin(), label.end(), '_', ' ');
+    std::ostringstream os;
+    os << label << " " << what;
+    os.setf(std::ios::fixed);
+    os.precision(4);
+    if (hasPosition) os << ", at (" << position.x << ", " << position.y << ", " << position.z << ") mm";
+    if (hasVoxel) os << ", voxel (" << voxel.x << ", " << voxel.y << ", " << voxel.z << ")";
+    return os.str();
+}
+
 std::string MeshCheck::report() const
 {
     std::ostringstream os;
@@ -298,6 +370,10 @@ std::string MeshCheck::report() const
        << "bad-index triangles:    " << badIndexTriangles << "\n"
        << "malformed arrays:       " << malformedArrays << "\n"
        << "defects:                " << defects() << (ok() ? " (valid)" : " (INVALID)") << "\n";
+    if (!sites.empty()) {
+        os << "where (the first " << kSitesPerKind << " of each kind):\n";
+        for (const DefectSite& site : sites) os << "  " << site.describe() << "\n";
+    }
     return os.str();
 }
 
@@ -318,26 +394,39 @@ MeshCheck checkMesh(const Mesh& mesh)
     struct Counts
     {
         size_t bad = 0, nonFinite = 0, degenerate = 0;
+        std::vector<DefectSite> sites;
     };
+    using Kind = DefectSite::Kind;
     tbb::combinable<Counts> counts;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nT, 4096), [&](const tbb::blocked_range<size_t>& range) {
         Counts& c = counts.local();
         for (size_t t = range.begin(); t != range.end(); ++t) {
+            if (c.sites.size() >= 8 * MeshCheck::kSitesPerKind) trimSites(c.sites);
+            const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], d = mesh.indices[3 * t + 2];
+            const std::string corners =
+                std::to_string(t) + " (" + std::to_string(a) + ", " + std::to_string(b) + ", " + std::to_string(d) + ")";
             if (!validTriangle(mesh, t)) {
                 ++c.bad;
+                c.sites.push_back(siteAt(mesh, Kind::BadIndexTriangle, t,
+                                         corners + ": an index past the " + std::to_string(nV) + " vertices", t, nullptr));
                 continue;
             }
-            const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], d = mesh.indices[3 * t + 2];
             if (!finite(mesh.positions[a]) || !finite(mesh.positions[b]) || !finite(mesh.positions[d])) {
                 ++c.nonFinite;
+                c.sites.push_back(siteAt(mesh, Kind::NonFiniteTriangle, t, corners, t, nullptr));
                 continue;
             }
+            const glm::dvec3 middle = centroid(mesh, t);
             if (a == b || b == d || a == d) {
                 ++c.degenerate;
+                c.sites.push_back(siteAt(mesh, Kind::DegenerateTriangle, t, corners + ": a repeated vertex", t, &middle));
                 continue;
             }
             const glm::dvec3 n = glm::cross(pos(mesh, b) - pos(mesh, a), pos(mesh, d) - pos(mesh, a));
-            if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) ++c.degenerate;
+            if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) {
+                ++c.degenerate;
+                c.sites.push_back(siteAt(mesh, Kind::DegenerateTriangle, t, corners + ": no area", t, &middle));
+            }
             usable[t] = 1;
         }
     });
@@ -345,6 +434,7 @@ MeshCheck checkMesh(const Mesh& mesh)
         r.badIndexTriangles += c.bad;
         r.nonFiniteTriangles += c.nonFinite;
         r.degenerateTriangles += c.degenerate;
+        r.sites.insert(r.sites.end(), c.sites.begin(), c.sites.end());
     });
 
     // Edges, bucketed by their lower vertex: payload = hi << 1 | (runs lo->hi).
@@ -387,6 +477,20 @@ MeshCheck checkMesh(const Mesh& mesh)
     struct EdgeCounts
     {
         size_t boundary = 0, nonManifold = 0, inconsistent = 0, nonManifoldVertices = 0, unused = 0;
+        std::vector<DefectSite> sites;
+    };
+    // A site on edge v-w (v < w): its middle, and a triangle of v's fan that has w.
+    auto edgeSite = [&](Kind kind, uint32_t v, uint32_t w, std::string what) {
+        size_t t = 0;
+        for (uint32_t f = fans.start[v]; f < fans.start[v + 1]; ++f) {
+            const size_t u = size_t(fans.values[f]);
+            if (mesh.indices[3 * u] == w || mesh.indices[3 * u + 1] == w || mesh.indices[3 * u + 2] == w) {
+                t = u;
+                break;
+            }
+        }
+        const glm::dvec3 middle = (pos(mesh, v) + pos(mesh, w)) / 2.0;
+        return siteAt(mesh, kind, uint64_t(v) << 32 | w, std::to_string(v) + "-" + std::to_string(w) + what, t, &middle);
     };
     tbb::combinable<EdgeCounts> edgeCounts;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nV, 1024), [&](const tbb::blocked_range<size_t>& range) {
@@ -402,9 +506,20 @@ MeshCheck checkMesh(const Mesh& mesh)
                 size_t forward = 0;
                 while (g != e1 && (*g >> 1) == (*e >> 1)) forward += *g++ & 1;
                 const size_t n = size_t(g - e);
-                if (n == 1) ++c.boundary;
-                else if (n > 2) ++c.nonManifold;
-                else if (forward != 1) ++c.inconsistent;
+                const uint32_t w = uint32_t(*e >> 1);
+                if (c.sites.size() >= 8 * MeshCheck::kSitesPerKind) trimSites(c.sites);
+                if (n == 1) {
+                    ++c.boundary;
+                    c.sites.push_back(edgeSite(Kind::BoundaryEdge, uint32_t(v), w, ", in 1 triangle"));
+                } else if (n > 2) {
+                    ++c.nonManifold;
+                    c.sites.push_back(
+                        edgeSite(Kind::NonManifoldEdge, uint32_t(v), w, ", in " + std::to_string(n) + " triangles"));
+                } else if (forward != 1) {
+                    ++c.inconsistent;
+                    c.sites.push_back(
+                        edgeSite(Kind::InconsistentEdge, uint32_t(v), w, ": both its triangles run it the same way"));
+                }
                 e = g;
             }
             // One fan: the triangles around v, linked through shared edges, must
@@ -439,7 +554,14 @@ MeshCheck checkMesh(const Mesh& mesh)
                     --components;
                 }
             }
-            if (components > 1) ++c.nonManifoldVertices;
+            if (components > 1) {
+                ++c.nonManifoldVertices;
+                const glm::dvec3 p = pos(mesh, uint32_t(v));
+                c.sites.push_back(siteAt(mesh, Kind::NonManifoldVertex, v,
+                                         std::to_string(v) + ": its " + std::to_string(k) + " triangles make " +
+                                             std::to_string(components) + " fans",
+                                         size_t(fans.values[f0]), &p));
+            }
         }
     });
     edgeCounts.combine_each([&](const EdgeCounts& c) {
@@ -448,18 +570,38 @@ MeshCheck checkMesh(const Mesh& mesh)
         r.inconsistentEdges += c.inconsistent;
         r.nonManifoldVertices += c.nonManifoldVertices;
         r.unusedVertices += c.unused;
+        r.sites.insert(r.sites.end(), c.sites.begin(), c.sites.end());
     });
 
     const std::vector<Shell> shells = findShells(mesh);
     r.shells = shells.size();
-    if (shells.empty()) return r;
-    const auto byShell = windingByOtherShell(mesh, shells);
-    for (size_t s = 0; s < shells.size(); ++s) {
-        int winding = 0;
-        for (const auto& w : byShell[s]) winding += w.second;
-        r.cavities += inward(shells[s]) && winding == 1;
-        r.negativeVolumeShells += !nestedRight(shells[s], winding);
+    if (!shells.empty()) {
+        const auto byShell = windingByOtherShell(mesh, shells);
+        for (size_t s = 0; s < shells.size(); ++s) {
+            int winding = 0;
+            for (const auto& w : byShell[s]) winding += w.second;
+            const Shell& shell = shells[s];
+            r.cavities += inward(shell) && winding == 1;
+            if (nestedRight(shell, winding)) continue;
+            ++r.negativeVolumeShells;
+            if (r.negativeVolumeShells > MeshCheck::kSitesPerKind) continue;
+            std::ostringstream what;
+            what << s << ": " << shell.triangles.size() << " triangles, volume " << shell.volume << " mm^3"
+                 << (shell.flat ? " (flat)" : "") << ", ";
+            if (inward(shell))
+                what << "faces inward (a cavity) but the other shells' winding number there is " << winding
+                     << ", not 1";
+            else if (outward(shell))
+                what << "faces outward but lies inside other solids (their winding number there is " << winding
+                     << ", not 0)";
+            else
+                what << "encloses nothing";
+            const size_t t = shell.triangles.front();
+            const glm::dvec3 p = centroid(mesh, t);
+            r.sites.push_back(siteAt(mesh, Kind::WrongWayShell, s, what.str(), t, &p));
+        }
     }
+    trimSites(r.sites);
     return r;
 }
 

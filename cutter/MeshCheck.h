@@ -5,6 +5,7 @@
 #include "cutter/Mesh.h"
 
 #include <glm/vec3.hpp>
+#include <glm/ext/vector_int3.hpp>
 
 #include <cstddef>
 #include <cstdint>
@@ -12,6 +13,36 @@
 #include <vector>
 
 namespace mtcut::cutter {
+
+/// Where one defect is, for a report a person can act on (open the file at
+/// that point, look at that voxel of the scan).
+struct DefectSite
+{
+    enum class Kind : uint8_t {
+        BadIndexTriangle,
+        NonFiniteTriangle,
+        DegenerateTriangle,
+        BoundaryEdge,
+        NonManifoldEdge,
+        InconsistentEdge,
+        NonManifoldVertex,
+        WrongWayShell,
+    };
+    Kind kind = Kind::BoundaryEdge;
+    /// Orders the sites of one kind: the triangle, the edge's vertices
+    /// (lower << 32 | higher), the vertex or the shell (findShells order).
+    uint64_t key = 0;
+    std::string what; ///< "edge 17-42, in 1 triangle", "shell 3: 40 triangles, ..."
+    bool hasPosition = false; ///< false for a triangle with a bad index or a non-finite vertex
+    glm::dvec3 position{0.0}; ///< world mm: an edge's middle, the vertex, a triangle's centroid
+    bool hasVoxel = false;    ///< the mesh carries triangleVoxels
+    glm::ivec3 voxel{0};      ///< the voxel whose cell made a triangle at the site
+
+    /// "snake_case" name, as in summary.json ("boundary_edge", ...).
+    static const char* name(Kind kind);
+    /// One line: "boundary edge 17-42, in 1 triangle, at (1.2500, ...) mm, voxel (3, 4, 5)".
+    std::string describe() const;
+};
 
 /// Counts of every defect checkMesh finds; all zero means a valid closed,
 /// outward-oriented 2-manifold. Triangles with an index out of range are
@@ -39,10 +70,16 @@ struct MeshCheck
     size_t cavities = 0;                ///< correctly inward-facing cavity shells, not a defect
     size_t malformedArrays = 0;         ///< indices not a multiple of 3, normals or triangleVoxels of the wrong size
 
+    /// Where: the first kSitesPerKind defects of each kind (lowest key
+    /// first), kinds in the order above; malformed arrays have no site.
+    static constexpr size_t kSitesPerKind = 5;
+    std::vector<DefectSite> sites;
+
     /// Sum of all defect counts.
     size_t defects() const;
     bool ok() const { return defects() == 0; }
-    /// Multi-line "name: count" report, one line per count.
+    /// Multi-line "name: count" report, one line per count, then one line
+    /// per site when there are defects.
     std::string report() const;
 };
 

@@ -15,6 +15,10 @@
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <cmath>
+#include <tuple>
+
+#include <tbb/parallel_sort.h>
 
 namespace mtcut::cutter {
 
@@ -112,6 +116,29 @@ std::vector<std::string> writeShells(const Mesh& mesh, const std::string& path)
         paths.push_back(out);
     }
     return paths;
+}
+
+size_t coincidentVertices(const Mesh& mesh)
+{
+    std::vector<uint32_t> order; // the finite ones (a NaN would break the sort's order)
+    order.reserve(mesh.positions.size());
+    for (uint32_t v = 0; v < uint32_t(mesh.positions.size()); ++v) {
+        const glm::vec3& p = mesh.positions[v];
+        if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) order.push_back(v);
+    }
+    auto key = [&](uint32_t v) {
+        const glm::vec3& p = mesh.positions[v];
+        return std::make_tuple(p.x, p.y, p.z);
+    };
+    tbb::parallel_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return key(a) < key(b); });
+    size_t count = 0;
+    for (size_t i = 0; i < order.size();) {
+        size_t j = i + 1;
+        while (j < order.size() && key(order[j]) == key(order[i])) ++j;
+        if (j - i > 1) count += j - i;
+        i = j;
+    }
+    return count;
 }
 
 Mesh readMesh(const std::string& path)

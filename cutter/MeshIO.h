@@ -26,6 +26,14 @@ void writeMesh(const Mesh& mesh, const std::string& path);
 /// "DIR/STEM_shell001.EXT", ... (at least three digits). Returns the paths.
 std::vector<std::string> writeShells(const Mesh& mesh, const std::string& path);
 
+/// Vertices whose position another vertex shares exactly: where the
+/// surface touches itself (the two sides of a kerf-0 cut that ends inside
+/// the solid, the fans of a pinch). OBJ, PLY and OFF keep such vertices
+/// apart; STL keeps positions only, so a reader that welds STL by position
+/// (OpenMesh's, and most others) joins them into a non-manifold surface
+/// there. Cost: a sort of the vertices (parallel).
+size_t coincidentVertices(const Mesh& mesh);
+
 /// Reads a mesh file (any of the formats above). STL vertices are merged by
 /// OpenMesh's reader where positions are equal. triangleVoxels is empty;
 /// normals are read where the file has them. Throws InputError.

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 using namespace mtcut;
 using namespace mtcut::cutter;
@@ -123,6 +124,100 @@ TEST(MeshCheck, CountsEachDefect)
         EXPECT_EQ(c.nonFiniteTriangles, 1u);
         EXPECT_EQ(c.badIndexTriangles, 1u);
         EXPECT_EQ(c.malformedArrays, 1u);
+    }
+}
+
+// A defect count alone says a mesh is broken; the sites say where, so the
+// file can be opened there and the scan's voxel looked at.
+TEST(MeshCheck, SaysWhereEachDefectIs)
+{
+    using Kind = DefectSite::Kind;
+    {   // one triangle, (1, 7, 5) on the face x = 1, removed: its three edges are open
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        m.indices.resize(m.indices.size() - 3);
+        for (int t = 0; t < 11; ++t) m.triangleVoxels.push_back(glm::ivec3(t, 20, 30));
+        const MeshCheck c = checkMesh(m);
+        ASSERT_EQ(c.sites.size(), 3u) << c.report();
+        const glm::dvec3 middles[3] = {{1.0, 0.0, 0.5}, {1.0, 0.5, 0.5}, {1.0, 0.5, 1.0}}; // 1-5, 1-7, 5-7
+        const uint64_t keys[3] = {uint64_t(1) << 32 | 5, uint64_t(1) << 32 | 7, uint64_t(5) << 32 | 7};
+        const int triangles[3] = {4, 10, 2}; // the one triangle left on each: (0, 1, 5), (1, 3, 7), (4, 5, 7)
+        for (int i = 0; i < 3; ++i) {
+            const DefectSite& site = c.sites[size_t(i)];
+            EXPECT_EQ(site.kind, Kind::BoundaryEdge);
+            EXPECT_EQ(site.key, keys[i]);
+            ASSERT_TRUE(site.hasPosition);
+            EXPECT_EQ(site.position, middles[i]);
+            ASSERT_TRUE(site.hasVoxel); // the voxel of the triangle that has the edge
+            EXPECT_EQ(site.voxel, glm::ivec3(triangles[i], 20, 30));
+        }
+        EXPECT_EQ(c.sites[0].describe(), "boundary edge 1-5, in 1 triangle, at (1.0000, 0.0000, 0.5000) mm, voxel (4, 20, 30)");
+        EXPECT_NE(c.report().find("where (the first 5 of each kind):\n  boundary edge 1-5"), std::string::npos) << c.report();
+    }
+    {   // a valid mesh has no sites, and its report no "where"
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        const MeshCheck c = checkMesh(m);
+        EXPECT_TRUE(c.sites.empty());
+        EXPECT_EQ(c.report().find("where"), std::string::npos);
+    }
+    {   // inside out, and a cavity facing outward: which shell, and why
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f, true);
+        addCube(m, glm::vec3(10.0f), 3.0f);
+        addCube(m, glm::vec3(11.0f), 1.0f);
+        const MeshCheck c = checkMesh(m);
+        ASSERT_EQ(c.sites.size(), 2u) << c.report();
+        EXPECT_EQ(c.sites[0].kind, Kind::WrongWayShell);
+        EXPECT_EQ(c.sites[0].key, 0u);
+        EXPECT_NE(c.sites[0].what.find("12 triangles, volume -1 mm^3, faces inward (a cavity) but the other shells' "
+                                       "winding number there is 0, not 1"),
+                  std::string::npos)
+            << c.sites[0].what;
+        EXPECT_EQ(c.sites[1].key, 2u);
+        EXPECT_NE(c.sites[1].what.find("faces outward but lies inside other solids (their winding number there is 1"),
+                  std::string::npos)
+            << c.sites[1].what;
+        EXPECT_FALSE(c.sites[1].hasVoxel); // no triangleVoxels
+        EXPECT_GE(c.sites[1].position.x, 11.0);
+        EXPECT_LE(c.sites[1].position.x, 12.0);
+    }
+    {   // 40 triangles of no area: counted all, the first 5 placed; a bad index has no position
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        for (int i = 0; i < 40; ++i) {
+            const uint32_t base = uint32_t(m.positions.size());
+            for (int k = 0; k < 3; ++k) m.positions.push_back(glm::vec3(float(i), float(k), 0.0f));
+            m.indices.insert(m.indices.end(), {base, base + 1, base + 2});
+        }
+        m.indices.insert(m.indices.end(), {0, 1, 999});
+        const MeshCheck c = checkMesh(m);
+        EXPECT_EQ(c.degenerateTriangles, 40u);
+        size_t degenerate = 0;
+        for (const DefectSite& site : c.sites) {
+            if (site.kind == Kind::BadIndexTriangle) {
+                EXPECT_EQ(site.key, 52u);
+                EXPECT_FALSE(site.hasPosition);
+                EXPECT_EQ(site.describe(), "bad index triangle 52 (0, 1, 999): an index past the 128 vertices");
+            }
+            if (site.kind != Kind::DegenerateTriangle) continue;
+            EXPECT_EQ(site.key, 12u + degenerate) << "the lowest triangles first";
+            EXPECT_EQ(site.position, glm::dvec3(double(degenerate), 1.0, 0.0));
+            ++degenerate;
+        }
+        EXPECT_EQ(degenerate, MeshCheck::kSitesPerKind);
+        EXPECT_EQ(c.sites.front().kind, Kind::BadIndexTriangle) << "kinds in the order of the counts";
+    }
+    {   // two cubes sharing the corner (1, 1, 1)
+        Mesh m;
+        addCube(m, glm::vec3(0.0f), 1.0f);
+        addCube(m, glm::vec3(1.0f), 1.0f);
+        for (uint32_t& i : m.indices) if (i == 8) i = 7;
+        const MeshCheck c = checkMesh(m);
+        ASSERT_EQ(c.sites.size(), 1u) << c.report();
+        EXPECT_EQ(c.sites[0].kind, Kind::NonManifoldVertex);
+        EXPECT_EQ(c.sites[0].position, glm::dvec3(1.0));
+        EXPECT_EQ(c.sites[0].what, "7: its 12 triangles make 2 fans");
     }
 }
 
@@ -341,4 +436,60 @@ TEST(MeshCli, MeshesTheHeadWithZeroDefects)
     const auto bad = mtcut::test::runMtcut("mesh " + head + " --iso 400 -o " + dir.file("x.abc"));
     EXPECT_EQ(bad.exitCode, 1);
     EXPECT_NE(bad.output.find("unknown mesh format"), std::string::npos) << bad.output;
+}
+
+// Vertices at one position: only where the surface touches itself.
+TEST(MeshIO, CountsVerticesThatShareAPosition)
+{
+    Mesh m;
+    addCube(m, glm::vec3(0.0f), 1.0f);
+    EXPECT_EQ(coincidentVertices(m), 0u);
+    addCube(m, glm::vec3(0.0f, 0.0f, 1.0f), 1.0f); // on the first one's top, with vertices of its own
+    EXPECT_EQ(coincidentVertices(m), 8u);          // the four corners of the common face, twice
+    m.positions.push_back(glm::vec3(std::nanf(""), 0.0f, 0.0f));
+    m.positions.push_back(glm::vec3(std::nanf(""), 0.0f, 0.0f));
+    EXPECT_EQ(coincidentVertices(m), 8u) << "a NaN is not a position";
+}
+
+// `mtcut check`: any mesh file, or a folder of them; exit 1 on a defect and
+// say where it is; bad arguments named.
+TEST(CheckCli, ChecksFilesAndFoldersAndSaysWhereADefectIs)
+{
+    mtcut::test::TempDir dir;
+    std::filesystem::create_directories(dir.file("good"));
+    Mesh cube;
+    addCube(cube, glm::vec3(2.0f), 2.0f);
+    writeMesh(cube, dir.file("good/a.obj"));
+    writeMesh(cube, dir.file("good/b.stl"));
+    const auto good = mtcut::test::runMtcut("check " + dir.file("good"));
+    EXPECT_EQ(good.exitCode, 0) << good.output;
+    EXPECT_NE(good.output.find("a.obj: 12 triangles, 1 shells (0 cavities), volume 8.000 mm^3, area 24.000 mm^2: valid"),
+              std::string::npos)
+        << good.output;
+    EXPECT_NE(good.output.find("2 of 2 files valid"), std::string::npos) << good.output;
+    EXPECT_EQ(good.output.find("boundary edges:"), std::string::npos) << "counts only with --report";
+    const auto report = mtcut::test::runMtcut("check " + dir.file("good/a.obj") + " --report");
+    EXPECT_EQ(report.exitCode, 0) << report.output;
+    EXPECT_NE(report.output.find("defects:                0 (valid)"), std::string::npos) << report.output;
+
+    Mesh holed = cube;
+    holed.indices.resize(holed.indices.size() - 3); // (1, 7, 5): x = 4, open along its three edges
+    writeMesh(holed, dir.file("holed.off"));
+    const auto bad = mtcut::test::runMtcut("check " + dir.file("good/a.obj") + " " + dir.file("holed.off"));
+    EXPECT_EQ(bad.exitCode, 1) << bad.output;
+    EXPECT_NE(bad.output.find("holed.off: 11 triangles, 1 shells (0 cavities)"), std::string::npos) << bad.output;
+    EXPECT_NE(bad.output.find("boundary edges:         3"), std::string::npos) << bad.output;
+    EXPECT_NE(bad.output.find(", in 1 triangle, at (4.0000, 2.0000, 3.0000) mm"), std::string::npos) << bad.output;
+    EXPECT_NE(bad.output.find("1 of 2 files valid"), std::string::npos) << bad.output;
+
+    for (const std::string& wrong : {dir.file("none.stl"), dir.file("holed.txt"), dir.file("empty")}) {
+        std::filesystem::create_directories(dir.file("empty"));
+        std::ofstream(dir.file("holed.txt")) << "not a mesh\n";
+        const auto r = mtcut::test::runMtcut("check " + wrong);
+        EXPECT_EQ(r.exitCode, 1) << r.output;
+        EXPECT_NE(r.output.find("mtcut: error: " + wrong), std::string::npos) << r.output;
+    }
+    const auto none = mtcut::test::runMtcut("check");
+    EXPECT_EQ(none.exitCode, 1) << none.output;
+    EXPECT_NE(none.output.find("usage: mtcut check"), std::string::npos) << none.output;
 }

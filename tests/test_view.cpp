@@ -308,6 +308,8 @@ TEST_F(ViewScript, AMouseStrokeCutsAndUndoes)
     const test::RunResult r = runView(mHead + " --size 640x480 --script " + dir.file("s.txt"));
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_EQ(r.output.find("error"), std::string::npos) << r.output;
+    // The mouse's zero-width stroke ends inside the bone: the saved STL's slit sides lie on each other.
+    EXPECT_NE(r.output.find("mtcut-view: warning: fragment_000.stl touches itself at "), std::string::npos) << r.output;
     const render::Frame uncut = render::readPng(shot("uncut")), cut = render::readPng(shot("cut")),
                         undone = render::readPng(shot("undone"));
     EXPECT_GT(compare(uncut, cut).different, 100u) << "the stroke should show";

@@ -103,7 +103,8 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
         const FragmentRecord& f = fragments[i];
         os << (i ? ",\n" : "\n") << "    {\"file\": " << jsonString(f.file) << ", \"triangles\": " << f.triangles
            << ", \"volume_mm3\": " << jsonNumber(f.volume) << ", \"area_mm2\": " << jsonNumber(f.area)
-           << ", \"cavities\": " << f.cavities << ", \"cut_area_mm2\": " << jsonNumber(f.cutArea) << "}";
+           << ", \"cavities\": " << f.cavities << ", \"cut_area_mm2\": " << jsonNumber(f.cutArea)
+           << ", \"coincident_vertices\": " << f.coincidentVertices << "}";
     }
     os << (fragments.empty() ? "],\n" : "\n  ],\n");
     os << "  \"min_volume_mm3\": " << jsonNumber(r.minVolumeMm3) << ",\n";
@@ -119,7 +120,22 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
        << ", \"degenerate_triangles\": " << c.degenerateTriangles
        << ", \"non_finite_triangles\": " << c.nonFiniteTriangles
        << ", \"negative_volume_shells\": " << c.negativeVolumeShells << ", \"cavities\": " << c.cavities
-       << ", \"malformed_arrays\": " << c.malformedArrays << ", \"defects\": " << c.defects() << "},\n";
+       << ", \"malformed_arrays\": " << c.malformedArrays << ", \"defects\": " << c.defects() << ", \"sites\": [";
+    for (size_t i = 0; i < c.sites.size(); ++i) {
+        const cutter::DefectSite& site = c.sites[i];
+        os << (i ? ",\n" : "\n") << "    {\"kind\": " << jsonString(cutter::DefectSite::name(site.kind))
+           << ", \"what\": " << jsonString(site.what) << ", \"position_mm\": ";
+        if (site.hasPosition)
+            os << "[" << jsonNumber(site.position.x) << ", " << jsonNumber(site.position.y) << ", "
+               << jsonNumber(site.position.z) << "]";
+        else
+            os << "null";
+        os << ", \"voxel\": ";
+        if (site.hasVoxel) os << "[" << site.voxel.x << ", " << site.voxel.y << ", " << site.voxel.z << "]";
+        else os << "null";
+        os << "}";
+    }
+    os << (c.sites.empty() ? "]},\n" : "\n  ]},\n");
     os << "  \"timings_s\": {\"read\": " << jsonNumber(t.read) << ", \"extract\": " << jsonNumber(t.extract)
        << ", \"mask\": " << jsonNumber(t.mask) << ", \"remesh\": " << jsonNumber(t.remesh)
        << ", \"check\": " << jsonNumber(t.check) << ", \"write\": " << jsonNumber(t.write)
@@ -142,6 +158,28 @@ void removeStaleFragments(const std::string& dir, const std::set<std::string>& w
 }
 
 } // namespace
+
+std::string touchingStlNote(const std::vector<FragmentRecord>& records, const std::string& format)
+{
+    if (format != "stl") return {};
+    const FragmentRecord* first = nullptr;
+    size_t files = 0, vertices = 0;
+    for (const FragmentRecord& r : records) {
+        if (r.coincidentVertices == 0) continue;
+        if (!first) first = &r;
+        ++files;
+        vertices += r.coincidentVertices;
+    }
+    if (!first) return {};
+    return first->file +
+           (files > 1 ? " and " + std::to_string(files - 1) + " other file(s) touch themselves"
+                      : std::string(" touches itself")) +
+           " at " + std::to_string(vertices) +
+           " vertices (where the two sides of a kerf-0 cut that ends inside a fragment lie on each other, or at a "
+           "pinch): STL "
+           "keeps no vertex identity, so a reader that welds it by position (most do) sees a non-manifold surface "
+           "there; OBJ, PLY and OFF keep the sides apart (summary.json \"coincident_vertices\")";
+}
 
 void checkMeshFormat(const std::string& format)
 {
@@ -197,7 +235,7 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         std::snprintf(name, sizeof name, "fragment_%03zu.%s", i, request.format.c_str());
         names[i] = name;
         written.insert(name);
-        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area, f.cavities, f.cutArea});
+        records.push_back({name, f.mesh.triangleCount(), f.volume, f.area, f.cavities, f.cutArea, 0});
         vdb::FragmentMesh fm;
         fm.worldPositions = f.mesh.positions.empty() ? nullptr : &f.mesh.positions[0].x;
         fm.vertexCount = f.mesh.positions.size();
@@ -266,12 +304,14 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
         }
         seconds = since(t);
     };
+    std::vector<size_t> coincident(fragments.size(), 0);
     std::future<void> meshesDone = std::async(std::launch::async, [&] {
         timed(timings.writeMeshes, [&] {
             for (size_t i = 0; i < fragments.size(); ++i) {
                 if (names[i].empty()) continue;
                 pollInterrupter(&sideJobs);
                 cutter::writeMesh(fragments[i].mesh, (fs::path(outDir) / names[i]).string());
+                coincident[i] = cutter::coincidentVertices(fragments[i].mesh);
             }
         });
     });
@@ -305,6 +345,8 @@ std::vector<FragmentRecord> writeCutOutputs(const CutOutputRequest& request, con
     }
     if (error) std::rethrow_exception(error);
     if (stopped) std::rethrow_exception(stopped);
+    for (size_t i = 0, r = 0; i < fragments.size(); ++i)
+        if (!names[i].empty()) records[r++].coincidentVertices = coincident[i];
     removeStaleFragments(outDir, written);
     const std::string strokePath = (fs::path(outDir) / "stroke.csv").string();
     if (!request.strokesWithoutFile.empty()) {

@@ -38,6 +38,10 @@ struct FragmentRecord
     double volume = 0.0, area = 0.0; ///< mm^3 of solid (cavities taken out), mm^2
     size_t cavities = 0;             ///< cavity shells inside the outer one
     double cutArea = 0.0;            ///< mm^2 of its surface on the blade (0: the cut did not touch it)
+    /// Vertices at a position another vertex of the fragment has
+    /// (cutter::coincidentVertices): where it touches itself. 0 for a
+    /// fragment an STL reader reads back as it is.
+    size_t coincidentVertices = 0;
 };
 
 /// What to write and what summary.json says about it.
@@ -76,6 +80,11 @@ struct CutOutputRequest
     /// is null.
     std::vector<std::vector<cutter::Pose>> strokesWithoutFile;
 };
+
+/// For fragments written as STL that touch themselves (FragmentRecord::
+/// coincidentVertices), a sentence that says which and what a reader will
+/// make of them; "" when there are none or the format keeps vertices apart.
+std::string touchingStlNote(const std::vector<FragmentRecord>& records, const std::string& format);
 
 /// Throws InputError unless `format` is stl, obj, ply or off.
 void checkMeshFormat(const std::string& format);

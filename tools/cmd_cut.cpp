@@ -285,6 +285,8 @@ int runCut(const Args& args)
     std::fflush(stdout); // warnings after the report, also when both go to one pipe
     if (const std::string note = manyQuadsNote(mostQuads, filterOptions.retraceTolerance, "--retrace 1"); !note.empty())
         std::fprintf(stderr, "mtcut: note: %s\n", note.c_str());
+    if (const std::string note = touchingStlNote(records, ext); !note.empty())
+        std::fprintf(stderr, "mtcut: warning: %s\n", note.c_str());
     if (!refused.empty())
         std::fprintf(stderr, "mtcut: warning: %zu stroke(s) cut only in part (--keep-going; summary.json \"refused\")\n",
                      refused.size());

@@ -689,6 +689,8 @@ void CutSession::save(SaveRequest request)
               std::snprintf(buf, sizeof buf, "saved %zu of %zu fragment(s) as %s, cut.vdb, slices.exr, summary.json in %.2f s",
                             written.size(), fragments.size(), request.format.c_str(), secondsSince(t0));
               message(false, buf + std::string(" to ") + request.outDir);
+              if (const std::string note = cli::touchingStlNote(written, request.format); !note.empty())
+                  message(false, "warning: " + note);
               if (!check.ok()) {
                   message(true, "warning: the cut mesh has " + std::to_string(check.defects()) + " defect(s):\n" +
                                     check.report());
