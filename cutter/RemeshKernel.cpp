@@ -2679,15 +2679,22 @@ bool RemeshKernel::splitChord(int u, int w, const QuadGeom& r, const SmallVector
     auto staysIn = [&](int prev, int cur) {
         return (mVerts[size_t(prev)].support & ~mVerts[size_t(cur)].support) == 0;
     };
+    // Each hop goes on along the line to another vertex, so a walk ends
+    // within the tet's vertices; a chord may be split by every plane of
+    // the cell (2 mm head, kerf 0, a saw swung across, 78115: 17 points of
+    // 32 quads' lines on quad 8's chord in face z = 121 of cell (98, 68,
+    // 120); a walk once stopped after 16 hops, and only the other cell of
+    // the face, where the chord is whole, took its midpoint).
+    const int maxHops = int(mVerts.size());
     a = u;
     b = w;
     for (int hops = 0, prev = w; slitInterior(a, r); ++hops) {
-        if (hops == 16 || !staysIn(prev, a)) return false;
+        if (hops == maxHops || !staysIn(prev, a)) return false;
         prev = std::exchange(a, next(a, -d));
         if (a < 0 || !keeps(a)) return false;
     }
     for (int hops = 0, prev = u; slitInterior(b, r); ++hops) {
-        if (hops == 16 || !staysIn(prev, b)) return false;
+        if (hops == maxHops || !staysIn(prev, b)) return false;
         prev = std::exchange(b, next(b, d));
         if (b < 0 || !keeps(b)) return false;
     }

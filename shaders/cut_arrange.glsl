@@ -1243,7 +1243,8 @@ int chordWalk(int from, int prev, int cls, dvec3 dir, int r)
     for (int hops = 0; cls == 2; ++hops) {
         // (On from prev through cur stays in the tet only if prev lies in
         // the smallest face that holds cur.)
-        if (hops == 16 || (vSupport(prev) & ~vSupport(cur)) != 0u) return -1;
+        // (Within the tet's vertices: each hop goes on along the line.)
+        if (hops == gVertCount || (vSupport(prev) & ~vSupport(cur)) != 0u) return -1;
         prev = cur;
         cur = chordNext(cur, dir, r);
         if (cur == -2) gFail |= kFailMidpoints;

@@ -1307,6 +1307,40 @@ TEST(CutPropsDefects, ASawAcrossTheBladeAtKerf0IsCleanStrokeByStroke)
     }
 }
 
+// A slit chord split by the lines of many quads is walked whole: the 2 mm
+// head at kerf 0, a saw swung across its blade, seed 78115, stroke 0 whole,
+// then stroke 1 to its quad 85. In face z = 121 between cells (98, 68, 120)
+// and (98, 68, 121) quad 8's chord runs between its two rim lines; in
+// (..., 120), where 32 quads cross, the lines of 17 other quads' planes and
+// sides split it into 18 pieces, in (..., 121) it is whole. splitChord's
+// walk from the piece that holds the midpoint gave up after 16 hops, so only
+// (..., 121) took the midpoint: an edge used once, the stroke stopped at
+// quad 85 of 126. A walk now goes on for as many hops as the tet has
+// vertices (each hop moves on along the line).
+TEST(CutPropsDefects, AChordSplitByTheLinesOfManyQuadsIsWalkedWhole)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher remesher(vol, 400.0f, uncut);
+    const auto strokes = makeSawingStrokes(uncut.positions, 78115, 2, SawMotion::Across);
+    for (size_t s = 0; s < 2; ++s) {
+        const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
+        if (s == 1) ASSERT_EQ(quads.size(), 126u);
+        mask.beginStroke();
+        for (size_t q = 0; q < quads.size() && (s == 0 || q <= 85); ++q) mask.addQuad(quads[q]);
+        if (s == 0) remesher.update(mask);
+    }
+    ASSERT_NO_THROW(remesher.update(mask));
+    const Mesh fused = remesher.fusedMesh();
+    const MeshCheck check = checkMesh(fused);
+    EXPECT_TRUE(check.ok()) << check.report();
+    CutRemesher scratch(vol, 400.0f, uncut);
+    scratch.update(mask);
+    EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the cut differs from a cut from scratch";
+}
+
 // Hand-made strokes on the 4 mm and 2 mm heads (straight, curved, a figure
 // eight and a loop that cross themselves, two strokes crossing, blades in the
 // grid planes x = i, y = j, z = k and through grid vertices), each on a fresh
