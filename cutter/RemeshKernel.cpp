@@ -3055,6 +3055,51 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                 for (int i : poly) centre += mVerts[size_t(nodes[size_t(ptNode[size_t(i)])].vert)].pos / double(poly.size());
                 return centre;
             };
+            auto polyEdge = [&](int a, int b) {
+                for (size_t i = 0; i < poly.size(); ++i) {
+                    const int p = poly[i], q = poly[(i + 1) % poly.size()];
+                    if ((p == a && q == b) || (p == b && q == a)) return true;
+                }
+                return false;
+            };
+            // A diagonal of the ears between two corners not this side's own.
+            auto rimDiagonal = [&](int a, int b) { return !ownCorner(a) && !ownCorner(b) && !polyEdge(a, b); };
+            // Where no centre sees the whole region: each such diagonal gets
+            // a midpoint of this side's own (named as a slit chord's midpoint,
+            // tagged with the side), the two ears on it split in two each, so
+            // the two sides share no edge across the slit (tooth at 400, kerf
+            // 0, a saw swung across, seed 79002, stroke 1, quad 34: a reflex
+            // cap region of eight corners in cell (20, 9, 130), tet 0, whose
+            // ears on both sides joined the same two rim points).
+            auto splitRimDiagonals = [&] {
+                for (size_t t = 0; t + 2 < tris.size(); t += 3)
+                    for (size_t c = 0; c < 3; ++c) {
+                        const int a = tris[t + c], b = tris[t + (c + 1) % 3];
+                        if (!rimDiagonal(a, b)) continue;
+                        const Vert &va = mVerts[size_t(nodes[size_t(ptNode[size_t(a)])].vert)],
+                                   &vb = mVerts[size_t(nodes[size_t(ptNode[size_t(b)])].vert)];
+                        const dvec3 mid = 0.5 * (va.pos + vb.pos);
+                        const uint64_t ha = midpointWord(va.key), hb = midpointWord(vb.key);
+                        const uint8_t sup = uint8_t(va.support | vb.support); // (makeSteiner may move mVerts)
+                        const int mv = makeSteiner(sup, {kMid, r.cap->id, std::min(ha, hb), std::max(ha, hb)}, mid);
+                        Tags tags{sideTag};
+                        const int mn = nodeOf(mv, tags);
+                        pts.push_back({glm::dot(mid, e1), glm::dot(mid, e2)});
+                        ptNode.push_back(mn);
+                        const int m = int(pts.size() - 1);
+                        // Both ears on a -> b (this one, and the one on b -> a) split at m.
+                        for (size_t u = 0; u + 2 < tris.size(); u += 3)
+                            for (size_t k = 0; k < 3; ++k) {
+                                const int x = tris[u + k], y = tris[u + (k + 1) % 3], z = tris[u + (k + 2) % 3];
+                                if (!((x == a && y == b) || (x == b && y == a))) continue;
+                                tris[u] = x;
+                                tris[u + 1] = m;
+                                tris[u + 2] = z;
+                                tris.insert(tris.end(), {m, y, z});
+                                break;
+                            }
+                    }
+            };
             if (convex && poly.size() == 3 && std::any_of(poly.begin(), poly.end(), ownCorner)) {
                 tris.insert(tris.end(), poly.begin(), poly.end());
             } else if (lone) {
@@ -3071,12 +3116,20 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                 // A cap region with a reflex corner at zero kerf, ear-clipped:
                 // an ear none of whose corners is this side's own may be the
                 // other side's ear too (the same three rim points: a triangle
-                // shared back to back; body CT at 150 HU, seed 16285). Then a
-                // fan from the tagged centre where the region is star-shaped
-                // from it; else the ears stand (and the local check judges).
+                // shared back to back; body CT at 150 HU, seed 16285), and so
+                // may a diagonal between two such corners (below). Then a fan
+                // from the tagged centre where the region is star-shaped from
+                // it; else each such diagonal split at a midpoint of the
+                // side's own (splitRimDiagonals).
                 bool shared = false;
                 for (size_t t = 0; t + 2 < tris.size() && !shared; t += 3)
                     shared = !ownCorner(tris[t]) && !ownCorner(tris[t + 1]) && !ownCorner(tris[t + 2]);
+                // So may a diagonal between two corners not this side's own
+                // (a chord across the slit from rim to rim: the other side's
+                // ears of other corners may have it too, the edge then used
+                // by both sides).
+                for (size_t t = 0; t + 2 < tris.size() && !shared; t += 3)
+                    for (size_t c = 0; c < 3 && !shared; ++c) shared = rimDiagonal(tris[t + c], tris[t + (c + 1) % 3]);
                 if (shared) {
                     const dvec3 centre = cornerMean();
                     const Vec2 c{glm::dot(centre, e1), glm::dot(centre, e2)};
@@ -3088,6 +3141,8 @@ void RemeshKernel::triangulateRegions(const SmallVector<char, 64>& corner, CutCe
                     if (star) {
                         tris.clear();
                         centreFan(centre);
+                    } else {
+                        splitRimDiagonals();
                     }
                 }
             }

@@ -571,6 +571,60 @@ bool centreFan(int r, int q, int n, dvec3 e1, dvec3 e2, dvec3 centre)
     return true;
 }
 
+/// triangulateRegions' rimDiagonal: the ears' edge between poly2 points a
+/// and b joins two corners neither of which has the side's tag `own`, and
+/// is no edge of the region's n corners (poly2Poly).
+bool rimDiagonal(int a, int b, int n, uint64_t own)
+{
+    if (nodeHasTag(gPtNode[a], own) || nodeHasTag(gPtNode[b], own)) return false;
+    for (int i = 0; i < n; ++i) {
+        const int p = poly2Poly[i], c = poly2Poly[(i + 1) % n];
+        if ((p == a && c == b) || (p == b && c == a)) return false;
+    }
+    return true;
+}
+
+/// triangulateRegions' splitRimDiagonals: each such diagonal of the ears of
+/// cap region r of quad q gets a midpoint tagged with the region's side
+/// (named as a slit chord's midpoint), the two ears on it split in two
+/// each. False when a table is full (gFail set).
+bool splitRimDiagonals(int r, int q, int n, dvec3 e1, dvec3 e2)
+{
+    const uint64_t own = sideTag(q, gRegionSide(r));
+    for (int t = 0; t + 2 < poly2TriCount; t += 3)
+        for (int c = 0; c < 3; ++c) {
+            const int a = poly2Tri[t + c], b = poly2Tri[t + (c + 1) % 3];
+            if (!rimDiagonal(a, b, n, own)) continue;
+            const int va = gNodeVert(gPtNode[a]), vb = gNodeVert(gPtNode[b]);
+            const uint64_t ha = midpointWord(va), hb = midpointWord(vb);
+            const uvec2 o = uvec2(0u);
+            uvec2 planes[8] = uvec2[8](b64(kMid), b64(kQuads[q].id), b64(min(ha, hb)), b64(max(ha, hb)), o, o, o, o);
+            precise dvec3 mid = 0.5lf * (gVPos(va) + gVPos(vb));
+            const int mv = makeSteiner(vSupport(va) | vSupport(vb), planes, 4, mid);
+            if (mv < 0) return false;
+            const int mn = nodeOf(mv, own, 0ul, 0ul, 0ul, 1);
+            if (mn < 0) return false;
+            const int m = poly2AddPoint(dvec2(dot3(mid, e1), dot3(mid, e2)));
+            if (m < 0) {
+                gFail |= kFailRegions;
+                return false;
+            }
+            gPtNode[m] = mn;
+            for (int u = 0; u + 2 < poly2TriCount; u += 3)
+                for (int k = 0; k < 3; ++k) {
+                    const int x = poly2Tri[u + k], y = poly2Tri[u + (k + 1) % 3], z = poly2Tri[u + (k + 2) % 3];
+                    if (!((x == a && y == b) || (x == b && y == a))) continue;
+                    poly2Tri[u] = x;
+                    poly2Tri[u + 1] = m;
+                    poly2Tri[u + 2] = z;
+                    poly2AddTri(m, y, z);
+                    break;
+                }
+        }
+    if (poly2Overflow) gFail |= kFailRegions;
+    return !poly2Overflow;
+}
+
 /// RemeshKernel::triangulateRegions for region r.
 void triangulateRegion(int r)
 {
@@ -714,13 +768,18 @@ void triangulateRegion(int r)
             }
             if (plainCap) {
                 // A reflex cap region at zero kerf: an ear with no corner of
-                // its own side may be the other side's too; then a fan from
-                // the tagged centre where the region is star-shaped from it.
+                // its own side, or a diagonal between two such corners, may be
+                // the other side's too; then a fan from the tagged centre
+                // where the region is star-shaped from it, else each such
+                // diagonal split at a midpoint of the side's own.
                 const uint64_t own = sideTag(q, gRegionSide(r));
                 bool sharedEar = false;
                 for (int t = 0; t + 2 < poly2TriCount && !sharedEar; t += 3)
                     sharedEar = !nodeHasTag(gPtNode[poly2Tri[t]], own) && !nodeHasTag(gPtNode[poly2Tri[t + 1]], own) &&
                              !nodeHasTag(gPtNode[poly2Tri[t + 2]], own);
+                for (int t = 0; t + 2 < poly2TriCount && !sharedEar; t += 3)
+                    for (int c = 0; c < 3 && !sharedEar; ++c)
+                        sharedEar = rimDiagonal(poly2Tri[t + c], poly2Tri[t + (c + 1) % 3], n, own);
                 if (sharedEar) {
                     const dvec3 centre = cornerMean(n);
                     const dvec2 c = dvec2(dot3(centre, e1), dot3(centre, e2));
@@ -733,6 +792,8 @@ void triangulateRegion(int r)
                     if (star) {
                         poly2TriCount = 0;
                         if (!centreFan(r, q, n, e1, e2, centre)) return;
+                    } else if (!splitRimDiagonals(r, q, n, e1, e2)) {
+                        return;
                     }
                 }
             }

@@ -1341,6 +1341,58 @@ TEST(CutPropsDefects, AChordSplitByTheLinesOfManyQuadsIsWalkedWhole)
     EXPECT_TRUE(sameMesh(scratch.fusedMesh(), fused)) << "the cut differs from a cut from scratch";
 }
 
+// A reflex cap region at kerf 0 whose ear clipping joins two rim points of
+// its quad by a diagonal: the other side's region has the same corners and
+// its ears the same diagonal, an edge used by both sides of the slit (twice
+// each way). The tooth at 400, kerf 0, a saw swung across, seed 79002: quad
+// 20 of stroke 1 in cell (20, 9, 130), tet 0, a region of eight corners
+// bounded by quads 26 and 27, which no centre sees whole; the stroke stepped
+// round there. Each such diagonal now gets a midpoint of the side's own. Cut
+// with those three quads alone, and as the sweep cut it: stroke 0 whole,
+// then stroke 1 to its quad 34.
+TEST(CutPropsDefects, ARimToRimDiagonalOfACapIsSplitOnEachSide)
+{
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const Mesh uncut = extractIsosurface(vol, 400.0f, IsosurfaceOptions{nullptr, false});
+    const auto strokes = makeSawingStrokes(uncut.positions, 79002, 2, SawMotion::Across);
+    auto expectClean = [&](const CutMask& mask, const char* what) -> Mesh {
+        SCOPED_TRACE(what);
+        CutRemesher remesher(vol, 400.0f, uncut);
+        try {
+            remesher.update(mask);
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << "refused: " << e.what();
+            return Mesh();
+        }
+        const MeshCheck check = checkMesh(remesher.fusedMesh());
+        EXPECT_TRUE(check.ok()) << check.report();
+        return remesher.fusedMesh();
+    };
+    {
+        CutMask mask(frameOf(vol), 0.0);
+        const std::vector<Quad> quads = filterStroke(strokes[1], mask.frame());
+        ASSERT_EQ(quads.size(), 101u);
+        mask.beginStroke();
+        mask.addQuad(quads[20]);
+        mask.beginStroke();
+        mask.addQuad(quads[26]);
+        mask.addQuad(quads[27]);
+        expectClean(mask, "quad 20, then quads 26 and 27");
+    }
+    CutMask mask(frameOf(vol), 0.0);
+    CutRemesher live(vol, 400.0f, uncut);
+    for (size_t s = 0; s < 2; ++s) {
+        const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
+        mask.beginStroke();
+        for (size_t q = 0; q < quads.size() && (s == 0 || q <= 34); ++q) mask.addQuad(quads[q]);
+        if (s == 0) live.update(mask);
+    }
+    ASSERT_NO_THROW(live.update(mask));
+    EXPECT_TRUE(sameMesh(live.fusedMesh(), expectClean(mask, "stroke 0, stroke 1 to quad 34")))
+        << "the cut differs from a cut from scratch";
+}
+
 // Hand-made strokes on the 4 mm and 2 mm heads (straight, curved, a figure
 // eight and a loop that cross themselves, two strokes crossing, blades in the
 // grid planes x = i, y = j, z = k and through grid vertices), each on a fresh

@@ -1257,3 +1257,29 @@ TEST(CutKernelGpu, AChordsWalkPassesAPointOffItsLineByTheTieAsTheCpu)
         expectGpuTetsAsTheCpu(vol, 400.0f, mask, at, 1);
     }
 }
+
+// A reflex cap region whose ears on both sides of the slit join the same
+// two rim points (CutPropsDefects.ARimToRimDiagonalOfACapIsSplitOnEachSide):
+// the tooth at 400, kerf 0, a saw swung across, seed 79002, of stroke 1's
+// quads 20 alone and 26-27 as a stroke of their own. In tet 0 of cell (20,
+// 9, 130) quad 20's cap region on each side is split at its rim-to-rim
+// diagonals' midpoints, the GPU's as the CPU's (with the eleven quads that
+// cross the cell in the stroke itself that tet meets llvmpipe's loop limit).
+TEST(CutKernelGpu, ARimToRimDiagonalOfACapIsSplitAsTheCpu)
+{
+    MTCUT_REQUIRE_GL();
+    MTCUT_REQUIRE_DATA(path, "tooth.nhdr");
+    const vdb::Volume vol = vdb::readVolume(path);
+    const cutter::Mesh uncut = cutter::extractIsosurface(vol, 400.0f, cutter::IsosurfaceOptions{nullptr, false});
+    CutMask mask(cutter::frameOf(vol), 0.0);
+    const auto strokes = cutter::makeSawingStrokes(uncut.positions, 79002, 2, cutter::SawMotion::Across);
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[1], mask.frame());
+    ASSERT_EQ(quads.size(), 101u);
+    mask.beginStroke();
+    mask.addQuad(quads[20]);
+    mask.beginStroke();
+    mask.addQuad(quads[26]);
+    mask.addQuad(quads[27]);
+    expectGpuTetsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(20, 9, 130), 5);
+    expectGpuCellsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(20, 9, 130), false, "tooth, sawing across seed 79002");
+}
