@@ -94,4 +94,22 @@ inline void addFoldedStroke(cutter::CutMask& mask, bool normalsAgree, bool strai
     }
 }
 
+/// Of the tooth's (at 400) saw swung across its blade, seed 79002 (poses
+/// `strokes`, made on its isosurface), stroke 1's quads 20 alone and 26-27
+/// as a stroke of their own, added to an empty zero-kerf mask: a reflex cap
+/// region of quad 20 in cell (20, 9, 130), tet 0, whose ears on both sides
+/// join two rim points (CutPropsDefects.ARimToRimDiagonalOfACapIsSplitOnEachSide).
+/// False when the stroke's quads are not the 101 expected.
+inline bool addRimDiagonalQuads(cutter::CutMask& mask, const std::vector<std::vector<cutter::Pose>>& strokes)
+{
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[1], mask.frame());
+    if (quads.size() != 101) return false;
+    mask.beginStroke();
+    mask.addQuad(quads[20]);
+    mask.beginStroke();
+    mask.addQuad(quads[26]);
+    mask.addQuad(quads[27]);
+    return true;
+}
+
 } // namespace mtcut::test

@@ -1371,13 +1371,7 @@ TEST(CutPropsDefects, ARimToRimDiagonalOfACapIsSplitOnEachSide)
     };
     {
         CutMask mask(frameOf(vol), 0.0);
-        const std::vector<Quad> quads = filterStroke(strokes[1], mask.frame());
-        ASSERT_EQ(quads.size(), 101u);
-        mask.beginStroke();
-        mask.addQuad(quads[20]);
-        mask.beginStroke();
-        mask.addQuad(quads[26]);
-        mask.addQuad(quads[27]);
+        ASSERT_TRUE(test::addRimDiagonalQuads(mask, strokes));
         expectClean(mask, "quad 20, then quads 26 and 27");
     }
     CutMask mask(frameOf(vol), 0.0);

@@ -1273,13 +1273,7 @@ TEST(CutKernelGpu, ARimToRimDiagonalOfACapIsSplitAsTheCpu)
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 400.0f, cutter::IsosurfaceOptions{nullptr, false});
     CutMask mask(cutter::frameOf(vol), 0.0);
     const auto strokes = cutter::makeSawingStrokes(uncut.positions, 79002, 2, cutter::SawMotion::Across);
-    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[1], mask.frame());
-    ASSERT_EQ(quads.size(), 101u);
-    mask.beginStroke();
-    mask.addQuad(quads[20]);
-    mask.beginStroke();
-    mask.addQuad(quads[26]);
-    mask.addQuad(quads[27]);
+    ASSERT_TRUE(test::addRimDiagonalQuads(mask, strokes));
     expectGpuTetsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(20, 9, 130), 5);
     expectGpuCellsAsTheCpu(vol, 400.0f, mask, openvdb::Coord(20, 9, 130), false, "tooth, sawing across seed 79002");
 }
