@@ -340,12 +340,25 @@ const char* DefectSite::name(Kind kind)
     return "unknown";
 }
 
+const char* DefectSite::label(Kind kind)
+{
+    switch (kind) {
+    case Kind::BadIndexTriangle: return "bad-index triangle";
+    case Kind::NonFiniteTriangle: return "non-finite triangle";
+    case Kind::DegenerateTriangle: return "degenerate triangle";
+    case Kind::BoundaryEdge: return "boundary edge";
+    case Kind::NonManifoldEdge: return "non-manifold edge";
+    case Kind::InconsistentEdge: return "inconsistent edge";
+    case Kind::NonManifoldVertex: return "non-manifold vertex";
+    case Kind::WrongWayShell: return "wrong-way shell";
+    }
+    return "unknown";
+}
+
 std::string DefectSite::describe() const
 {
-    std::string label = name(kind);
-    std::replace(label.begin(), label.end(), '_', ' ');
     std::ostringstream os;
-    os << label << " " << what;
+    os << label(kind) << " " << what;
     os.setf(std::ios::fixed);
     os.precision(4);
     if (hasPosition) os << ", at (" << position.x << ", " << position.y << ", " << position.z << ") mm";

@@ -40,6 +40,8 @@ struct DefectSite
 
     /// "snake_case" name, as in summary.json ("boundary_edge", ...).
     static const char* name(Kind kind);
+    /// As the report words it ("boundary edge", "non-manifold vertex", ...).
+    static const char* label(Kind kind);
     /// One line: "boundary edge 17-42, in 1 triangle, at (1.2500, ...) mm, voxel (3, 4, 5)".
     std::string describe() const;
 };

@@ -149,7 +149,14 @@ Mesh readMesh(const std::string& path)
     om.request_vertex_normals();
     OpenMesh::IO::Options options;
     options += OpenMesh::IO::Options::VertexNormal;
-    if (!OpenMesh::IO::read_mesh(om, path, options)) throw InputError(path + ": cannot read the mesh");
+    // The reader gives a face it cannot add to a manifold mesh its own copies
+    // of the vertices and says so on stderr, once a face ("complex edge",
+    // thousands for a damaged file); checkMesh reports such faces (open
+    // edges), so the reader is kept quiet.
+    omerr().disable();
+    const bool read = OpenMesh::IO::read_mesh(om, path, options);
+    omerr().enable();
+    if (!read) throw InputError(path + ": cannot read the mesh");
     Mesh mesh;
     mesh.positions.reserve(om.n_vertices());
     for (const auto v : om.vertices()) {

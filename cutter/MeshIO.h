@@ -35,7 +35,9 @@ std::vector<std::string> writeShells(const Mesh& mesh, const std::string& path);
 size_t coincidentVertices(const Mesh& mesh);
 
 /// Reads a mesh file (any of the formats above). STL vertices are merged by
-/// OpenMesh's reader where positions are equal. triangleVoxels is empty;
+/// OpenMesh's reader where positions are equal; a face its half-edge mesh
+/// cannot take (non-manifold there) gets vertices of its own, so it reads
+/// back with open edges. triangleVoxels is empty;
 /// normals are read where the file has them. Throws InputError.
 Mesh readMesh(const std::string& path);
 

@@ -198,7 +198,7 @@ TEST(MeshCheck, SaysWhereEachDefectIs)
             if (site.kind == Kind::BadIndexTriangle) {
                 EXPECT_EQ(site.key, 52u);
                 EXPECT_FALSE(site.hasPosition);
-                EXPECT_EQ(site.describe(), "bad index triangle 52 (0, 1, 999): an index past the 128 vertices");
+                EXPECT_EQ(site.describe(), "bad-index triangle 52 (0, 1, 999): an index past the 128 vertices");
             }
             if (site.kind != Kind::DegenerateTriangle) continue;
             EXPECT_EQ(site.key, 12u + degenerate) << "the lowest triangles first";
