@@ -63,6 +63,12 @@ void toOpenMesh(const Mesh& mesh, OMesh& om)
 
 } // namespace
 
+bool hasMeshExtension(const std::string& path)
+{
+    const std::string ext = lowerExtension(path);
+    return ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".off";
+}
+
 MeshFormat meshFormatFromPath(const std::string& path)
 {
     const std::string ext = lowerExtension(path);

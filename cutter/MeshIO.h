@@ -10,6 +10,9 @@ namespace mtcut::cutter {
 
 enum class MeshFormat { Stl, Obj, Ply, Off };
 
+/// Whether the path ends in .stl, .obj, .ply or .off (any case).
+bool hasMeshExtension(const std::string& path);
+
 /// The format from the extension (.stl .obj .ply .off, any case); throws
 /// InputError naming the path for anything else.
 MeshFormat meshFormatFromPath(const std::string& path);

@@ -5,7 +5,6 @@
 #include "tools/Cli.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -16,13 +15,6 @@ namespace mtcut::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool isMeshFile(const fs::path& p)
-{
-    std::string ext = p.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return ext == ".stl" || ext == ".obj" || ext == ".ply" || ext == ".off";
-}
 
 /// The files to check: each argument a mesh file, or a folder whose mesh
 /// files (by extension) are taken in name order. Everything is looked up
@@ -35,7 +27,7 @@ std::vector<std::string> meshFiles(const std::vector<std::string>& arguments)
         if (fs::is_directory(a, ec)) {
             std::vector<std::string> inFolder;
             for (const fs::directory_entry& e : fs::directory_iterator(a, ec))
-                if (e.is_regular_file(ec) && isMeshFile(e.path())) inFolder.push_back(e.path().string());
+                if (e.is_regular_file(ec) && cutter::hasMeshExtension(e.path().string())) inFolder.push_back(e.path().string());
             if (ec) throw InputError(a + ": cannot list the folder: " + ec.message());
             if (inFolder.empty()) throw InputError(a + ": no mesh files (.stl .obj .ply .off) in the folder");
             std::sort(inFolder.begin(), inFolder.end());
