@@ -416,29 +416,32 @@ MeshCheck checkMesh(const Mesh& mesh)
         for (size_t t = range.begin(); t != range.end(); ++t) {
             if (c.sites.size() >= 8 * MeshCheck::kSitesPerKind) trimSites(c.sites);
             const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], d = mesh.indices[3 * t + 2];
-            const std::string corners =
-                std::to_string(t) + " (" + std::to_string(a) + ", " + std::to_string(b) + ", " + std::to_string(d) + ")";
+            auto corners = [&] { // (made only for a defect: this loop runs over every triangle)
+                return std::to_string(t) + " (" + std::to_string(a) + ", " + std::to_string(b) + ", " +
+                       std::to_string(d) + ")";
+            };
             if (!validTriangle(mesh, t)) {
                 ++c.bad;
                 c.sites.push_back(siteAt(mesh, Kind::BadIndexTriangle, t,
-                                         corners + ": an index past the " + std::to_string(nV) + " vertices", t, nullptr));
+                                         corners() + ": an index past the " + std::to_string(nV) + " vertices", t, nullptr));
                 continue;
             }
             if (!finite(mesh.positions[a]) || !finite(mesh.positions[b]) || !finite(mesh.positions[d])) {
                 ++c.nonFinite;
-                c.sites.push_back(siteAt(mesh, Kind::NonFiniteTriangle, t, corners, t, nullptr));
+                c.sites.push_back(siteAt(mesh, Kind::NonFiniteTriangle, t, corners(), t, nullptr));
                 continue;
             }
-            const glm::dvec3 middle = centroid(mesh, t);
             if (a == b || b == d || a == d) {
                 ++c.degenerate;
-                c.sites.push_back(siteAt(mesh, Kind::DegenerateTriangle, t, corners + ": a repeated vertex", t, &middle));
+                const glm::dvec3 middle = centroid(mesh, t);
+                c.sites.push_back(siteAt(mesh, Kind::DegenerateTriangle, t, corners() + ": a repeated vertex", t, &middle));
                 continue;
             }
             const glm::dvec3 n = glm::cross(pos(mesh, b) - pos(mesh, a), pos(mesh, d) - pos(mesh, a));
             if (n.x == 0.0 && n.y == 0.0 && n.z == 0.0) {
                 ++c.degenerate;
-                c.sites.push_back(siteAt(mesh, Kind::DegenerateTriangle, t, corners + ": no area", t, &middle));
+                const glm::dvec3 middle = centroid(mesh, t);
+                c.sites.push_back(siteAt(mesh, Kind::DegenerateTriangle, t, corners() + ": no area", t, &middle));
             }
             usable[t] = 1;
         }
