@@ -28,7 +28,8 @@
 //
 // Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
 //                      [--turn W] [--saw across|slide|both] [--tremor MM]
-//                      [--retrace VOXELS] [--mode live|quad|stroke] [--threads N]
+//                      [--retrace VOXELS] [--turn-crossing-sticks on|off]
+//                      [--mode live|quad|stroke] [--threads N]
 // VOLUME is anything `mtcut` reads (a DICOM folder, .nhdr, .nii.gz, ...).
 // Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, turn 0.05, live,
 // one thread.
@@ -45,6 +46,9 @@
 //
 // --retrace: the path filter's retrace tolerance in voxels
 // (PathFilterOptions::retraceTolerance, default 0.25; `mtcut cut --retrace`).
+//
+// --turn-crossing-sticks: the path filter's rule 3 (a')
+// (PathFilterOptions::turnCrossingSticks; default off, as there).
 #include "benchmarks/BenchUtil.h"
 #include "cutter/BladePath.h"
 #include "cutter/CutMask.h"
@@ -85,8 +89,8 @@ struct Totals
 {
     std::fprintf(stderr,
                  "bench_strokes: %s\nusage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N] "
-                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--retrace VOXELS] [--mode live|quad|stroke] "
-                 "[--threads N]\n",
+                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--retrace VOXELS] [--turn-crossing-sticks on|off] "
+                 "[--mode live|quad|stroke] [--threads N]\n",
                  why);
     std::exit(2);
 }
@@ -142,6 +146,11 @@ int main(int argc, char** argv)
         } else if (a == "--tremor") {
             tremor = std::strtod(v, &end);
             if (!(tremor >= 0.0 && tremor <= 10.0)) usage("--tremor wants 0 to 10 mm");
+        } else if (a == "--turn-crossing-sticks") {
+            const std::string on(v);
+            if (on != "on" && on != "off") usage("--turn-crossing-sticks wants on or off");
+            filterOptions.turnCrossingSticks = on == "on";
+            end = const_cast<char*>(v) + on.size();
         } else if (a == "--retrace") {
             filterOptions.retraceTolerance = std::strtod(v, &end);
             if (!(filterOptions.retraceTolerance >= 0.0 && filterOptions.retraceTolerance <= kMaxRetraceTolerance))
@@ -170,9 +179,10 @@ int main(int argc, char** argv)
     const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
     const IndexFrame frame = frameOf(vol);
     const char* modeName = mode == Mode::Live ? "live" : mode == Mode::Quad ? "quad" : "stroke";
-    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g retrace=%g mode=%s threads=%d uncut_tris=%zu\n",
-                path.c_str(), double(iso), kerf, seedLo, seedHi, strokes, turn, filterOptions.retraceTolerance, modeName,
-                threads, uncut.triangleCount());
+    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g retrace=%g turn_crossing_sticks=%s mode=%s "
+                "threads=%d uncut_tris=%zu\n",
+                path.c_str(), double(iso), kerf, seedLo, seedHi, strokes, turn, filterOptions.retraceTolerance,
+                filterOptions.turnCrossingSticks ? "on" : "off", modeName, threads, uncut.triangleCount());
     std::fflush(stdout);
     Totals total;
     const auto t0 = bench::Clock::now();

@@ -57,6 +57,21 @@ double extent(const Quad& q)
     return maxAbs(hi - lo);
 }
 
+/// Whether the two sticks of quad q (corners base0, tip0, tip1, base1, one
+/// plane) cross each other: the blade turned about a point of itself between
+/// the two poses. The outline then crosses itself, and its hull, which the
+/// re-mesher cuts, has the sticks as diagonals, not edges.
+bool sticksCross(const Quad& q)
+{
+    if (q.degenerate || q.cornerCount != 4) return false;
+    const std::array<glm::dvec3, 4>& c = q.corners;
+    auto orient = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& x) {
+        return glm::dot(glm::cross(b - a, x - a), q.normal);
+    };
+    return orient(c[0], c[1], c[3]) * orient(c[0], c[1], c[2]) < 0.0 &&
+           orient(c[3], c[2], c[0]) * orient(c[3], c[2], c[1]) < 0.0;
+}
+
 } // namespace
 
 Quad makeQuad(const glm::dvec3* corners, uint32_t count, uint32_t stick)
@@ -210,14 +225,15 @@ bool PathFilter::place(const Stick& s1, std::vector<Quad>& quads)
             // the step sweeps bone up to the cut unless it lies in the cut.
             std::vector<Quad> entry;
             Stick kept;
-            makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), entry, kept);
+            Quad swept;
+            makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), entry, kept, &swept);
             if (!coveredByCut(entry, !mLastKeptNear || mEntering)) {
                 const size_t quadsBefore = quads.size();
                 quads.insert(quads.end(), entry.begin(), entry.end());
                 mSticks.push_back(kept);
                 mLastQuads.clear();
                 for (size_t i = quadsBefore; i < quads.size(); ++i)
-                    if (indexQuad(quads[i])) mLastQuads.push_back(mQuads.back());
+                    if (indexQuad(swept.cornerCount ? swept : quads[i])) mLastQuads.push_back(mQuads.back());
                 mLastKeptNear = true;
                 mLastKeptInside = inside;
                 mEntering = !inside;
@@ -254,10 +270,11 @@ bool PathFilter::place(const Stick& s1, std::vector<Quad>& quads)
         }
         mHaveRetraced = mHaveRetracedInside = false;
     }
-    appendQuads(s1, quads);
+    Quad swept;
+    appendQuads(s1, quads, &swept);
     mLastQuads.clear();
     for (size_t i = quadsBefore; i < quads.size(); ++i)
-        if (indexQuad(quads[i])) mLastQuads.push_back(mQuads.back());
+        if (indexQuad(swept.cornerCount ? swept : quads[i])) mLastQuads.push_back(mQuads.back());
     mLastKeptNear = mLastKeptInside = mEntering = false;
     return true;
 }
@@ -448,16 +465,17 @@ bool PathFilter::retraces(const Stick& s, bool* inside, bool* older) const
     return found;
 }
 
-void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads)
+void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads, Quad* swept)
 {
     Stick kept;
-    makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), quads, kept);
+    makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), quads, kept, swept);
     mSticks.push_back(kept);
 }
 
-void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads,
-                           Stick& kept) const
+void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads, Stick& kept,
+                           Quad* swept) const
 {
+    if (swept) swept->cornerCount = 0;
     auto quadOf = [&](const Stick& a, const Stick& b) {
         const glm::dvec3 c[4] = {a.base, a.tip(), b.tip(), b.base};
         return makeQuad(c, 4, stickIndex);
@@ -466,10 +484,37 @@ void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex
         return planarityError(q) <= mOptions.planarTolerance * (extent(q) + 1.0);
     };
 
+    // (a') A stick that crosses the last one (the blade turned about a point
+    // of itself: a saw sliding along its own line with the least tremor)
+    // is turned about its base to the last one's direction when that is
+    // within maxTwist: the quad is then a trapezoid whose edges are its two
+    // sticks, so it joins the quads before and after it. The hull of the
+    // crossed outline, which the re-mesher would cut instead, has neither
+    // stick as an edge: it lay over its neighbours, nearly in their plane, as
+    // a quad of its own (2 mm head, kerf 0, sawing along the blade, seeds
+    // 75101 and 75107: "coplanar overlapping quads"). Off by default
+    // (PathFilterOptions::turnCrossingSticks says why). The user's quad is
+    // what rule 2b tests later sticks against (*swept): the blade went there.
+    auto uncross = [&](Quad& q, Stick& k) {
+        if (!mOptions.turnCrossingSticks || !sticksCross(q)) return;
+        const double angle = std::atan2(glm::length(glm::cross(s1.direction, s0.direction)),
+                                        glm::dot(s1.direction, s0.direction));
+        if (!(angle <= mOptions.maxTwist)) return; // a blade pivoting in its plane (README: refused near the pivot)
+        Stick turned = s1;
+        turned.direction = s0.direction;
+        turned.adjustAngle = angle;
+        const Quad t = quadOf(s0, turned);
+        if (!planar(t)) return;
+        if (swept) *swept = q;
+        q = t;
+        k = turned;
+    };
+
     // (a) already coplanar (includes collinear motion)
     Quad q = quadOf(s0, s1);
     if (planar(q)) {
         kept = s1;
+        uncross(q, kept);
         quads.push_back(q);
         return;
     }
@@ -488,9 +533,10 @@ void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex
                 std::asin(std::min(1.0, std::abs(glm::dot(s1.direction, nuHat))));
             s1r.adjustAngle = angle;
             if (angle <= mOptions.maxTwist) {
-                const Quad qr = quadOf(s0, s1r);
+                Quad qr = quadOf(s0, s1r);
                 if (planar(qr)) {
                     kept = s1r;
+                    uncross(qr, kept);
                     quads.push_back(qr);
                     return;
                 }

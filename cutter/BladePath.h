@@ -139,6 +139,16 @@ struct PathFilterOptions
     /// the blade gather them (benchmarks/RESULTS.md, "A saw worked back and
     /// forth" and "The retrace tolerance").
     double retraceTolerance = 0.25;
+    /// Rule 3 (a'): a stick that crosses the last one is turned to the last
+    /// one's direction (within maxTwist). Off by default, for now: at kerf 0
+    /// it lets the sliding saws that stopped at such quads go on (none of the
+    /// 9 stops in 160 strokes on the 2 mm head and the tooth is left), but one
+    /// of them (tooth, seed 75405, stroke 2) then reaches a thin tube of bone
+    /// between three nearly coplanar slits that the fused mesh nests the wrong
+    /// way, accepted by the update's local check (benchmarks/RESULTS.md,
+    /// "Crossing sticks"). Until the re-mesher refuses or mends that, a loud
+    /// stop is the better outcome. bench_strokes --turn-crossing-sticks.
+    bool turnCrossingSticks = false;
 };
 /// The largest PathFilterOptions::retraceTolerance a PathFilter accepts, voxels.
 constexpr double kMaxRetraceTolerance = 4.0;
@@ -168,7 +178,10 @@ constexpr double kMaxRetraceTolerance = 4.0;
 ///    the cut onto itself: quads overlapping in one plane, which the
 ///    re-mesher refuses (or, a few micrometres apart, thin slivers of bone
 ///    between two passes). Bound: the swept surface misses only poses within
-///    that tolerance of it. The quads are found through a grid of
+///    that tolerance of it (where rule 3 (a') turned a stick, of the quad to
+///    the user's stick, which lies within the turn's move of the tip of the
+///    quad kept: the blade went there, and a saw sliding back over it would
+///    otherwise lay a quad on every pass). The quads are found through a grid of
 ///    kRetraceBlock^3-voxel blocks over their bounding boxes, so a pose costs
 ///    the quads near its base, not the stroke's length.
 ///    Coming into the cut (a pose that retraces a quad other than the
@@ -206,9 +219,20 @@ constexpr double kMaxRetraceTolerance = 4.0;
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
-///    any S1 is coplanar. (b) Otherwise S1's direction is projected onto the
+///    any S1 is coplanar. (a') With PathFilterOptions::turnCrossingSticks
+///    (off by default): when S1 then crosses S0 (the blade turned about a
+///    point of itself: a saw sliding along its own line, with the least
+///    tremor) and S1's direction lies within maxTwist of S0's, S1 is turned
+///    about its base to S0's direction (Stick::adjustAngle): the quad is a
+///    trapezoid with the two sticks as edges, so it joins the quads before
+///    and after it. The crossed outline's hull has the sticks as diagonals
+///    instead; the re-mesher cuts it as a quad of its own lying over its
+///    neighbours, nearly in their plane, which it refuses at kerf 0
+///    ("coplanar overlapping quads"). Turns beyond maxTwist (a blade pivoting
+///    in its own plane) are kept. (b) Otherwise S1's direction is projected onto the
 ///    plane span(dir0, m); when the rotation this applies is <= maxTwist the
-///    rotated stick is kept (Stick::adjustAngle) and the quad is planar.
+///    rotated stick is kept (Stick::adjustAngle) and the quad is planar
+///    (and (a') applies to it).
 ///    The rotation is measured against the user's own direction every time, so
 ///    it never accumulates along a stroke. (c) Otherwise (a fast twist) the
 ///    user's stick is kept unchanged and the step is emitted as two planar
@@ -303,12 +327,16 @@ private:
     /// Rules 2b and 3 for a validated stick s1 whose base is in another cell
     /// than the last kept stick's (or the stroke's last pose): push's result.
     bool place(const Stick& s1, std::vector<Quad>& quads);
-    /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps s1.
-    void appendQuads(const Stick& s1, std::vector<Quad>& quads);
+    /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps
+    /// s1; *swept as makeQuads sets it.
+    void appendQuads(const Stick& s1, std::vector<Quad>& quads, Quad* swept = nullptr);
     /// Rule 3 from s0 (stick number stickIndex) to s1: appends the quad(s) to
     /// `quads` and sets `kept` to the stick to keep (s1, or s1 rotated).
-    void makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads,
-                   Stick& kept) const;
+    /// *swept (when given): where (a') turned s1, the quad to s1 as the user
+    /// gave it, crossing itself (rule 2b tests later sticks against it: the
+    /// blade went there); else a quad with no corners (cornerCount 0).
+    void makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads, Stick& kept,
+                   Quad* swept = nullptr) const;
     /// Rule 2b: do the base and tip of s lie within the tolerance of one quad
     /// (the stroke's or an earlier one)? *inside: of one whose outline holds both projections.
     bool retraces(const Stick& s, bool* inside, bool* older = nullptr) const;

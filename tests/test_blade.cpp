@@ -485,16 +485,34 @@ bool nearOneQuad(const IndexFrame& f, const std::vector<Quad>& quads, const Pose
     return false;
 }
 
+/// Whether the sticks of a one-plane quad {base0, tip0, tip1, base1} cross
+/// (its outline crosses itself), by the sides of each stick's ends to the
+/// other's line in the quad's plane.
+bool sticksCrossForTest(const Quad& q)
+{
+    if (q.degenerate || q.cornerCount != 4) return false;
+    const dvec3 n = glm::normalize(glm::cross(q.corners[1] - q.corners[0], q.corners[2] - q.corners[0]) +
+                                   glm::cross(q.corners[2] - q.corners[0], q.corners[3] - q.corners[0]));
+    auto side = [&](const dvec3& a, const dvec3& b, const dvec3& x) {
+        const double o = glm::dot(glm::cross(b - a, x - a), n);
+        return o > 0 ? 1 : o < 0 ? -1 : 0;
+    };
+    const auto& c = q.corners;
+    return side(c[0], c[1], c[3]) * side(c[0], c[1], c[2]) < 0 && side(c[3], c[2], c[0]) * side(c[3], c[2], c[1]) < 0;
+}
+
 } // namespace
 
 TEST(PathFilter, GuaranteesOnThousandsOfPoses)
 {
     const IndexFrame f = testFrame();
     std::mt19937_64 rng(2024);
-    const PathFilterOptions opt;
+    PathFilterOptions opt;
     size_t kept = 0, dropped = 0, retraced = 0, adjusted = 0, split = 0, quadsTotal = 0, restarts = 0;
+    size_t turnable = 0; // rule 3 (a') off: quads whose sticks cross by a turn within maxTwist
     double maxAdjust = 0;
     for (int s = 0; s < 60; ++s) {
+        opt.turnCrossingSticks = s % 2 == 1; // each twist with the rule off and on
         const double twist = s % 3 == 0 ? 0.001 : (s % 3 == 1 ? 0.02 : 0.2);
         const std::vector<Pose> poses = twistingStroke(rng, f, 500, twist);
         PathFilter filter(f, opt);
@@ -566,6 +584,13 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
             // The pieces join the two sticks: no gap in the strip.
             if (made == 1) {
                 const Quad& q = quads.back();
+                // Rule 3 (a'): the sticks cross only where the user's stick
+                // turned from the last by more than maxTwist.
+                if (sticksCrossForTest(q)) {
+                    const double turn = std::acos(std::clamp(glm::dot(user, s0.direction), -1.0, 1.0));
+                    if (opt.turnCrossingSticks) ASSERT_GT(turn, opt.maxTwist);
+                    else turnable += turn <= opt.maxTwist;
+                }
                 ASSERT_EQ(q.corners[0], s0.base);
                 ASSERT_EQ(q.corners[1], s0.tip());
                 ASSERT_EQ(q.corners[2], st.tip());
@@ -583,8 +608,10 @@ TEST(PathFilter, GuaranteesOnThousandsOfPoses)
         }
         quadsTotal += quads.size();
     }
-    std::printf("kept %zu, dropped %zu (%zu retracing), adjusted %zu, split %zu, %zu restarts\n", kept, dropped, retraced,
-                adjusted, split, restarts);
+    std::printf("kept %zu, dropped %zu (%zu retracing), adjusted %zu, split %zu, %zu restarts; rule 3 (a') off: %zu quads "
+                "whose sticks cross by a turn within maxTwist\n",
+                kept, dropped, retraced, adjusted, split, restarts, turnable);
+    EXPECT_GT(turnable, 10u); // what rule 3 (a') turns, on the strokes it is off for
     EXPECT_GT(kept, 10000u);
     EXPECT_GT(dropped, 1000u);
     EXPECT_GT(adjusted, 100u); // case (b) exercised
@@ -1032,6 +1059,71 @@ TEST(PathFilter, NoGapsAlongTheSweptSurface)
             }
         }
         EXPECT_GT(checked, 5000u);
+    }
+}
+
+// Rule 3 (a'): a blade sliding along its own line while it turns a little
+// about a point of itself gives two sticks that cross. Their quad's outline
+// crosses itself, and its hull has the sticks as diagonals, so it would join
+// neither the quad before nor the one after (2 mm head, kerf 0, sawing along
+// the blade, seeds 75101 and 75107 stopped: "coplanar overlapping quads").
+// The new stick is turned about its base to the last one's direction when
+// that turn is within maxTwist; a wider turn (a blade pivoting in its plane)
+// is kept as the user gave it, and so is every turn with the rule off.
+TEST(PathFilter, ASawSlidingWithCrossingSticksMakesATrapezoid)
+{
+    const IndexFrame f = testFrame();
+    for (double turn : {0.01, 0.03, 0.1}) {
+        for (bool rule : {true, false}) {
+            SCOPED_TRACE("turn " + std::to_string(turn) + (rule ? ", rule on" : ", rule off"));
+            Pose p0, p1;
+            p0.base = dvec3(-8.0, 5.0, -30.0);
+            p0.direction = dvec3(1.0, 0.0, 0.0);
+            p0.length = 10.0;
+            p1 = p0;
+            p1.time = 0.001;
+            p1.base = dvec3(-6.5, 5.01, -30.0); // 1.5 mm along the blade, 0.01 mm across it
+            p1.direction = dvec3(std::cos(turn), -std::sin(turn), 0.0);
+            PathFilterOptions opt;
+            opt.turnCrossingSticks = rule;
+            PathFilter filter(f, opt);
+            std::vector<Quad> quads;
+            ASSERT_TRUE(filter.push(p0, quads));
+            ASSERT_TRUE(filter.push(p1, quads));
+            ASSERT_EQ(quads.size(), 1u);
+            const Quad& q = quads[0];
+            ASSERT_FALSE(q.degenerate);
+            const Stick& st = filter.sticks().back();
+            EXPECT_EQ(st.base, p1.base);
+            EXPECT_EQ(st.length, p1.length);
+            const Quad user = [&] {
+                const dvec3 c[4] = {p0.base, p0.base + p0.length * p0.direction, p1.base + p1.length * p1.direction, p1.base};
+                return makeQuad(c, 4, 0);
+            }();
+            ASSERT_TRUE(sticksCrossForTest(user)) << "the poses' sticks do not cross";
+            const bool turned = rule && turn <= opt.maxTwist;
+            if (turned) {
+                EXPECT_EQ(st.direction, p0.direction);
+                EXPECT_NEAR(st.adjustAngle, turn, 1e-12);
+                EXPECT_FALSE(sticksCrossForTest(q));
+                // A trapezoid: both sticks are edges of its hull.
+                const std::vector<int> hull = convexHullOrder(q.corners.data(), 4, q.normal);
+                ASSERT_EQ(hull.size(), 4u);
+                auto edge = [&](int a, int b) {
+                    for (size_t i = 0; i < 4; ++i) {
+                        const int u = hull[i], v = hull[(i + 1) % 4];
+                        if ((u == a && v == b) || (u == b && v == a)) return true;
+                    }
+                    return false;
+                };
+                EXPECT_TRUE(edge(0, 1) && edge(2, 3));
+            } else {
+                EXPECT_NEAR(glm::dot(st.direction, p1.direction), 1.0, 1e-15);
+                EXPECT_EQ(st.adjustAngle, 0.0);
+                EXPECT_TRUE(sticksCrossForTest(q));
+            }
+            EXPECT_EQ(q.corners[2], st.tip());
+        }
     }
 }
 

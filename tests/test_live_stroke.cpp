@@ -48,25 +48,27 @@ void expectSameAsFromScratch(const vdb::Volume& vol, float iso, const Mesh& uncu
 
 /// The volume at `path` (the tooth, the 1 mm head) at 400 with kerf w, its
 /// strokes for `seed` (test_cut_props' randomStrokes; with `saw`, the saw
-/// worked back and forth of bench_strokes --saw), the strokes before `live`
-/// cut whole.
+/// worked back and forth of bench_strokes --saw), filtered with `filter`
+/// (default: PathFilterOptions' defaults), the strokes before `live` cut
+/// whole.
 struct StrokeCut
 {
     StrokeCut(const std::string& path, double kerf, uint32_t seed, size_t live, float isovalue = 400.0f,
-              const SawMotion* saw = nullptr)
+              const SawMotion* saw = nullptr, const PathFilterOptions* filter = nullptr)
         : iso(isovalue), vol(vdb::readVolume(path)),
           uncut(extractIsosurface(vol, isovalue, IsosurfaceOptions{nullptr, false})), mask(frameOf(vol), kerf),
           remesher(vol, isovalue, uncut)
     {
+        const PathFilterOptions options = filter ? *filter : PathFilterOptions{};
         const auto strokes = saw ? makeSawingStrokes(uncut.positions, seed, int(live) + 1, *saw)
                                  : makeRandomStrokes(mask.frame(), seed, int(live) + 1, 150 + 50 * int(seed % 5),
                                                      0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
         for (size_t s = 0; s < live; ++s) {
             mask.beginStroke();
-            for (const Quad& q : filterStroke(strokes[s], mask.frame())) mask.addQuad(q);
+            for (const Quad& q : filterStroke(strokes[s], mask.frame(), options)) mask.addQuad(q);
             remesher.update(mask);
         }
-        quads = filterStroke(strokes[live], mask.frame());
+        quads = filterStroke(strokes[live], mask.frame(), options);
     }
     /// The cut of the same mask from scratch equals the live one, and is clean.
     void expectSameAsFromScratch() const { ::expectSameAsFromScratch(vol, iso, uncut, mask, remesher); }
@@ -690,6 +692,49 @@ void expectSlidingSawStepAccepted(const char* name, uint32_t seed, size_t stroke
 TEST(LiveStroke, TwoChordsOfAQuadThatShareAnEndHaveTwoMidpoints)
 {
     expectSlidingSawAcceptedWhole(75101, 0, 148);
+}
+
+// A saw slid along its blade turns it a little about a point of itself
+// between two kept poses: the 2 mm head at 400, kerf 0, seed 75101, stroke
+// 2. The two sticks of its quad 57 cross (the blade slid 1.6 mm along itself
+// and turned by 6e-4 rad): the outline crossed itself, and the hull the
+// re-mesher cuts had neither stick as an edge, so quad 57 joined neither
+// neighbour. Quad 58, 8e-4 rad from it, lay over it: a piece of quad 57's
+// cap had all three corners on quad 58's plane (two of them one point named
+// twice), and the stroke stopped at quad 58 with "coplanar overlapping
+// quads" in cell (69, 17, 97), taken until now for a stroke doubling back in
+// its own plane. With the path filter turning such a stick to the last one's
+// direction (rule 3 (a'), PathFilterOptions::turnCrossingSticks, off by
+// default), the stroke is cut whole, live, never deferred.
+TEST(LiveStroke, ASawTurnedAboutAPointOfItsBladeIsCutWhole)
+{
+    MTCUT_REQUIRE_DATA(path, "vhm_head_2mm.nhdr");
+    const SawMotion slide = SawMotion::Slide;
+    for (bool turn : {false, true}) {
+        SCOPED_TRACE(turn ? "crossing sticks turned" : "crossing sticks kept");
+        PathFilterOptions filter;
+        filter.turnCrossingSticks = turn;
+        StrokeCut cut(path, 0.0, 75101, 2, 400.0f, &slide, &filter);
+        LiveStroke live(cut.mask, cut.remesher);
+        size_t deferred = 0;
+        std::string refusal;
+        for (size_t q = 0; q < cut.quads.size() && live.add(cut.quads[q]); ++q) {
+            const LiveStroke::Result r = q + 1 < cut.quads.size() ? live.update() : live.finish();
+            deferred += r.outcome == LiveStroke::Outcome::Deferred;
+            EXPECT_FALSE(r.steppedRound) << "quad " << q << ": " << r.refusal;
+            if (!r.refusal.empty() && refusal.empty()) refusal = r.refusal;
+        }
+        if (!turn) {
+            EXPECT_TRUE(live.stopped()) << "the stroke no longer stops with its sticks crossing: take another";
+            EXPECT_NE(refusal.find("coplanar overlapping quads"), std::string::npos) << refusal;
+            continue;
+        }
+        EXPECT_FALSE(live.stopped()) << refusal;
+        EXPECT_EQ(deferred, 0u) << refusal;
+        EXPECT_EQ(live.acceptedQuads(), cut.quads.size());
+        EXPECT_EQ(cut.mask.quadCount(cut.mask.strokeCount()), cut.quads.size());
+        cut.expectSameAsFromScratch();
+    }
 }
 
 // A chord whose walk passes a point placed off its line by the tie: the 2 mm
