@@ -225,7 +225,7 @@ bool PathFilter::place(const Stick& s1, std::vector<Quad>& quads)
             // the step sweeps bone up to the cut unless it lies in the cut.
             std::vector<Quad> entry;
             Stick kept;
-            Quad swept;
+            std::optional<Quad> swept;
             makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), entry, kept, &swept);
             if (!coveredByCut(entry, !mLastKeptNear || mEntering)) {
                 const size_t quadsBefore = quads.size();
@@ -233,7 +233,7 @@ bool PathFilter::place(const Stick& s1, std::vector<Quad>& quads)
                 mSticks.push_back(kept);
                 mLastQuads.clear();
                 for (size_t i = quadsBefore; i < quads.size(); ++i)
-                    if (indexQuad(swept.cornerCount ? swept : quads[i])) mLastQuads.push_back(mQuads.back());
+                    if (indexQuad(swept ? *swept : quads[i])) mLastQuads.push_back(mQuads.back());
                 mLastKeptNear = true;
                 mLastKeptInside = inside;
                 mEntering = !inside;
@@ -270,11 +270,11 @@ bool PathFilter::place(const Stick& s1, std::vector<Quad>& quads)
         }
         mHaveRetraced = mHaveRetracedInside = false;
     }
-    Quad swept;
+    std::optional<Quad> swept;
     appendQuads(s1, quads, &swept);
     mLastQuads.clear();
     for (size_t i = quadsBefore; i < quads.size(); ++i)
-        if (indexQuad(swept.cornerCount ? swept : quads[i])) mLastQuads.push_back(mQuads.back());
+        if (indexQuad(swept ? *swept : quads[i])) mLastQuads.push_back(mQuads.back());
     mLastKeptNear = mLastKeptInside = mEntering = false;
     return true;
 }
@@ -465,7 +465,7 @@ bool PathFilter::retraces(const Stick& s, bool* inside, bool* older) const
     return found;
 }
 
-void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads, Quad* swept)
+void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads, std::optional<Quad>* swept)
 {
     Stick kept;
     makeQuads(mSticks.back(), s1, uint32_t(mSticks.size() - 1), quads, kept, swept);
@@ -473,9 +473,9 @@ void PathFilter::appendQuads(const Stick& s1, std::vector<Quad>& quads, Quad* sw
 }
 
 void PathFilter::makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads, Stick& kept,
-                           Quad* swept) const
+                           std::optional<Quad>* swept) const
 {
-    if (swept) swept->cornerCount = 0;
+    if (swept) swept->reset();
     auto quadOf = [&](const Stick& a, const Stick& b) {
         const glm::dvec3 c[4] = {a.base, a.tip(), b.tip(), b.base};
         return makeQuad(c, 4, stickIndex);

@@ -15,6 +15,7 @@
 #include <glm/ext/vector_int3.hpp>
 
 #include <array>
+#include <optional>
 #include <cstdint>
 #include <functional>
 #include <random>
@@ -329,14 +330,14 @@ private:
     bool place(const Stick& s1, std::vector<Quad>& quads);
     /// Rule 3: appends the quad(s) from the last kept stick to s1 and keeps
     /// s1; *swept as makeQuads sets it.
-    void appendQuads(const Stick& s1, std::vector<Quad>& quads, Quad* swept = nullptr);
+    void appendQuads(const Stick& s1, std::vector<Quad>& quads, std::optional<Quad>* swept = nullptr);
     /// Rule 3 from s0 (stick number stickIndex) to s1: appends the quad(s) to
     /// `quads` and sets `kept` to the stick to keep (s1, or s1 rotated).
-    /// *swept (when given): where (a') turned s1, the quad to s1 as the user
-    /// gave it, crossing itself (rule 2b tests later sticks against it: the
-    /// blade went there); else a quad with no corners (cornerCount 0).
+    /// *swept (when given): where (a') turned the stick, the quad (a) or (b)
+    /// made before, its sticks crossing (rule 2b tests later sticks against
+    /// it: the blade went there); else empty.
     void makeQuads(const Stick& s0, const Stick& s1, uint32_t stickIndex, std::vector<Quad>& quads, Stick& kept,
-                   Quad* swept = nullptr) const;
+                   std::optional<Quad>* swept = nullptr) const;
     /// Rule 2b: do the base and tip of s lie within the tolerance of one quad
     /// (the stroke's or an earlier one)? *inside: of one whose outline holds both projections.
     bool retraces(const Stick& s, bool* inside, bool* older = nullptr) const;
