@@ -1327,7 +1327,9 @@ TEST(CutPropsDefects, AChordSplitByTheLinesOfManyQuadsIsWalkedWhole)
     const auto strokes = makeSawingStrokes(uncut.positions, 78115, 2, SawMotion::Across);
     for (size_t s = 0; s < 2; ++s) {
         const std::vector<Quad> quads = filterStroke(strokes[s], mask.frame());
-        if (s == 1) ASSERT_EQ(quads.size(), 126u);
+        if (s == 1) {
+            ASSERT_EQ(quads.size(), 126u);
+        }
         mask.beginStroke();
         for (size_t q = 0; q < quads.size() && (s == 0 || q <= 85); ++q) mask.addQuad(quads[q]);
         if (s == 0) remesher.update(mask);
