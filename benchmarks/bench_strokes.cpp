@@ -150,7 +150,7 @@ int main(int argc, char** argv)
             const std::string on(v);
             if (on != "on" && on != "off") usage("--turn-crossing-sticks wants on or off");
             filterOptions.turnCrossingSticks = on == "on";
-            end = const_cast<char*>(v) + on.size();
+            continue;
         } else if (a == "--retrace") {
             filterOptions.retraceTolerance = std::strtod(v, &end);
             if (!(filterOptions.retraceTolerance >= 0.0 && filterOptions.retraceTolerance <= kMaxRetraceTolerance))
