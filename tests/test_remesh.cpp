@@ -2177,3 +2177,54 @@ TEST(Remesh, ARefusedUpdatePutsForgottenAirCellsBackUnlisted)
     EXPECT_GT(remesher.update(mask), 0u);
     EXPECT_TRUE(checkMesh(remesher.fusedMesh()).ok());
 }
+
+// Zero kerf, a stroke that folds back onto itself: quad 1 returns over quad
+// 0 about their shared stick, a wedge opening to delta mm at the far sticks,
+// 28 mm from it. A float step of the corners' coordinates is 2^-23 (1 + 25)
+// = 3.1e-6 mm here. Measured (fifty-sixth session): the wedge is cut out
+// down to 1e-6 mm (0.3 of a step; a sliver shell beside the sphere, zero
+// defects, the volume kept: at kerf 0 the cut removes nothing), and below
+// that the update is refused by the kernel or the local check (coplanar
+// overlapping quads; an open or inconsistent surface; triangulation
+// failed), never accepted wrongly. The tooth's seed 75405 with
+// turnCrossingSticks on folds by 0.3 of a step too and was accepted with
+// two shells nested the wrong way: not the fold's width alone, then
+// (benchmarks/RESULTS.md, "Folds thinner than a float step").
+TEST(Remesh, AStrokeFoldingBackByLessThanAFloatStepIsCutCleanOrRefused)
+{
+    const double R = 15.0;
+    const vdb::Volume vol = fieldVolume(Coord(40), Vec3d(1.0), Vec3d(-19.5), [&](const Vec3d& p) { return R - p.length(); });
+    const Mesh uncut = extractIsosurface(vol, 0.0f, IsosurfaceOptions{nullptr, false});
+    const double v0 = meshVolume(uncut);
+    size_t refused = 0;
+    for (double delta : {0.0, 1e-9, 1e-7, 3e-7, 1e-6, 2e-6, 5e-6, 1e-4, 1e-2})
+        for (int v = 0; v < 3; ++v) {
+            SCOPED_TRACE("delta " + std::to_string(delta) + " mm, variant " + std::to_string(v));
+            const double x0 = -25.0, x1 = 3.3 + 0.37 * v, y = 0.41 + 0.13 * v, z0 = -25.0 + 0.21 * v, z1 = 25.0;
+            const dvec3 c0[4] = {dvec3(x0, y, z0), dvec3(x0, y, z1), dvec3(x1, y, z1), dvec3(x1, y, z0)};
+            const dvec3 c1[4] = {dvec3(x1, y, z0), dvec3(x1, y, z1), dvec3(x0, y + delta, z1), dvec3(x0, y + delta, z0)};
+            CutMask mask(frameOf(vol), 0.0);
+            mask.beginStroke();
+            mask.addQuad(makeQuad(c0, 4, 0));
+            mask.addQuad(makeQuad(c1, 4, 1));
+            CutRemesher remesher(vol, 0.0f, uncut);
+            try {
+                ASSERT_GT(remesher.update(mask), 0u);
+            } catch (const std::runtime_error& e) {
+                const std::string m = e.what();
+                EXPECT_LT(delta, 1e-6) << "refused: " << m;
+                EXPECT_EQ(m.rfind("remesh: ", 0), 0u) << m;
+                EXPECT_NE(m.find(" cell ("), std::string::npos) << m;
+                EXPECT_TRUE(sameMesh(remesher.fusedMesh(), uncut));
+                ++refused;
+                continue;
+            }
+            const Mesh fused = remesher.fusedMesh();
+            const MeshCheck check = checkMesh(fused);
+            EXPECT_TRUE(check.ok()) << check.report();
+            EXPECT_EQ(check.shells, 2u);
+            EXPECT_NEAR(meshVolume(fused), v0, 1e-6 * v0);
+        }
+    std::printf("folding back: %zu of 27 refused\n", refused);
+    EXPECT_GE(refused, 3u) << "the exactly coplanar fold at least";
+}
