@@ -28,7 +28,7 @@
 //
 // Usage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N]
 //                      [--turn W] [--saw across|slide|both] [--tremor MM]
-//                      [--retrace VOXELS] [--turn-crossing-sticks on|off]
+//                      [--retrace VOXELS] [--slide VOXELS] [--turn-crossing-sticks on|off]
 //                      [--mode live|quad|stroke] [--threads N]
 // VOLUME is anything `mtcut` reads (a DICOM folder, .nhdr, .nii.gz, ...).
 // Defaults: iso 400, kerf 0.5, seeds 8000-8009, 4 strokes, turn 0.05, live,
@@ -46,6 +46,9 @@
 //
 // --retrace: the path filter's retrace tolerance in voxels
 // (PathFilterOptions::retraceTolerance, default 0.25; `mtcut cut --retrace`).
+//
+// --slide: the path filter's slide tolerance in voxels (rule 2c,
+// PathFilterOptions::slideTolerance, default 0.25; negative: off).
 //
 // --turn-crossing-sticks: the path filter's rule 3 (a')
 // (PathFilterOptions::turnCrossingSticks; default off, as there).
@@ -89,7 +92,7 @@ struct Totals
 {
     std::fprintf(stderr,
                  "bench_strokes: %s\nusage: bench_strokes VOLUME [--iso V] [--kerf MM] [--seeds A-B] [--strokes N] "
-                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--retrace VOXELS] [--turn-crossing-sticks on|off] "
+                 "[--turn W] [--saw across|slide|both] [--tremor MM] [--retrace VOXELS] [--slide VOXELS] [--turn-crossing-sticks on|off] "
                  "[--mode live|quad|stroke] [--threads N]\n",
                  why);
     std::exit(2);
@@ -155,6 +158,10 @@ int main(int argc, char** argv)
             filterOptions.retraceTolerance = std::strtod(v, &end);
             if (!(filterOptions.retraceTolerance >= 0.0 && filterOptions.retraceTolerance <= kMaxRetraceTolerance))
                 usage("--retrace wants 0 to 4 voxels");
+        } else if (a == "--slide") {
+            filterOptions.slideTolerance = std::strtod(v, &end);
+            if (!(filterOptions.slideTolerance <= kMaxRetraceTolerance))
+                usage("--slide wants at most 4 voxels (negative: off)");
         } else if (a == "--mode") {
             const std::string m = v;
             if (m == "live") mode = Mode::Live;
@@ -179,10 +186,10 @@ int main(int argc, char** argv)
     const Mesh uncut = extractIsosurface(vol, iso, IsosurfaceOptions{nullptr, false});
     const IndexFrame frame = frameOf(vol);
     const char* modeName = mode == Mode::Live ? "live" : mode == Mode::Quad ? "quad" : "stroke";
-    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g retrace=%g turn_crossing_sticks=%s mode=%s "
-                "threads=%d uncut_tris=%zu\n",
+    std::printf("volume=%s iso=%g kerf=%g seeds=%ld-%ld strokes=%d turn=%g retrace=%g slide=%g turn_crossing_sticks=%s "
+                "mode=%s threads=%d uncut_tris=%zu\n",
                 path.c_str(), double(iso), kerf, seedLo, seedHi, strokes, turn, filterOptions.retraceTolerance,
-                filterOptions.turnCrossingSticks ? "on" : "off", modeName, threads, uncut.triangleCount());
+                filterOptions.slideTolerance, filterOptions.turnCrossingSticks ? "on" : "off", modeName, threads, uncut.triangleCount());
     std::fflush(stdout);
     Totals total;
     const auto t0 = bench::Clock::now();

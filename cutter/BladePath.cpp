@@ -121,6 +121,9 @@ PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options
         throw std::invalid_argument("PathFilterOptions::maxTwist must be finite and >= 0");
     if (!std::isfinite(options.planarTolerance) || options.planarTolerance < 0.0)
         throw std::invalid_argument("PathFilterOptions::planarTolerance must be finite and >= 0");
+    if (std::isnan(options.slideTolerance) || options.slideTolerance > kMaxRetraceTolerance)
+        throw std::invalid_argument("PathFilterOptions::slideTolerance must be at most " +
+                                    std::to_string(kMaxRetraceTolerance) + " voxels (negative: off)");
     if (std::isnan(options.retraceTolerance) || options.retraceTolerance > kMaxRetraceTolerance)
         throw std::invalid_argument("PathFilterOptions::retraceTolerance must be at most " +
                                     std::to_string(kMaxRetraceTolerance) + " voxels (negative: off)");
@@ -129,7 +132,7 @@ PathFilter::PathFilter(const IndexFrame& frame, const PathFilterOptions& options
 void PathFilter::finishStroke(std::vector<Quad>& quads)
 {
     if (!mHavePending || mSticks.empty()) return;
-    mHavePending = false;
+    mHavePending = mHaveSlid = false;
     const Stick& k = mSticks.back();
     if (glm::length(mFrame.toIndex(mPending.base) - mFrame.toIndex(k.base)) > kMinFinalStep) place(mPending, quads);
 }
@@ -158,7 +161,7 @@ std::vector<Quad> PathFilter::endStroke()
     mPoseCount = 0;
     mHaveTime = false;
     mHaveRetraced = mHaveRetracedInside = false;
-    mLastKeptNear = mLastKeptInside = mEntering = mHavePending = false;
+    mLastKeptNear = mLastKeptInside = mEntering = mHavePending = mHaveSlid = false;
     return quads;
 }
 
@@ -201,16 +204,46 @@ bool PathFilter::push(const Pose& pose, std::vector<Quad>& quads)
         mSticks.push_back(s1);
         mLastKeptNear = mOptions.retraceTolerance >= 0.0 && retraces(s1, &inside);
         mLastKeptInside = mLastKeptNear && inside;
-        mEntering = mHavePending = false;
+        mEntering = mHavePending = mHaveSlid = false;
         return true;
     }
+    return consider(s1, quads);
+}
+
+bool PathFilter::slides(const Stick& s) const
+{
+    const Stick& s0 = mSticks.back();
+    const glm::dvec3 a = mFrame.toIndex(s0.base), t = mFrame.toIndex(s0.tip()) - a;
+    const double len = glm::length(t);
+    if (!(len > 0.0)) return false;
+    const glm::dvec3 d = t / len;
+    const double tol = mOptions.slideTolerance;
+    auto off = [&](const glm::dvec3& world) { return glm::length(glm::cross(mFrame.toIndex(world) - a, d)); };
+    return off(s.base) <= tol && off(s.tip()) <= tol;
+}
+
+bool PathFilter::consider(const Stick& s1, std::vector<Quad>& quads)
+{
     const Stick& s0 = mSticks.back();
     if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base))) {
         mPending = s1; // the stroke's last pose, if no other comes (finishStroke)
         mHavePending = true;
         return false;
     }
+    if (mOptions.slideTolerance >= 0.0 && slides(s1)) { // (2c) held back while the blade slides along its line
+        mSlid = mPending = s1;
+        mHaveSlid = mHavePending = true;
+        return false;
+    }
     mHavePending = false;
+    if (mHaveSlid) {
+        // The blade leaves its line: first where the slide ended (one sliver
+        // for the run), then this pose, judged against that stick.
+        mHaveSlid = false;
+        const Stick slid = mSlid;
+        place(slid, quads);
+        return consider(s1, quads);
+    }
     return place(s1, quads);
 }
 

@@ -140,15 +140,23 @@ struct PathFilterOptions
     /// the blade gather them (benchmarks/RESULTS.md, "A saw worked back and
     /// forth" and "The retrace tolerance").
     double retraceTolerance = 0.25;
+    /// Sliding (rule 2c): a pose whose stick's base and tip both lie within
+    /// this many voxels of the line through the last kept stick is held
+    /// back: the blade slid along its own line, and the quad to it would be
+    /// a sliver no wider than this. The run's last such pose is placed
+    /// before the next pose that leaves the line (or at the stroke's end,
+    /// as rule 2's), so a run of slides makes one quad instead of one per
+    /// cell the base passes. Negative: off. At most kMaxRetraceTolerance.
+    double slideTolerance = 0.25;
     /// Rule 3 (a'): a stick that crosses the last one is turned to the last
-    /// one's direction (within maxTwist). Off by default, for now: at kerf 0
-    /// it lets the sliding saws that stopped at such quads go on (none of the
-    /// 9 stops in 160 strokes on the 2 mm head and the tooth is left), but one
-    /// of them (tooth, seed 75405, stroke 2) then reaches a thin tube of bone
-    /// between three nearly coplanar slits that the fused mesh nests the wrong
-    /// way, accepted by the update's local check (benchmarks/RESULTS.md,
-    /// "Crossing sticks"). Until the re-mesher refuses or mends that, a loud
-    /// stop is the better outcome. bench_strokes --turn-crossing-sticks.
+    /// one's direction (within maxTwist). Off by default: it was written for
+    /// the kerf-0 stops of saws slid along their blades (9 in 160 strokes on
+    /// the 2 mm head and the tooth, all such crossings), and took them away,
+    /// but one stroke it let through (tooth, seed 75405, stroke 2) then left
+    /// two shells nested the wrong way at a fold between two slivers,
+    /// accepted (benchmarks/RESULTS.md, "Crossing sticks"). Rule 2c
+    /// (slideTolerance) holds those slides back instead, and with it the
+    /// same sweeps stop none. bench_strokes --turn-crossing-sticks.
     bool turnCrossingSticks = false;
 };
 /// The largest PathFilterOptions::retraceTolerance a PathFilter accepts, voxels.
@@ -217,6 +225,19 @@ constexpr double kMaxRetraceTolerance = 4.0;
 ///    these. A restarted quad starts on the old cut and overlaps it by up to
 ///    a step: where both lie exactly in one plane (a scripted path, not a
 ///    hand's) the re-mesher refuses that with kerf 0.
+/// 2c. Sliding (before 2b, after 2): a pose whose stick's base and tip lie
+///    within slideTolerance voxels of the line through the last kept stick
+///    is held back, as rule 2 holds one back in the same cell: a blade slid
+///    along its own line (a reciprocating saw) sweeps a line, and its quad
+///    would be a sliver at most the tolerance wide (on the sliding-saw
+///    sweeps 80-97 % of the quads were such slivers, and the source of their
+///    crossing sticks and folds thinner than a float step). When a pose
+///    leaves the line, the last one held back is placed first (rules 2b and
+///    3), then the pose, judged against it: the run makes one sliver, and
+///    the blade swings from where it was, not from where the run began. At
+///    the stroke's end the last pose is placed as rule 2's. Bound: what the
+///    poses held back sweep lies within the tolerance of the kept stick's
+///    line (a band that wide along a line, which parts no bone).
 /// 3. Coplanarity: let S0 be the last kept stick, S1 the new one, m = base1 -
 ///    base0. (a) If S0 and S1 are coplanar within planarTolerance the quad is
 ///    kept as is - this includes collinear motion (m parallel to S0), where
@@ -385,8 +406,14 @@ private:
     /// The last kept stick came into the cut (rule 2b) and lies only near it,
     /// not inside: the retracing poses after it are tested as it was.
     bool mEntering = false;
-    Stick mPending;             ///< the last pose pushed, when rule 2 dropped it (finishStroke)
+    Stick mPending;             ///< the last pose pushed, when rule 2 or 2c dropped it (finishStroke)
     bool mHavePending = false;
+    Stick mSlid;                ///< the last pose rule 2c held back since the last kept stick
+    bool mHaveSlid = false;
+    /// Rule 2c: s lies within slideTolerance of the line of the last kept stick.
+    bool slides(const Stick& s) const;
+    /// Rules 2, 2c, then place (the rest) for a stick of a new pose.
+    bool consider(const Stick& s1, std::vector<Quad>& quads);
     size_t mRestarts = 0;
     uint32_t mPoseCount = 0;
     double mLastTime = 0.0;

@@ -11,6 +11,17 @@
 
 namespace mtcut::test {
 
+/// The path filter as the strokes the tests replay were recorded with:
+/// before rule 2c (PathFilterOptions::slideTolerance) held a blade's slides
+/// along its own line back, which changes a sliding saw's quads. A replay
+/// reproduces a configuration found on those quads (a cell, a quad number).
+inline cutter::PathFilterOptions recordedFilter()
+{
+    cutter::PathFilterOptions o;
+    o.slideTolerance = -1.0;
+    return o;
+}
+
 /// A straight stroke: the base moves from `from` to `to` (world mm) in `steps`
 /// poses 1 ms apart, the blade pointing along `dir` with length `len` mm.
 inline std::vector<cutter::Pose> straightStroke(glm::dvec3 from, glm::dvec3 to, glm::dvec3 dir, double len, int steps)

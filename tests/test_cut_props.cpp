@@ -1273,7 +1273,7 @@ TEST_P(CutProps, SawingBackAndForthOnThe4mmHead)
     std::printf("4 mm head, sawing, %s: %zu quads (%zu with retrace 1), %zu live updates, %zu stepped round\n",
                 kerfName(w).c_str(), quads, quadsWide, updates, stepped);
     printState(("4 mm head, sawing, " + kerfName(w)).c_str(), st);
-    EXPECT_GT(quads, 600u);
+    EXPECT_GT(quads, 400u); // 671 before slides were held back (path filter rule 2c), 475 since
     EXPECT_LT(3 * quadsWide, quads);
 }
 

@@ -10,6 +10,7 @@
 #include "cutter/LiveStroke.h"
 #include "cutter/MeshCheck.h"
 #include "cutter/Remesh.h"
+#include "tests/TestStrokes.h"
 #include "tests/TestUtil.h"
 #include "tests/TestVolumes.h"
 #include "vdb/Phantom.h"
@@ -49,8 +50,8 @@ void expectSameAsFromScratch(const vdb::Volume& vol, float iso, const Mesh& uncu
 /// The volume at `path` (the tooth, the 1 mm head) at 400 with kerf w, its
 /// strokes for `seed` (test_cut_props' randomStrokes; with `saw`, the saw
 /// worked back and forth of bench_strokes --saw), filtered with `filter`
-/// (default: PathFilterOptions' defaults), the strokes before `live` cut
-/// whole.
+/// (default: the filter they were recorded with, recordedFilter()), the
+/// strokes before `live` cut whole.
 struct StrokeCut
 {
     StrokeCut(const std::string& path, double kerf, uint32_t seed, size_t live, float isovalue = 400.0f,
@@ -59,7 +60,7 @@ struct StrokeCut
           uncut(extractIsosurface(vol, isovalue, IsosurfaceOptions{nullptr, false})), mask(frameOf(vol), kerf),
           remesher(vol, isovalue, uncut)
     {
-        const PathFilterOptions options = filter ? *filter : PathFilterOptions{};
+        const PathFilterOptions options = filter ? *filter : mtcut::test::recordedFilter();
         const auto strokes = saw ? makeSawingStrokes(uncut.positions, seed, int(live) + 1, *saw)
                                  : makeRandomStrokes(mask.frame(), seed, int(live) + 1, 150 + 50 * int(seed % 5),
                                                      0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4));
@@ -712,7 +713,7 @@ TEST(LiveStroke, ASawTurnedAboutAPointOfItsBladeIsCutWhole)
     const SawMotion slide = SawMotion::Slide;
     for (bool turn : {false, true}) {
         SCOPED_TRACE(turn ? "crossing sticks turned" : "crossing sticks kept");
-        PathFilterOptions filter;
+        PathFilterOptions filter = mtcut::test::recordedFilter();
         filter.turnCrossingSticks = turn;
         StrokeCut cut(path, 0.0, 75101, 2, 400.0f, &slide, &filter);
         LiveStroke live(cut.mask, cut.remesher);

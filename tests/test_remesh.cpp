@@ -1800,7 +1800,7 @@ TEST(Remesh, PassingOverFarPiecesChangesNoVertexOrTriangle)
         EXPECT_GT(cells, 1000u);
         EXPECT_GT(4 * skips, cells) << "(almost) nothing was passed over"; // (most cut cells are air)
         if (vols.hasHead) {
-            EXPECT_GT(sawCells, 200u);
+            EXPECT_GT(sawCells, 150u); // 193 at kerf 0.5 once slides were held back (path filter rule 2c)
             EXPECT_GT(sawSkips, 1000 * sawCells) << "(almost) nothing was passed over while sawing";
         }
     }

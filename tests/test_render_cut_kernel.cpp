@@ -17,6 +17,7 @@
 #include "render/MaskTiling.h"
 #include "render/SurfaceRenderer.h"
 #include "render/Shaders.h"
+#include "tests/TestStrokes.h"
 #include "tests/TestUtil.h"
 #include "tests/test_render_util.h"
 #include "vdb/Phantom.h"
@@ -109,7 +110,7 @@ private:
     void add(const std::vector<cutter::Pose>& poses)
     {
         mask.beginStroke();
-        for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame())) mask.addQuad(q);
+        for (const cutter::Quad& q : cutter::filterStroke(poses, mask.frame(), test::recordedFilter())) mask.addQuad(q);
         ++strokes;
     }
     void finish(const vdb::Volume& vol, float iso)
@@ -515,7 +516,7 @@ TEST(CutKernelGpu, AStripThinnerThanDoubleIsTriangulatedAsTheCpu)
     const uint32_t seed = 9124;
     const auto poses = cutter::makeRandomStrokes(mask.frame(), seed, 1, 150 + 50 * int(seed % 5), 0.4 + 0.2 * (seed % 4),
                                                  20.0 + 10.0 * (seed % 4))[0];
-    const std::vector<cutter::Quad> quads = cutter::filterStroke(poses, mask.frame());
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(poses, mask.frame(), test::recordedFilter());
     ASSERT_GE(quads.size(), 6u);
     mask.beginStroke();
     for (size_t q = 0; q < 6; ++q) mask.addQuad(quads[q]);
@@ -629,7 +630,7 @@ void expectGpuCellsRoundAsTheCpu(const char* file, float iso, double kerf, uint3
     const auto strokes = cutter::makeRandomStrokes(mask.frame(), seed, int(stroke) + 1, 150 + 50 * int(seed % 5),
                                                    0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4), turn);
     for (size_t s = 0; s <= stroke; ++s) {
-        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame(), test::recordedFilter());
         if (s == stroke) {
             ASSERT_EQ(quads.size(), quadsInStroke);
         }
@@ -655,7 +656,7 @@ void expectGpuCellOfQuadsAsTheCpu(uint32_t seed, size_t stroke, size_t quadsInSt
     CutMask mask(cutter::frameOf(vol), 0.0);
     const auto strokes = cutter::makeRandomStrokes(mask.frame(), seed, int(stroke) + 1, 150 + 50 * int(seed % 5),
                                                    0.4 + 0.2 * (seed % 4), 20.0 + 10.0 * (seed % 4), 1.0);
-    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[stroke], mask.frame());
+    const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[stroke], mask.frame(), test::recordedFilter());
     ASSERT_EQ(quads.size(), quadsInStroke);
     mask.beginStroke();
     for (size_t q = first; q <= last; ++q) mask.addQuad(quads[q]);
@@ -1212,7 +1213,8 @@ TEST(CutKernelGpu, TwoChordsOfAQuadThatShareAnEndHaveTwoMidpointsAsTheCpu)
     const vdb::Volume vol = vdb::readVolume(path);
     const cutter::Mesh uncut = cutter::extractIsosurface(vol, 400.0f, cutter::IsosurfaceOptions{nullptr, false});
     const std::vector<cutter::Quad> quads = cutter::filterStroke(
-        cutter::makeSawingStrokes(uncut.positions, 75101, 1, cutter::SawMotion::Slide).at(0), cutter::frameOf(vol));
+        cutter::makeSawingStrokes(uncut.positions, 75101, 1, cutter::SawMotion::Slide).at(0), cutter::frameOf(vol),
+        test::recordedFilter());
     ASSERT_EQ(quads.size(), 148u);
     const openvdb::Coord at(104, 74, 115);
     for (const auto& [first, last] : {std::pair<size_t, size_t>{0, 71}, {62, 64}}) {
@@ -1245,7 +1247,7 @@ TEST(CutKernelGpu, AChordsWalkPassesAPointOffItsLineByTheTieAsTheCpu)
     CutMask mask(cutter::frameOf(vol), 0.0);
     const auto strokes = cutter::makeSawingStrokes(uncut.positions, 75120, 3, cutter::SawMotion::Slide);
     for (size_t s = 0; s < 3; ++s) {
-        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame());
+        const std::vector<cutter::Quad> quads = cutter::filterStroke(strokes[s], mask.frame(), test::recordedFilter());
         if (s == 2) {
             ASSERT_EQ(quads.size(), 74u);
         }
