@@ -195,13 +195,15 @@ void InputThread::run()
             }
             mPoses.fetch_add(1, std::memory_order_relaxed);
             quads.clear();
-            bool kept;
+            // Sticks the pose added: itself, a held slide placed before it
+            // (rule 2c) or a restart's (2b), none when dropped.
+            const size_t sticksBefore = filter.sticks().size();
             try {
-                kept = filter.push(pl.pose, quads);
+                filter.push(pl.pose, quads);
             } catch (const InputError& e) {
                 throw InputError(source + ":" + std::to_string(lineNumber) + ": " + e.what());
             }
-            if (kept) mSticks.fetch_add(1, std::memory_order_relaxed);
+            mSticks.fetch_add(filter.sticks().size() - sticksBefore, std::memory_order_relaxed);
             lastTime = pl.pose.time;
             lastPoseLine = lineNumber;
             emit(quads, lineNumber, pl.pose.time);
