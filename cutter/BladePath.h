@@ -295,7 +295,9 @@ public:
     explicit PathFilter(const IndexFrame& frame, const PathFilterOptions& options = {});
 
     /// Feeds the next pose of the current stroke; appends the quads it makes
-    /// (0, 1 or 2) to `quads`. Returns true when the pose was kept as a stick.
+    /// to `quads`: 0, 1 or 2 of its own, after 0, 1 or 2 of a slide held
+    /// back (rule 2c) that it places first, also when it is itself dropped.
+    /// Returns true when the pose was kept as a stick.
     /// Throws InputError on a bad pose (the filter state is unchanged): a value
     /// not finite, a zero direction, a length not > 0, or a length or base
     /// coordinate beyond kMaxPoseMm, or a time before the last pose's.
