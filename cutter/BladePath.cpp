@@ -228,6 +228,10 @@ bool PathFilter::consider(const Stick& s1, std::vector<Quad>& quads)
     if (mFrame.cellOf(mFrame.toIndex(s1.base)) == mFrame.cellOf(mFrame.toIndex(s0.base))) {
         mPending = s1; // the stroke's last pose, if no other comes (finishStroke)
         mHavePending = true;
+        // Back in the kept stick's cell after a slide: the slide is given up
+        // (it swept within the tolerance of that stick's line), so that the
+        // next quad starts where the blade is, not at the slide's far end.
+        mHaveSlid = false;
         return false;
     }
     if (mOptions.slideTolerance >= 0.0 && slides(s1)) { // (2c) held back while the blade slides along its line

@@ -234,7 +234,9 @@ constexpr double kMaxRetraceTolerance = 4.0;
 ///    crossing sticks and folds thinner than a float step). When a pose
 ///    leaves the line, the last one held back is placed first (rules 2b and
 ///    3), then the pose, judged against it: the run makes one sliver, and
-///    the blade swings from where it was, not from where the run began. At
+///    the blade swings from where it was, not from where the run began. A
+///    pose back in the kept stick's cell (rule 2) gives the slide up: the
+///    next quad starts from the kept stick, within a cell of the blade. At
 ///    the stroke's end the last pose is placed as rule 2's. Bound: what the
 ///    poses held back sweep lies within the tolerance of the kept stick's
 ///    line (a band that wide along a line, which parts no bone).
@@ -410,7 +412,9 @@ private:
     bool mEntering = false;
     Stick mPending;             ///< the last pose pushed, when rule 2 or 2c dropped it (finishStroke)
     bool mHavePending = false;
-    Stick mSlid;                ///< the last pose rule 2c held back since the last kept stick
+    /// The last pose rule 2c held back since the last kept stick, unless a
+    /// pose after it came back into that stick's cell (rule 2).
+    Stick mSlid;
     bool mHaveSlid = false;
     /// Rule 2c: s lies within slideTolerance of the line of the last kept stick.
     bool slides(const Stick& s) const;

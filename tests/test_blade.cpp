@@ -1416,6 +1416,54 @@ TEST(PathFilter, ASlideAlongTheBladeIsHeldBackAndPlacedWhenTheBladeLeavesItsLine
     }
 }
 
+// A slide held back (rule 2c) that comes back into the last kept stick's
+// cell (rule 2) is given up: the blade is back where the cut was, and all it
+// slid along lies within the tolerance of that stick's line. The next quad
+// starts from the kept stick, not from the far end of the slide, whether the
+// blade then swings off its line or the stroke ends there.
+TEST(PathFilter, ASlideThatComesBackIntoTheKeptSticksCellIsGivenUp)
+{
+    const IndexFrame f = testFrame(); // 0.5 mm voxels across x and y
+    std::vector<Pose> poses;
+    for (const double x : {-8.0, -7.1, -6.2, -7.9}) { // out 1.8 mm along the blade, back to 0.1 mm of the start
+        Pose p;
+        p.time = 0.001 * double(poses.size());
+        p.base = dvec3(x, 5.0, -30.0);
+        p.direction = dvec3(1.0, 0.0, 0.0);
+        p.length = 6.0;
+        poses.push_back(p);
+    }
+    ASSERT_EQ(f.cellOf(f.toIndex(poses[3].base)), f.cellOf(f.toIndex(poses[0].base)));
+    std::vector<Pose> swing = poses;
+    for (int i = 1; i <= 3; ++i) { // then across: 1.5 mm a pose in y
+        Pose p = poses[3];
+        p.time += 0.001 * i;
+        p.base.y += 1.5 * i;
+        swing.push_back(p);
+    }
+    {   // The swing's first quad joins the kept stick to the first pose off the line.
+        PathFilter filter(f);
+        std::vector<Quad> quads;
+        std::vector<bool> kept;
+        for (const Pose& p : swing) kept.push_back(filter.push(p, quads));
+        for (size_t i = 1; i < 4; ++i) EXPECT_FALSE(kept[i]) << "pose " << i;
+        for (size_t i = 4; i < swing.size(); ++i) EXPECT_TRUE(kept[i]) << "pose " << i;
+        for (const Quad& q : filter.endStroke()) quads.push_back(q);
+        ASSERT_EQ(quads.size(), 3u);
+        EXPECT_EQ(quads[0].corners[0], swing[0].base);
+        EXPECT_EQ(quads[0].corners[3], swing[4].base);
+        for (const Quad& q : quads)
+            for (uint32_t c = 0; c < q.cornerCount; ++c) EXPECT_NE(q.corners[c], swing[2].base) << "the slide's far end";
+    }
+    {   // Ending there: one quad from the kept stick to the last pose.
+        PathFilter filter(f);
+        const std::vector<Quad> quads = filter.pushStroke(poses);
+        ASSERT_EQ(quads.size(), 1u);
+        EXPECT_EQ(quads[0].corners[0], poses[0].base);
+        EXPECT_EQ(quads[0].corners[3], poses[3].base);
+    }
+}
+
 // Rule 2c on thousands of poses of sawing strokes (sliding and swinging,
 // with tremor): a pose dropped lies in the last kept stick's cell (rule 2),
 // retraces a quad (2b), or lies within slideTolerance of the last kept
@@ -1455,7 +1503,9 @@ TEST(PathFilter, SlidesHeldBackOnThousandsOfSawingPoses)
                 }
                 // Dropped: judged against the last kept stick (the held slide,
                 // when the pose left the line and that one was placed first).
-                if (st.size() == sticksBefore) ASSERT_EQ(quads.size(), quadsBefore);
+                if (st.size() == sticksBefore) {
+                    ASSERT_EQ(quads.size(), quadsBefore);
+                }
                 const Stick& s0 = st.back();
                 if (head.cellOf(head.toIndex(stroke[i].base)) == head.cellOf(head.toIndex(s0.base))) continue;
                 const dvec3 a = head.toIndex(s0.base), d = glm::normalize(head.toIndex(s0.tip()) - a);
