@@ -884,6 +884,57 @@ TEST(CutCli, ARetraceToleranceIsCheckedUsedAndRecorded)
     EXPECT_LT(2 * quads[1], quads[0]) << quads[1] << " quads with --retrace 1, " << quads[0] << " without";
 }
 
+// --slide sets the path filter's slide tolerance (rule 2c): out of range it
+// fails at once, nothing written; in range summary.json records it, and a
+// saw slid along its blade through the ball makes fewer quads at the default
+// than at 0 (where only poses exactly on the line would be held back), both
+// cuts clean.
+TEST(CutCli, ASlideToleranceIsCheckedUsedAndRecorded)
+{
+    openvdb::initialize();
+    TempDir dir;
+    const std::string ball = writeBall(dir);
+    const std::string out = dir.file("out");
+    for (const char* slide : {"-1", "nan", "4.5"}) {
+        const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --slide " + slide + " -o " + out);
+        EXPECT_EQ(r.exitCode, 1) << r.output;
+        EXPECT_EQ(r.output, std::string("mtcut: error: --slide ") + slide +
+                                ": expected a tolerance from 0 to 4 voxels (default 0.25)\n");
+        EXPECT_TRUE(filesIn(out).empty());
+    }
+    EXPECT_EQ(runMtcut("cut " + ball + " --iso 0 --slide far -o " + out).output,
+              "mtcut: error: --slide far: expected a number\n");
+
+    const std::string saw = dir.file("slide.csv");
+    {
+        cutter::SawingOptions o;
+        o.poses = 160;
+        o.amplitudeMm = 5.0;
+        o.feedMm = 0.05;
+        o.posesPerCycle = 16.0;
+        o.bladeLength = 20.0;
+        o.slide = true;
+        std::ofstream file(saw);
+        cutter::writePath(file, {cutter::makeSawingStroke(glm::dvec3(0.0, 0.37, 0.0), 5, o)});
+    }
+    size_t quads[2] = {0, 0};
+    for (int held = 0; held < 2; ++held) {
+        const std::string outDir = dir.file(held ? "held" : "each");
+        const test::RunResult r = runMtcut("cut " + ball + " --iso 0 --path " + saw + (held ? "" : " --slide 0") +
+                                           " -o " + outDir + " --check");
+        ASSERT_EQ(r.exitCode, 0) << r.output;
+        std::smatch m;
+        ASSERT_TRUE(std::regex_search(r.output, m,
+                                      std::regex(R"(1 stroke\(s\), (\d+) quads, .*, slide ([0-9.]+) voxels)")))
+            << r.output;
+        quads[held] = std::stoul(m[1]);
+        EXPECT_EQ(m[2], held ? "0.25" : "0");
+        const std::string json = readText(outDir + "/summary.json");
+        EXPECT_NE(json.find(held ? "\"slide_voxels\": 0.25,\n" : "\"slide_voxels\": 0,\n"), std::string::npos) << json;
+    }
+    EXPECT_LT(2 * quads[1], quads[0]) << quads[1] << " quads at the default, " << quads[0] << " with --slide 0";
+}
+
 // The README demo's cut: the phantom's LeFort I plane, cut by tools/phantom_lefort.csv, must
 // come out clean and split off exactly one more piece (the maxilla with the upper teeth).
 TEST(CutCli, DemoLeFortStrokeSeparatesThePhantomMaxilla)

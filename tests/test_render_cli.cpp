@@ -210,6 +210,9 @@ TEST_F(RenderCli, BadArgumentsFailWithOneLineAndNoFile)
     expectError(base + "-o " + out + " --retrace 1", "--retrace needs --path", out);
     expectError(base + "-o " + out + " --retrace 5 --path " + lefortPath(),
                 "--retrace 5: expected a tolerance from 0 to 4 voxels (default 0.25)", out);
+    expectError(base + "-o " + out + " --slide 1", "--slide needs --path", out);
+    expectError(base + "-o " + out + " --slide -0.5 --path " + lefortPath(),
+                "--slide -0.5: expected a tolerance from 0 to 4 voxels (default 0.25)", out);
     expectError("render " + sPhantom + " -o " + out, "needs --iso", out);
     expectError("render " + sDir->file("nope.vdb") + " --iso 400 -o " + out, "nope.vdb", out);
     expectError(base + "-o " + out + " --path " + sDir->file("nope.csv"), "nope.csv", out);

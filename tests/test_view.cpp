@@ -439,11 +439,11 @@ TEST(ViewPath, ARefusedStrokeIsCutUpToWhereItIsRefusedAsTheCommandLineDoes)
     EXPECT_EQ(refusedOf(dir.file("out/summary.json")), listed);
 }
 
-// The retrace tolerance in the viewer: a script sets it (out of range, the
-// script stops at that line before anything opens), and a saw worked back and forth
-// through the ball is then cut as `mtcut cut --retrace` cuts it, file for
-// file, summary.json recording it; out of range on the command line, the
-// viewer does not start. At the default a note says the cells gather quads.
+// The retrace and slide tolerances in the viewer: a script sets them (out of
+// range, the script stops at that line before anything opens), and a saw
+// worked back and forth through the ball is then cut as `mtcut cut --retrace
+// --slide` cuts it, file for file, summary.json recording them; out of range
+// on the command line, the viewer does not start. At the default a note says the cells gather quads.
 TEST(ViewPath, ASawPathWithAWiderRetraceIsCutAsTheCommandLineCutsIt)
 {
     if (std::system("command -v xvfb-run > /dev/null 2>&1") != 0) GTEST_SKIP() << "xvfb-run not found (apt-get install xvfb)";
@@ -454,15 +454,17 @@ TEST(ViewPath, ASawPathWithAWiderRetraceIsCutAsTheCommandLineCutsIt)
         std::ofstream f(path);
         cutter::writePath(f, {test::sawThroughTheBall()});
     }
-    writeText(dir.file("s.txt"), "iso 0\nkerf 0.5\nretrace 1\npath " + path + "\nexport " + dir.file("out") + "\nquit\n");
+    writeText(dir.file("s.txt"),
+              "iso 0\nkerf 0.5\nretrace 1\nslide 0.5\npath " + path + "\nexport " + dir.file("out") + "\nquit\n");
     const test::RunResult r = runView(ball + " --size 320x240 --script " + dir.file("s.txt"));
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_NE(r.output.find("saw.csv: 1 stroke(s), "), std::string::npos) << r.output;
-    const test::RunResult cut = test::runMtcut("cut " + ball + " --iso 0 --kerf 0.5 --retrace 1 --path " + path +
+    const test::RunResult cut = test::runMtcut("cut " + ball + " --iso 0 --kerf 0.5 --retrace 1 --slide 0.5 --path " + path +
                                                " -o " + dir.file("cut") + " --check");
     ASSERT_EQ(cut.exitCode, 0) << cut.output;
     EXPECT_GE(sameFragments(dir.file("out"), dir.file("cut")), 1u);
     EXPECT_NE(readBytes(dir.file("out/summary.json")).find("\"retrace_voxels\": 1,\n"), std::string::npos);
+    EXPECT_NE(readBytes(dir.file("out/summary.json")).find("\"slide_voxels\": 0.5,\n"), std::string::npos);
     EXPECT_EQ(r.output.find("note: up to"), std::string::npos) << r.output;
     // At the default tolerance the passes pile quads in the cells: a note
     // says so, and what the slider does.
@@ -482,6 +484,17 @@ TEST(ViewPath, ASawPathWithAWiderRetraceIsCutAsTheCommandLineCutsIt)
     EXPECT_NE(badLine.output.find("bad.txt:2: retrace 9: expected a tolerance from 0 to 4 voxels"), std::string::npos)
         << badLine.output;
     EXPECT_EQ(badLine.output.find("opened"), std::string::npos) << "stops before opening anything:\n" << badLine.output;
+    const test::RunResult badSlide = runView(ball + " --slide 9");
+    EXPECT_EQ(badSlide.exitCode, 2) << badSlide.output;
+    EXPECT_NE(badSlide.output.find("mtcut-view: error: --slide 9: expected a tolerance from 0 to 4 voxels"),
+              std::string::npos)
+        << badSlide.output;
+    writeText(dir.file("badslide.txt"), "iso 0\nslide 4.5\nquit\n");
+    const test::RunResult badSlideLine = runView(ball + " --script " + dir.file("badslide.txt"));
+    EXPECT_EQ(badSlideLine.exitCode, 2) << badSlideLine.output;
+    EXPECT_NE(badSlideLine.output.find("badslide.txt:2: slide 4.5: expected a tolerance from 0 to 4 voxels"),
+              std::string::npos)
+        << badSlideLine.output;
 }
 
 // A haptic device's stream (--poses stdin), its strokes cut live: the ball

@@ -62,21 +62,23 @@ double Args::kerfMm() const
 
 cutter::PathFilterOptions Args::pathFilterOptions() const
 {
-    return pathFilterOptionsWith(getDouble("retrace", cutter::PathFilterOptions{}.retraceTolerance),
-                                 "--retrace " + get("retrace"));
+    cutter::PathFilterOptions o;
+    o.retraceTolerance = filterToleranceWith(getDouble("retrace", o.retraceTolerance), "--retrace " + get("retrace"),
+                                             o.retraceTolerance);
+    o.slideTolerance =
+        filterToleranceWith(getDouble("slide", o.slideTolerance), "--slide " + get("slide"), o.slideTolerance);
+    return o;
 }
 
-cutter::PathFilterOptions pathFilterOptionsWith(double voxels, const std::string& what)
+double filterToleranceWith(double voxels, const std::string& what, double fallback)
 {
-    cutter::PathFilterOptions o;
     if (!(voxels >= 0.0 && voxels <= cutter::kMaxRetraceTolerance)) {
         char text[128];
         std::snprintf(text, sizeof text, ": expected a tolerance from 0 to %g voxels (default %g)",
-                      cutter::kMaxRetraceTolerance, o.retraceTolerance);
+                      cutter::kMaxRetraceTolerance, fallback);
         throw InputError(what + text);
     }
-    o.retraceTolerance = voxels;
-    return o;
+    return voxels;
 }
 
 float Args::isoValue(const std::string& command) const

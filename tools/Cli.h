@@ -32,8 +32,9 @@ struct Args
     double getDouble(const std::string& name, double fallback) const;
     /// --kerf in mm (default 0); InputError outside 0..cutter::kMaxKerfMm.
     double kerfMm() const;
-    /// The path filter's options: --retrace VOXELS (the retrace tolerance,
-    /// default PathFilterOptions' 0.25), checked by pathFilterOptionsWith.
+    /// The path filter's options: --retrace VOXELS and --slide VOXELS (the
+    /// retrace and slide tolerances, default PathFilterOptions' 0.25 each),
+    /// checked by filterToleranceWith.
     cutter::PathFilterOptions pathFilterOptions() const;
     /// --iso, which `command` (mesh, cut, render) needs; InputError when it
     /// is missing or not a finite number.
@@ -150,10 +151,11 @@ size_t cutStrokeByStroke(cutter::CutRemesher& remesher, cutter::CutMask& mask,
 /// stroke that stepped round a refusal below a float step; on stdout.
 void printStrokeByStroke(const std::vector<RefusedStroke>& refused, const std::vector<size_t>& steppedRound);
 
-/// The path filter's options with retrace tolerance `voxels` (mtcut --retrace,
-/// the viewer's slider and script); InputError "`what`: expected a tolerance
-/// from 0 to 4 voxels (default 0.25)" outside 0..cutter::kMaxRetraceTolerance.
-cutter::PathFilterOptions pathFilterOptionsWith(double voxels, const std::string& what);
+/// A tolerance of the path filter in voxels (mtcut --retrace and --slide,
+/// the viewer's sliders and script), returned when it is from 0 to
+/// cutter::kMaxRetraceTolerance; otherwise InputError "`what`: expected a
+/// tolerance from 0 to 4 voxels (default `fallback`)".
+double filterToleranceWith(double voxels, const std::string& what, double fallback);
 
 /// Quads crossing one cut cell from which manyQuadsNote speaks.
 constexpr size_t kManyQuadsPerCell = 12;

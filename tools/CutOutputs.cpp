@@ -83,6 +83,7 @@ std::string summaryJson(const CutOutputRequest& r, size_t cutCells, const std::v
     os << "  \"isovalue\": " << jsonNumber(double(r.isovalue)) << ",\n";
     os << "  \"kerf_mm\": " << jsonNumber(r.kerfMm) << ",\n";
     os << "  \"retrace_voxels\": " << jsonNumber(r.retraceVoxels) << ",\n";
+    os << "  \"slide_voxels\": " << jsonNumber(r.slideVoxels) << ",\n";
     os << "  \"path\": " << (r.pathFile.empty() ? std::string("null") : jsonString(r.pathFile)) << ",\n";
     os << "  \"stroke\": " << jsonString(stroke) << ",\n";
     os << "  \"stroke_file\": " << (r.strokesWithoutFile.empty() ? "null" : "\"stroke.csv\"") << ",\n";

@@ -57,6 +57,8 @@ struct CutOutputRequest
     /// The path filter's retrace tolerance the strokes were filtered with
     /// (voxels; mtcut cut --retrace): summary's "retrace_voxels".
     double retraceVoxels = cutter::PathFilterOptions{}.retraceTolerance;
+    /// Its slide tolerance (voxels; mtcut cut --slide): summary's "slide_voxels".
+    double slideVoxels = cutter::PathFilterOptions{}.slideTolerance;
     /// Which fragments (by index in the fragment list) to write as mesh files
     /// and level sets; empty = all. Files keep their index in the full list
     /// (fragment_003.stl stays fragment 3), so a partial save is unambiguous.

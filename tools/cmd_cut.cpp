@@ -223,6 +223,7 @@ int runCut(const Args& args)
     request.isovalue = iso;
     request.kerfMm = kerf;
     request.retraceVoxels = filterOptions.retraceTolerance;
+    request.slideVoxels = filterOptions.slideTolerance;
     request.refused = refused;
     request.steppedRound = stepped;
     request.selected = selected;
@@ -236,11 +237,11 @@ int runCut(const Args& args)
     }
 
     // -- report -------------------------------------------------------------------
-    std::printf("stroke:     %s, %zu stroke(s), %zu quads, kerf %g mm%s, retrace %g voxels\n",
+    std::printf("stroke:     %s, %zu stroke(s), %zu quads, kerf %g mm%s, retrace %g voxels, slide %g voxels\n",
                 pathFile.empty() ? (onPhantom ? "built-in LeFort I (phantom's LeFort plane)" : "built-in LeFort I")
                                  : pathFile.c_str(),
                 strokes.size(), quadCount, kerf, kerf == 0.0 ? " (zero width: nothing carved)" : "",
-                filterOptions.retraceTolerance);
+                filterOptions.retraceTolerance, filterOptions.slideTolerance);
     printStrokeByStroke(refused, stepped);
     std::printf("cut cells:  %zu (%zu meet the solid)\n", mask.cutCellCount(), surfaceCells);
     std::printf("surface:    %zu triangles uncut -> %zu fused, %zu fragment(s)\n",
@@ -318,11 +319,11 @@ int runCut(const Args& args)
 std::vector<std::string> cutOptions()
 {
     std::vector<std::string> o = kInputOptions;
-    for (const char* name : {"iso", "path", "kerf", "retrace", "output", "format", "min-volume", "level-set-voxel"}) o.push_back(name);
+    for (const char* name : {"iso", "path", "kerf", "retrace", "slide", "output", "format", "min-volume", "level-set-voxel"}) o.push_back(name);
     return o;
 }
 
-const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] [--retrace VOXELS] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--level-set-voxel MM] [--check] [--keep-going]",
+const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf MM] [--retrace VOXELS] [--slide VOXELS] -o OUTDIR [--format stl|obj|ply|off] [--min-volume MM3] [--level-set-voxel MM] [--check] [--keep-going]",
                             "cut the isosurface along a blade path (default: a built-in LeFort I stroke); writes "
                             "fragment_NNN meshes (largest first), cut.vdb, slices.exr, summary.json into OUTDIR. --path: "
                             "poses t,x,y,z,dx,dy,dz,length (cutter/PATH_FORMAT.md), a blank line between strokes; a stroke "
@@ -330,7 +331,9 @@ const CommandRegistrar cut({"cut", "cut INPUT --iso V [--path PATH.csv] [--kerf 
                             "carved volume equals the input); --retrace: a pose within this many voxels of the cut so far is "
                             "dropped as going back over it (the path filter's tolerance, 0 to 4, default 0.25; 1 makes a "
                             "saw worked back and forth many times faster to cut, and the cut may stop short of where the "
-                            "blade went by up to that much); --min-volume: write no file or level set for a fragment "
+                            "blade went by up to that much); --slide: a pose whose blade lies within this many voxels of the "
+                            "line of the last kept one is held back as sliding along itself (it sweeps no area) until the "
+                            "blade leaves that line (0 to 4, default 0.25); --min-volume: write no file or level set for a fragment "
                             "smaller than MM3 (loose specks; summary.json counts them; default 0: every fragment); --level-set-voxel: the "
                             "voxel size in mm of cut.vdb's level sets (default: the scan's smallest spacing; at least a "
                             "quarter of it); --check: "

@@ -67,7 +67,9 @@ int runRender(const Args& args)
     const double kerf = args.kerfMm();
     if (args.has("kerf") && pathFile.empty()) throw InputError("--kerf needs --path (there is no cut without a path)");
     const cutter::PathFilterOptions filterOptions = args.pathFilterOptions();
-    if (args.has("retrace") && pathFile.empty()) throw InputError("--retrace needs --path (there is no cut without a path)");
+    for (const char* option : {"retrace", "slide"})
+        if (args.has(option) && pathFile.empty())
+            throw InputError(std::string("--") + option + " needs --path (there is no cut without a path)");
     const int width = imageSide(args, "width", 1024);
     const int height = imageSide(args, "height", 1024);
     const std::string view = args.get("view", "front");
@@ -239,17 +241,17 @@ int runRender(const Args& args)
 std::vector<std::string> renderOptions()
 {
     std::vector<std::string> o = kInputOptions;
-    for (const char* name : {"iso", "path", "kerf", "retrace", "output", "width", "height", "view"}) o.push_back(name);
+    for (const char* name : {"iso", "path", "kerf", "retrace", "slide", "output", "width", "height", "view"}) o.push_back(name);
     return o;
 }
 
 const CommandRegistrar renderCommand(
     {"render",
-     "render INPUT --iso V [--path PATH.csv] [--kerf MM] [--retrace VOXELS] -o OUT.{png,exr} [--width W --height H] "
+     "render INPUT --iso V [--path PATH.csv] [--kerf MM] [--retrace VOXELS] [--slide VOXELS] -o OUT.{png,exr} [--width W --height H] "
      "[--view front|side|top|iso|EX,EY,EZ:TX,TY,TZ[:UX,UY,UZ[:FOV]]] [--highlight] [--keep-going] [--gpu-cut]",
      "draw the isosurface (cut along PATH.csv when given) headless on the GPU into a PNG, or an EXR with RGBA, Z "
      "(depth, mm), N.X/N.Y/N.Z (world normal) and fragment (uint id) channels; default 1024x1024, front view; "
-     "--highlight colours the cut geometry; --kerf and --retrace as mtcut cut's; --keep-going: a stroke the re-mesher refuses is cut up to where it is "
+     "--highlight colours the cut geometry; --kerf, --retrace and --slide as mtcut cut's; --keep-going: a stroke the re-mesher refuses is cut up to where it is "
      "refused, as mtcut cut --keep-going; --gpu-cut: the cut geometry is made again by the GPU cut pass and drawn from "
      "its own output, and the recovered geometry is checked against the CPU re-mesher's",
      renderOptions(), {"highlight", "keep-going", "gpu-cut"}, 1, 1, runRender});

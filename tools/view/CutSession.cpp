@@ -82,7 +82,7 @@ struct CutSession::State
     std::unique_ptr<cutter::CutRemesher> remesher;
 
     // The live stroke.
-    cutter::PathFilterOptions filterOptions;  ///< setRetrace; for the strokes to come
+    cutter::PathFilterOptions filterOptions;  ///< setRetrace, setSlide; for the strokes to come
     bool manyQuadsNoted = false;              ///< cli::manyQuadsNote said once this session
     std::unique_ptr<cutter::PathFilter> filter;
     bool live = false;                          ///< between beginStroke and endStroke
@@ -489,7 +489,19 @@ void CutSession::setRetrace(double voxels)
     post({"retrace", false, [this, voxels] {
               char text[48];
               std::snprintf(text, sizeof text, "retrace %g", voxels);
-              mState->filterOptions = cli::pathFilterOptionsWith(voxels, text); // the next stroke's filter takes it
+              // The next stroke's filter takes it.
+              mState->filterOptions.retraceTolerance =
+                  cli::filterToleranceWith(voxels, text, cutter::PathFilterOptions{}.retraceTolerance);
+          }});
+}
+
+void CutSession::setSlide(double voxels)
+{
+    post({"slide", false, [this, voxels] {
+              char text[48];
+              std::snprintf(text, sizeof text, "slide %g", voxels);
+              mState->filterOptions.slideTolerance =
+                  cli::filterToleranceWith(voxels, text, cutter::PathFilterOptions{}.slideTolerance);
           }});
 }
 
@@ -675,6 +687,7 @@ void CutSession::save(SaveRequest request)
               r.isovalue = s.iso;
               r.kerfMm = s.kerf;
               r.retraceVoxels = s.filterOptions.retraceTolerance; // as set now
+              r.slideVoxels = s.filterOptions.slideTolerance;
               r.selected = request.selected;
               // The strokes of the cut now (after any undo) that were cut
               // only in part, as they still are, or stepped round a refusal.

@@ -108,6 +108,11 @@ public:
     /// cutter::kMaxRetraceTolerance) for the strokes to come (live and path
     /// files); the cut so far stays as it is.
     void setRetrace(double voxels);
+    /// The path filter's slide tolerance (voxels, 0 to
+    /// cutter::kMaxRetraceTolerance: a pose whose blade lies this close to
+    /// the line of the last kept one is held back as sliding along itself)
+    /// for the strokes to come; the cut so far stays as it is.
+    void setSlide(double voxels);
     /// A live stroke: begin, poses (world mm, seconds; filtered by the path
     /// filter, re-meshed as they come), end (then the fragments are updated).
     void beginStroke();

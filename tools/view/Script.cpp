@@ -47,7 +47,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
     static const Spec kSpecs[] = {
         {"iso", ScriptAction::Kind::Iso, true},       {"view", ScriptAction::Kind::View, true},
         {"kerf", ScriptAction::Kind::Kerf, true},     {"retrace", ScriptAction::Kind::Retrace, true},
-        {"path", ScriptAction::Kind::Path, true},
+        {"slide", ScriptAction::Kind::Slide, true},   {"path", ScriptAction::Kind::Path, true},
         {"drag", ScriptAction::Kind::Drag, true},     {"pick", ScriptAction::Kind::Pick, true},
         {"undo", ScriptAction::Kind::Undo, false},    {"redo", ScriptAction::Kind::Redo, false},
         {"screenshot", ScriptAction::Kind::Screenshot, true}, {"window", ScriptAction::Kind::Window, true},
@@ -70,7 +70,7 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         }
         if (!spec) {
             throw InputError(where + ": unknown action '" + word +
-                             "' (expected iso, view, kerf, retrace, path, drag, pick, undo, redo, screenshot, window, export, export-selected, wait or quit)");
+                             "' (expected iso, view, kerf, retrace, slide, path, drag, pick, undo, redo, screenshot, window, export, export-selected, wait or quit)");
         }
         if (spec->takesArgument && rest.empty()) throw InputError(where + ": " + word + " needs an argument");
         if (!spec->takesArgument && !rest.empty()) {
@@ -83,8 +83,11 @@ std::vector<ScriptAction> parseScript(const std::string& text, const std::string
         if (a.kind == ScriptAction::Kind::Iso) a.number = numberOf(rest, where + ": iso", false);
         if (a.kind == ScriptAction::Kind::Kerf) a.number = numberOf(rest, where + ": kerf", true);
         if (a.kind == ScriptAction::Kind::Retrace)
-            a.number = cli::pathFilterOptionsWith(numberOf(rest, where + ": retrace", true), where + ": retrace " + rest)
-                           .retraceTolerance;
+            a.number = cli::filterToleranceWith(numberOf(rest, where + ": retrace", true), where + ": retrace " + rest,
+                                                cutter::PathFilterOptions{}.retraceTolerance);
+        if (a.kind == ScriptAction::Kind::Slide)
+            a.number = cli::filterToleranceWith(numberOf(rest, where + ": slide", true), where + ": slide " + rest,
+                                                cutter::PathFilterOptions{}.slideTolerance);
         if (a.kind == ScriptAction::Kind::Wait) {
             if (rest == "poses") a.kind = ScriptAction::Kind::WaitPoses;
             else a.number = numberOf(rest, where + ": wait (seconds, or 'poses')", true);

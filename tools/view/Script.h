@@ -5,6 +5,7 @@
 //   view front|side|top|iso|CAMERA   camera as `mtcut render --view`
 //   kerf MM               saw width for the cut (re-cuts every stroke at it)
 //   retrace VOXELS        the path filter's retrace tolerance for the strokes to come
+//   slide VOXELS          the path filter's slide tolerance for the strokes to come
 //   path FILE             replays a path file (cutter/PATH_FORMAT.md), one
 //                         stroke of the cut per stroke of the file
 //   drag X0 Y0 X1 Y1      a mouse stroke from pixel (X0, Y0) to (X1, Y1) (top-left origin),
@@ -32,10 +33,10 @@ namespace mtcut::view {
 
 struct ScriptAction
 {
-    enum class Kind { Iso, View, Kerf, Retrace, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Wait, WaitPoses, Quit };
+    enum class Kind { Iso, View, Kerf, Retrace, Slide, Path, Drag, Pick, Undo, Redo, Screenshot, Window, Export, ExportSelected, Wait, WaitPoses, Quit };
     Kind kind = Kind::Quit;
     std::string argument; ///< the rest of the line, trimmed (file names may hold spaces)
-    double number = 0.0;  ///< iso, kerf, retrace, wait's seconds
+    double number = 0.0;  ///< iso, kerf, retrace, slide, wait's seconds
     size_t line = 0;      ///< 1-based line in the script
 };
 

@@ -212,6 +212,7 @@ private:
     float mIso = 0.0f;
     float mKerf = 0.0f;
     float mRetrace = 0.25f; ///< the path filter's retrace tolerance, voxels (panel)
+    float mSlide = 0.25f;   ///< the path filter's slide tolerance, voxels (panel)
     float mBladeLength = 60.0f;   ///< mm
     double mScriptWaitUntil = 0.0; ///< glfwGetTime() before which the script waits (`wait`)
     bool mScriptWaitPoses = false; ///< the script waits for the --poses stream to end (`wait poses`)
@@ -280,6 +281,8 @@ Viewer::Viewer(const ViewerOptions& options)
     mSession.open(options.input, options.isovalue);
     mRetrace = float(options.retrace);
     if (options.retrace != cutter::PathFilterOptions{}.retraceTolerance) mSession.setRetrace(options.retrace);
+    mSlide = float(options.slide);
+    if (options.slide != cutter::PathFilterOptions{}.slideTolerance) mSession.setSlide(options.slide);
     if (!options.poseStream.empty()) {
         try {
             mPoses = std::make_unique<PoseStreamReader>(options.poseStream, mSession);
@@ -649,6 +652,10 @@ void Viewer::stepScript()
             mSession.setRetrace(a.number);
             mRetrace = float(a.number);
             break;
+        case ScriptAction::Kind::Slide:
+            mSession.setSlide(a.number);
+            mSlide = float(a.number);
+            break;
         case ScriptAction::Kind::Path: mSession.addStrokes(cli::readStrokes(a.argument), a.argument); break;
         case ScriptAction::Kind::Drag: scriptDrag(a.argument); break;
         case ScriptAction::Kind::Undo: mSession.undo(); break;
@@ -757,6 +764,11 @@ void Viewer::panel()
             ImGui::SetTooltip("A pose this close to the cut is taken as going back over it. 1: a saw worked back and\n"
                               "forth cuts many times faster, and the cut may lag the blade by up to that much.");
         if (ImGui::IsItemDeactivatedAfterEdit()) mSession.setRetrace(mRetrace);
+        ImGui::SliderFloat("slide (vox)", &mSlide, 0.0f, float(cutter::kMaxRetraceTolerance), "%.2f");
+        if (ImGui::IsItemHovered())
+            ImGui::SetTooltip("A pose whose blade lies this close to the line of the last one kept is held back as\n"
+                              "sliding along itself (it sweeps no area) until the blade leaves that line.");
+        if (ImGui::IsItemDeactivatedAfterEdit()) mSession.setSlide(mSlide);
         ImGui::Text("%u stroke(s), %zu cut voxels", s->strokes, s->cutCells);
         if (ImGui::Button("Undo")) mSession.undo();
         ImGui::SameLine();

@@ -30,6 +30,8 @@ struct ViewerOptions
     std::string poseStream;
     /// The path filter's retrace tolerance, voxels (mtcut-view --retrace).
     double retrace = cutter::PathFilterOptions{}.retraceTolerance;
+    /// Its slide tolerance, voxels (mtcut-view --slide).
+    double slide = cutter::PathFilterOptions{}.slideTolerance;
 };
 
 /// Opens the window and runs until the user closes it or a script says

@@ -20,6 +20,7 @@ namespace {
 
 const char* const kUsage =
     "usage: mtcut-view [INPUT] [--iso V] [--script FILE] [--size WxH] [--poses stdin|udp:PORT] [--retrace VOXELS]\n"
+    "                  [--slide VOXELS]\n"
     "                  [input options]\n"
     "  INPUT            a scan (DICOM folder, .nrrd/.nhdr, .nii, .mha, .vdb, raw); none: the built-in phantom\n"
     "  --iso V          isovalue (default: the suggested bone isovalue, as `mtcut info` prints it)\n"
@@ -29,13 +30,15 @@ const char* const kUsage =
 "  --poses SOURCE   drive the blade from a pose stream in the path format (stdin or udp:PORT)\n"
     "  --retrace V      the path filter's retrace tolerance in voxels, 0 to 4 (default 0.25; 1: sawing back\n"
     "                   and forth cuts many times faster, the cut lagging the blade by up to 1 voxel)\n"
+    "  --slide V        the path filter's slide tolerance in voxels, 0 to 4 (default 0.25): a pose whose blade\n"
+    "                   lies this close to the last kept one's line is held back as sliding along itself\n"
     "  input options    as mtcut's: --series --grid --air --dims --type --endian --spacing --origin --offset\n";
 
 view::ViewerOptions parseArgs(int argc, char** argv, std::string& scriptPath)
 {
     cli::Args args;
     std::vector<std::string> valueOptions = cli::kInputOptions;
-    for (const char* name : {"iso", "script", "size", "poses", "retrace"}) valueOptions.push_back(name);
+    for (const char* name : {"iso", "script", "size", "poses", "retrace", "slide"}) valueOptions.push_back(name);
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a.rfind("--", 0) != 0 || a.size() <= 2) {
@@ -77,7 +80,9 @@ view::ViewerOptions parseArgs(int argc, char** argv, std::string& scriptPath)
         o.height = h;
     }
     o.poseStream = args.get("poses");
-    o.retrace = args.pathFilterOptions().retraceTolerance; // --retrace, checked as mtcut's
+    const cutter::PathFilterOptions filter = args.pathFilterOptions(); // --retrace, --slide, checked as mtcut's
+    o.retrace = filter.retraceTolerance;
+    o.slide = filter.slideTolerance;
     scriptPath = args.get("script");
     return o;
 }
