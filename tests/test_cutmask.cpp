@@ -231,6 +231,47 @@ TEST(CutMask, InputThreadToGeometryThreadEqualsDirectBuild)
     }
 }
 
+// The input thread's sticksKept counts every stick its filter kept: a pose's
+// own, a held slide placed before the pose that left the blade's line (rule
+// 2c), a retrace restart's (2b), and the last pose placed at a stroke's end;
+// not the poses push() kept. On sliding saws (most poses held back) it equals
+// the filter's own count, and exceeds the poses it reports kept.
+TEST(CutMask, InputThreadCountsTheSticksItsFilterKept)
+{
+    const IndexFrame f = smallFrame();
+    std::vector<std::string> lines = {"t,x,y,z,dx,dy,dz,length"};
+    size_t sticks = 0, kept = 0, quads = 0;
+    for (uint32_t seed = 0; seed < 4; ++seed) {
+        SawingOptions o;
+        o.poses = 300;
+        o.slide = true;
+        o.amplitudeMm = 3.0;
+        o.feedMm = 0.02;
+        const std::vector<Pose> stroke = makeSawingStroke(dvec3(0.0, 19.5, -10.0), seed, o);
+        if (seed) lines.push_back("");
+        PathFilter filter(f);
+        std::vector<Quad> made;
+        for (const Pose& p : stroke) {
+            lines.push_back(formatPoseLine(p));
+            kept += filter.push(p, made);
+        }
+        sticks += filter.sticks().size();
+        const std::vector<Quad> last = filter.endStroke();
+        sticks += last.empty() ? 0 : 1;
+        quads += made.size() + last.size();
+    }
+    InputThreadOptions opt;
+    opt.voxelize = false;
+    InputThread input(std::make_unique<MemoryLineSource>(lines), f, opt);
+    input.start();
+    input.join(); // the queue grows without bound: nothing need drain it
+    EXPECT_EQ(input.posesRead(), 4u * 300u);
+    EXPECT_EQ(input.quadsMade(), quads);
+    EXPECT_EQ(input.sticksKept(), sticks);
+    EXPECT_GT(input.sticksKept(), kept) << "held slides placed before the pose that left the line";
+    EXPECT_LT(input.sticksKept() * 4, input.posesRead()) << "most sliding poses are held back";
+}
+
 // quadSerial: one per quad as added, through undo and redo and into copies;
 // the same quad added again gets a new one.
 TEST(CutMask, QuadSerialsTellQuadsApartAndSurviveUndoRedo)
