@@ -504,7 +504,7 @@ bool sidesAgree(const CutVertexId& a, const CutVertexId& b)
 } // namespace
 
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
-                        CutCellGeometry& out, bool crossings)
+                        CutCellGeometry& out, bool crossings, bool flattenFoldedTents)
 {
     if (out.cap.size() != out.indices.size() / 3)
         throw std::logic_error("repairFloatFolds: one cap flag per triangle expected");
@@ -1096,6 +1096,25 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
                 if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
                     mended = true;
                     break;
+                }
+            }
+        }
+        if (!mended && flattenFoldedTents) {
+            // Zero kerf: a folded triangle's short edge whose collapse lays a
+            // triangle into a cell face (a tent flattened: the header).
+            for (size_t t = 0; t < nt && !mended; ++t) {
+                if (!alive[t] || !folded(tris[t], normal[t])) continue;
+                std::array<std::pair<double, int>, 3> edges;
+                for (int e = 0; e < 3; ++e)
+                    edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
+                std::sort(edges.begin(), edges.end());
+                for (const auto& [len, e] : edges) {
+                    const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                    if (!isShort(a, b)) break; // shortest first
+                    if ((canMove(a) && collapse(a, b, false, true)) || (canMove(b) && collapse(b, a, false, true))) {
+                        mended = true;
+                        break;
+                    }
                 }
             }
         }

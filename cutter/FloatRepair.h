@@ -164,9 +164,20 @@ size_t keepFaceSidesOnceWritten(const Coord& cell, const openvdb::Vec3d& origin,
 /// the same mask from scratch; 1 mm head, kerf 3, seed 14123.)
 /// out.crossFree is set when that pass finds nothing to mend (no crossing,
 /// nothing else), and cleared otherwise.
+/// With `flattenFoldedTents` (zero kerf, which has no crossings pass), a
+/// folded triangle that the rounds leave loses a short edge whose collapse
+/// lays a triangle into a cell face, marked in out.intoFace, as the
+/// crossings pass does: a tent of three triangles over a triangle of a cell
+/// face, its apex inside the cell less than a float step from the face,
+/// written into the face with one of its triangles of no area (2 mm head,
+/// kerf 0, sawing across the blade, seed 77707: the apex where two slits
+/// meet the isosurface, less than a float step from the face z = 1170 mm,
+/// on the line of two face vertices 3e-5 mm apart). Every collapse
+/// of the apex lays the face triangle under the tent into the face, which
+/// the rounds refuse; the face triangle has the tent's rim, edge for edge.
 /// Returns the vertices removed.
 size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing,
-                        CutCellGeometry& out, bool crossings = false);
+                        CutCellGeometry& out, bool crossings = false, bool flattenFoldedTents = false);
 
 /// Snap rounding's second rule (fusedMesh and the local check alike): the
 /// edge from a marching-tetrahedra vertex X (`iso`) to another vertex of its

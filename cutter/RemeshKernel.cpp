@@ -3268,7 +3268,7 @@ void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, b
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
     keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out);
+    repairFloatFolds(cell, mOrigin, mSpacing, out, false, !prism); // zero kerf: folded tents flattened
     if (prism) repairFloatFolds(cell, mOrigin, mSpacing, out, true); // then its crossings, in a second pass
 }
 
@@ -3278,7 +3278,7 @@ void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, b
     snapToGridVertices(mOrigin, mSpacing, out);
     liftOffCellFaces(cell, mOrigin, mSpacing, out);
     keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out);
+    repairFloatFolds(cell, mOrigin, mSpacing, out, false, !prism); // zero kerf: folded tents flattened
     if (prism) repairFloatFolds(cell, mOrigin, mSpacing, out, true); // then its crossings, in a second pass
 }
 

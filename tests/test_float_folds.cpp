@@ -717,6 +717,58 @@ TEST(FloatFolds, ATentOverAFaceTriangleThatCrossesOnceWrittenFlattensIntoTheFace
     }
 }
 
+// Zero kerf has no crossings pass: a tent over a face triangle whose apex
+// is written into the face on the line of two of the face's vertices, its
+// triangle there of no area (2 mm head, kerf 0, sawing across the blade,
+// seed 77707: the apex where two slits meet the isosurface, within a float
+// step of the face z = 1170 mm, the two face vertices 3e-5 mm apart along
+// x with different side tags, so the face rule keeps them apart; the update
+// was refused). Every collapse of the apex lays the rest of the tent into
+// the face, which a round refuses. Asked (flattenFoldedTents: the kernel
+// asks it without kerf), the rounds' pass collapses the apex's shortest
+// edge anyway and marks the triangle left in the face, whose edges are the
+// tent's rim. A tent that float holds up is left alone; without the flag
+// nothing changes.
+TEST(FloatFolds, AFoldedTentOverAFaceTriangleFlattensAtZeroKerf)
+{
+    const openvdb::Vec3d origin(0.0, 0.0, 1000.0), spacing(1.0);
+    const Coord cell(205, 295, 134), f0(205, 295, 135), f1(206, 295, 135), f2(205, 296, 135); // a tet face in z = 135
+    auto tent = [&](double apexBelow) {
+        Builder b;
+        CutVertexId ia = faceVertex(f0, f1, f2, 1, 200), ib = faceVertex(f0, f1, f2, 200, 201);
+        ia.tagCount = 1;
+        ia.tags[0] = 200u << 1;
+        ib.tagCount = 2;
+        ib.tags[0] = 200u << 1;
+        ib.tags[1] = 201u << 1;
+        const uint32_t A = b.add(ia, {205.5, 295.3, 135.0});
+        const uint32_t B = b.add(ib, {205.5 + 3.05e-5, 295.3, 135.0}); // two float steps along x
+        const uint32_t C = b.add(faceVertex(f0, f1, f2, 1, 201), {205.3, 295.5, 135.0});
+        const uint32_t P = b.add(innerVertex(cell, 1, 201), {205.5 + 1.5e-5, 295.3, 135.0 - apexBelow});
+        b.tri(A, B, P);
+        b.tri(B, C, P);
+        b.tri(C, A, P);
+        return b.g;
+    };
+    CutCellGeometry g = tent(1e-6);
+    EXPECT_EQ(repairFloatFolds(cell, origin, spacing, g, false, false), 0u);
+    EXPECT_EQ(g.indices.size(), 9u) << "without the flag a round lays no triangle into a face";
+    EXPECT_EQ(repairFloatFolds(cell, origin, spacing, g, false, true), 1u);
+    ASSERT_EQ(g.indices.size(), 3u) << "the tent flattens into one triangle";
+    EXPECT_EQ(g.vertexIds.size(), 3u);
+    for (const CutVertexId& id : g.vertexIds) EXPECT_EQ(id.dim, 2) << "the apex went";
+    EXPECT_EQ(g.intoFace, std::vector<uint32_t>{0}) << "the triangle left in the face is marked";
+    const auto rim = boundary(tent(1e-6));
+    EXPECT_EQ(rim.size(), 3u);
+    for (const auto& [edge, n] : directedEdges(g)) {
+        EXPECT_EQ(n, 1);
+        EXPECT_EQ(rim.count(edge), 1u);
+    }
+    CutCellGeometry high = tent(1e-2); // 1e-2 mm under the face: float holds it up
+    EXPECT_EQ(repairFloatFolds(cell, origin, spacing, high, false, true), 0u);
+    EXPECT_EQ(high.indices.size(), 9u);
+}
+
 // A spike in a cell face's section (tooth at 400, kerf 0.5, seed 9074,
 // stroke 2 at its fifth quad; face z = 10 between cells (69, 69, 9) and
 // (69, 69, 10), the positions as the kernel made them): quad 3's rim line
