@@ -1066,6 +1066,25 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         });
         shortEdges.erase(std::unique(shortEdges.begin(), shortEdges.end()), shortEdges.end());
     };
+    // The first folded triangle (in triangle order) that loses an edge,
+    // shortest first: any edge, or with `intoFaceOk` only a short one whose
+    // collapse may lay a triangle into a cell face (marked). True if one did.
+    auto collapseAFoldedTrianglesEdge = [&](bool intoFaceOk) {
+        for (size_t t = 0; t < nt; ++t) {
+            if (!alive[t] || !folded(tris[t], normal[t])) continue;
+            std::array<std::pair<double, int>, 3> edges;
+            for (int e = 0; e < 3; ++e)
+                edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
+            std::sort(edges.begin(), edges.end());
+            for (const auto& [len, e] : edges) {
+                const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
+                if (intoFaceOk && !isShort(a, b)) break; // shortest first
+                if ((canMove(a) && collapse(a, b, false, intoFaceOk)) || (canMove(b) && collapse(b, a, false, intoFaceOk)))
+                    return true;
+            }
+        }
+        return false;
+    };
     for (int round = 0; round < 16; ++round) {
         bool mended = false;
         shortEdges.clear();
@@ -1085,39 +1104,10 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
             if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) mended = true;
         }
         if (mended) continue;
-        for (size_t t = 0; t < nt && !mended; ++t) {
-            if (!alive[t] || !folded(tris[t], normal[t])) continue;
-            std::array<std::pair<double, int>, 3> edges;
-            for (int e = 0; e < 3; ++e)
-                edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
-            std::sort(edges.begin(), edges.end());
-            for (const auto& [len, e] : edges) {
-                const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
-                if ((canMove(a) && collapse(a, b, false)) || (canMove(b) && collapse(b, a, false))) {
-                    mended = true;
-                    break;
-                }
-            }
-        }
-        if (!mended && flattenFoldedTents) {
-            // Zero kerf: a folded triangle's short edge whose collapse lays a
-            // triangle into a cell face (a tent flattened: the header).
-            for (size_t t = 0; t < nt && !mended; ++t) {
-                if (!alive[t] || !folded(tris[t], normal[t])) continue;
-                std::array<std::pair<double, int>, 3> edges;
-                for (int e = 0; e < 3; ++e)
-                    edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
-                std::sort(edges.begin(), edges.end());
-                for (const auto& [len, e] : edges) {
-                    const uint32_t a = tris[t][size_t(e)], b = tris[t][size_t((e + 1) % 3)];
-                    if (!isShort(a, b)) break; // shortest first
-                    if ((canMove(a) && collapse(a, b, false, true)) || (canMove(b) && collapse(b, a, false, true))) {
-                        mended = true;
-                        break;
-                    }
-                }
-            }
-        }
+        mended = collapseAFoldedTrianglesEdge(false);
+        // Zero kerf: a folded triangle's short edge whose collapse lays a
+        // triangle into a cell face (a tent flattened: the header).
+        if (!mended && flattenFoldedTents) mended = collapseAFoldedTrianglesEdge(true);
         if (!mended && crossings) {
             // Last: an edge of a triangle that crosses another of the cell's
             // once written, shortest first (exact length, then names), one a
