@@ -1068,10 +1068,14 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
     };
     // The first folded triangle (in triangle order) that loses an edge,
     // shortest first: any edge, or with `intoFaceOk` only a short one whose
-    // collapse may lay a triangle into a cell face (marked). True if one did.
+    // collapse may lay a triangle into a cell face (marked). True if one did;
+    // anyFolded says whether it met one.
+    bool anyFolded = false;
     auto collapseAFoldedTrianglesEdge = [&](bool intoFaceOk) {
+        anyFolded = false;
         for (size_t t = 0; t < nt; ++t) {
             if (!alive[t] || !folded(tris[t], normal[t])) continue;
+            anyFolded = true;
             std::array<std::pair<double, int>, 3> edges;
             for (int e = 0; e < 3; ++e)
                 edges[size_t(e)] = {glm::length(exact[tris[t][size_t((e + 1) % 3)]] - exact[tris[t][size_t(e)]]), e};
@@ -1107,7 +1111,7 @@ size_t repairFloatFolds(const Coord& cell, const openvdb::Vec3d& origin, const o
         mended = collapseAFoldedTrianglesEdge(false);
         // Zero kerf: a folded triangle's short edge whose collapse lays a
         // triangle into a cell face (a tent flattened: the header).
-        if (!mended && flattenFoldedTents) mended = collapseAFoldedTrianglesEdge(true);
+        if (!mended && anyFolded && flattenFoldedTents) mended = collapseAFoldedTrianglesEdge(true);
         if (!mended && crossings) {
             // Last: an edge of a triangle that crosses another of the cell's
             // once written, shortest first (exact length, then names), one a
