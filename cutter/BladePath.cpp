@@ -235,7 +235,7 @@ bool PathFilter::consider(const Stick& s1, std::vector<Quad>& quads)
         return false;
     }
     if (mOptions.slideTolerance >= 0.0 && slides(s1)) { // (2c) held back while the blade slides along its line
-        mSlid = mPending = s1;
+        mPending = s1;
         mHaveSlid = mHavePending = true;
         return false;
     }
@@ -244,7 +244,7 @@ bool PathFilter::consider(const Stick& s1, std::vector<Quad>& quads)
         // The blade leaves its line: first where the slide ended (one sliver
         // for the run), then this pose, judged against that stick.
         mHaveSlid = false;
-        const Stick slid = mSlid;
+        const Stick slid = mPending; // the slide's last pose (mHaveSlid: the last pushed)
         place(slid, quads);
         return consider(s1, quads);
     }

@@ -412,9 +412,9 @@ private:
     bool mEntering = false;
     Stick mPending;             ///< the last pose pushed, when rule 2 or 2c dropped it (finishStroke)
     bool mHavePending = false;
-    /// The last pose rule 2c held back since the last kept stick, unless a
-    /// pose after it came back into that stick's cell (rule 2).
-    Stick mSlid;
+    /// The last pose pushed (mPending) is one rule 2c held back: a slide
+    /// since the last kept stick that no pose back in that stick's cell
+    /// (rule 2) gave up.
     bool mHaveSlid = false;
     /// Rule 2c: s lies within slideTolerance of the line of the last kept stick.
     bool slides(const Stick& s) const;
