@@ -10,6 +10,7 @@
 #include "cutter/TriangleIntersect.h"
 
 #include <glm/common.hpp>
+#include <glm/vector_relational.hpp>
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -24,6 +25,7 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -375,20 +377,71 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
     };
     std::vector<Box> box(tris.size());
     std::vector<TrianglePlane> plane(tris.size()); // of the usable triangles
-    for (size_t t = 0; t < tris.size(); ++t) {
-        const RegionTriangle& tr = tris[t];
-        Box& b = box[t];
-        b.usable = known[tr.v[0]] && known[tr.v[1]] && known[tr.v[2]];
-        if (!b.usable) continue;
-        b.lo = glm::min(world[tr.v[0]], glm::min(world[tr.v[1]], world[tr.v[2]]));
-        b.hi = glm::max(world[tr.v[0]], glm::max(world[tr.v[1]], world[tr.v[2]]));
-        plane[t] = trianglePlane({world[tr.v[0]], world[tr.v[1]], world[tr.v[2]]});
+    // A triangle of non-zero area inside its cell's closed float box (as
+    // nearly all are) meets one of a neighbouring cell's only on their
+    // common face, edge or corner, where only the corners of each that lie
+    // on it decide (trianglesCrossOnBoundary). Per such triangle, per
+    // corner: the faces of the cell it lies on, bit 2 k (the face at the
+    // cell's index on axis k) and 2 k + 1 (at index + 1).
+    std::vector<std::array<uint8_t, 3>> onFaces(tris.size());
+    std::vector<char> inBox(tris.size(), 0);
+    std::vector<char> allInBox(region.size(), 1); // per region cell: every usable triangle inBox
+    for (size_t r = 0; r < region.size(); ++r) {
+        const Coord& c = region[r];
+        const glm::vec3 face0 = worldPosition(volume, glm::dvec3(c.x(), c.y(), c.z()));
+        const glm::vec3 face1 = worldPosition(volume, glm::dvec3(c.x() + 1, c.y() + 1, c.z() + 1));
+        const glm::vec3 boxLo = glm::min(face0, face1), boxHi = glm::max(face0, face1);
+        for (size_t t = start[r]; t < start[r + 1]; ++t) {
+            const RegionTriangle& tr = tris[t];
+            Box& b = box[t];
+            b.usable = known[tr.v[0]] && known[tr.v[1]] && known[tr.v[2]];
+            if (!b.usable) continue;
+            const std::array<glm::vec3, 3> p{world[tr.v[0]], world[tr.v[1]], world[tr.v[2]]};
+            b.lo = glm::min(p[0], glm::min(p[1], p[2]));
+            b.hi = glm::max(p[0], glm::max(p[1], p[2]));
+            plane[t] = trianglePlane(p);
+            bool in = glm::all(glm::greaterThanEqual(b.lo, boxLo)) && glm::all(glm::lessThanEqual(b.hi, boxHi)) &&
+                      hasArea(p, plane[t]);
+            if (in)
+                for (size_t k = 0; k < 3; ++k) {
+                    uint8_t bits = 0;
+                    for (int a = 0; a < 3; ++a)
+                        bits = uint8_t(bits | (p[k][a] == face0[a]) << (2 * a) | (p[k][a] == face1[a]) << (2 * a + 1));
+                    onFaces[t][k] = bits;
+                }
+            inBox[t] = in;
+            if (!in) allInBox[r] = 0;
+        }
     }
+    // The common parts of a cell with its 26 neighbours by offset o, bit
+    // partIndex(o) (13: the cell itself); per corner faces mask (onFaces),
+    // the parts it lies on, and per triangle in its box their union.
+    auto partIndex = [](int dx, int dy, int dz) { return (dx + 1) * 9 + (dy + 1) * 3 + (dz + 1); };
+    constexpr int kSelf = 13;
+    std::array<uint32_t, 64> partsOfCorner{};
+    for (unsigned m = 0; m < 64; ++m) {
+        int options[3][3], count[3];
+        for (int k = 0; k < 3; ++k) {
+            count[k] = 0;
+            options[k][count[k]++] = 0;
+            if (m >> (2 * k) & 1) options[k][count[k]++] = -1;
+            if (m >> (2 * k + 1) & 1) options[k][count[k]++] = 1;
+        }
+        for (int x = 0; x < count[0]; ++x)
+            for (int y = 0; y < count[1]; ++y)
+                for (int z = 0; z < count[2]; ++z)
+                    partsOfCorner[m] |= uint32_t(1) << partIndex(options[0][x], options[1][y], options[2][z]);
+        partsOfCorner[m] &= ~(uint32_t(1) << kSelf);
+    }
+    std::vector<uint32_t> parts(tris.size(), 0);
+    for (size_t t = 0; t < tris.size(); ++t)
+        if (inBox[t]) parts[t] = partsOfCorner[onFaces[t][0]] | partsOfCorner[onFaces[t][1]] | partsOfCorner[onFaces[t][2]];
     // A triangle lies in its cell's closed box, rounded to float as the
     // vertices are (rounding is monotone), so a neighbour's triangles can
     // meet it only where its box reaches the common face, edge or corner:
     // within kSlack float steps of it, for the double rounding of points
-    // computed on a cell face.
+    // computed on a cell face (and exactly there, for one in its box:
+    // `parts`).
     constexpr int kSlack = 4;
     auto inward = [](glm::vec3 x, float to) { // kSlack float steps towards `to`, per axis
         for (int k = 0; k < 3; ++k)
@@ -397,34 +450,40 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
     };
     struct Neighbour
     {
-        size_t region;
-        Coord offset;
-        bool changed;
+        size_t region = SIZE_MAX; ///< SIZE_MAX: none there
+        bool changed = false;
     };
     // The first contact of changed cell r's triangles (with the pairs the
     // serial order gives it: a pair of changed cells' triangles belongs to
-    // the lower triangle's cell), in that order; None when there is none.
-    auto firstContact = [&](size_t r, std::vector<Neighbour>& around, size_t& ta, size_t& tb) -> Contact {
+    // the lower triangle's cell), in that order: its triangles, and for each
+    // the neighbours by offset (x, then y, then z), then theirs; None when
+    // there is none.
+    auto firstContact = [&](size_t r, std::array<Neighbour, 27>& around, size_t& ta, size_t& tb) -> Contact {
         const Coord& c = region[r];
-        around.clear();
+        uint32_t present = 0, loose = 0; // neighbours there; those with triangles not in their box
         // (The region is sorted by x, then y, then z: the three cells of a
         // column (dx, dy) are consecutive when present.)
         for (int dx = -1; dx <= 1; ++dx)
             for (int dy = -1; dy <= 1; ++dy) {
                 auto it = std::lower_bound(region.begin(), region.end(), c + Coord(dx, dy, -1));
-                for (int dz = -1; dz <= 1 && it != region.end(); ++dz) {
-                    const Coord n = c + Coord(dx, dy, dz);
-                    if (*it != n) continue;
+                for (int dz = -1; dz <= 1; ++dz) {
+                    const int p = partIndex(dx, dy, dz);
+                    around[size_t(p)] = Neighbour();
+                    if (it == region.end() || *it != c + Coord(dx, dy, dz)) continue;
                     const size_t at = size_t(it - region.begin());
-                    around.push_back({at, Coord(dx, dy, dz), reg.cellChanged[at] != 0});
+                    around[size_t(p)] = {at, reg.cellChanged[at] != 0};
+                    present |= uint32_t(1) << p;
+                    if (!allInBox[at]) loose |= uint32_t(1) << p;
                     ++it;
                 }
             }
+        if (!reg.ownPairsClear.empty() && reg.ownPairsClear[r]) present &= ~(uint32_t(1) << kSelf); // (ownPairsClear)
         // The cell's faces, a few float steps inside.
         const glm::vec3 lo = worldPosition(volume, glm::dvec3(c.x(), c.y(), c.z()));
         const glm::vec3 hi = worldPosition(volume, glm::dvec3(c.x() + 1, c.y() + 1, c.z() + 1));
         const glm::vec3 nearLo = inward(lo, std::numeric_limits<float>::infinity());
         const glm::vec3 nearHi = inward(hi, -std::numeric_limits<float>::infinity());
+        Contact found = Contact::None;
         for (size_t t = start[r]; t < start[r + 1]; ++t) {
             const Box& bt = box[t];
             if (!bt.usable) continue;
@@ -436,27 +495,66 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
             }
             std::array<glm::vec3, 3> pa{world[a.v[0]], world[a.v[1]], world[a.v[2]]};
             std::array<uint32_t, 3> ia{vertex[a.v[0]], vertex[a.v[1]], vertex[a.v[2]]};
-            for (const Neighbour& n : around) {
-                if (n.region == r && !reg.ownPairsClear.empty() && reg.ownPairsClear[r]) continue; // (ownPairsClear)
+            // The neighbours to ask: for a triangle in its box, those whose
+            // common part it has a corner on, and those with loose
+            // triangles (its own cell too, when asked).
+            uint32_t ask = inBox[t] ? present & (parts[t] | loose | (uint32_t(1) << kSelf)) : present;
+            for (; ask; ask &= ask - 1) {
+                const int p = __builtin_ctz(ask);
+                const Neighbour& n = around[size_t(p)];
+                const int offset[3] = {p / 9 - 1, p / 3 % 3 - 1, p % 3 - 1};
                 bool needed = true;
                 for (int k = 0; k < 3 && needed; ++k)
-                    needed = n.offset[k] == 0 || reach[k][n.offset[k] > 0 ? 1 : 0];
+                    needed = offset[k] == 0 || reach[k][offset[k] > 0 ? 1 : 0];
                 if (!needed) continue;
+                // The common part's faces as each cell names them, the
+                // corners of a on it, and axes spanning it (free ones first).
+                const bool boundary = inBox[t] && p != kSelf;
+                unsigned onA = 0, needA = 0, needB = 0;
+                int axes[3] = {0, 1, 2};
+                if (boundary) {
+                    int free = 0, fixed = 2;
+                    for (int k = 0; k < 3; ++k) {
+                        const int o = offset[k];
+                        if (o == 0) {
+                            axes[free++] = k;
+                            continue;
+                        }
+                        axes[fixed--] = k;
+                        needA |= 1u << (2 * k + (o > 0));
+                        needB |= 1u << (2 * k + (o < 0));
+                    }
+                    for (unsigned k = 0; k < 3; ++k) onA |= unsigned((onFaces[t][k] & needA) == needA) << k;
+                }
                 // A pair of changed cells' triangles once, from its lower triangle.
-                for (size_t u = n.changed ? std::max(start[n.region], t + 1) : start[n.region]; u < start[n.region + 1]; ++u) {
+                const size_t from = n.changed ? std::max(start[n.region], t + 1) : start[n.region];
+                auto meets = [&](size_t u) {
                     const Box& bu = box[u];
-                    if (!bu.usable || (!a.cut && !tris[u].cut)) continue;
+                    if (!bu.usable || (!a.cut && !tris[u].cut)) return false;
                     if (bt.hi.x < bu.lo.x || bu.hi.x < bt.lo.x || bt.hi.y < bu.lo.y || bu.hi.y < bt.lo.y ||
                         bt.hi.z < bu.lo.z || bu.hi.z < bt.lo.z)
-                        continue;
+                        return false;
                     const RegionTriangle& b = tris[u];
                     const std::array<glm::vec3, 3> pb{world[b.v[0]], world[b.v[1]], world[b.v[2]]};
                     const std::array<uint32_t, 3> ib{vertex[b.v[0]], vertex[b.v[1]], vertex[b.v[2]]};
-                    const Contact contact = trianglesCross(pa, ia, plane[t], pb, ib, plane[u]);
-                    if (contact == Contact::None) continue;
+                    std::optional<Contact> quick;
+                    if (boundary && inBox[u]) {
+                        unsigned onB = 0;
+                        for (unsigned k = 0; k < 3; ++k) onB |= unsigned((onFaces[u][k] & needB) == needB) << k;
+                        quick = trianglesCrossOnBoundary(pa, ia, onA, pb, ib, onB, axes[0], axes[1]);
+                    }
+                    found = quick ? *quick : trianglesCross(pa, ia, plane[t], pb, ib, plane[u]);
+                    if (found == Contact::None) return false;
                     ta = t;
                     tb = u;
-                    return contact;
+                    return true;
+                };
+                // In their boxes, two triangles meet only on the common part,
+                // where each needs a corner.
+                const int partB = 26 - p; // the part as the neighbour sees it
+                for (size_t u = from; u < start[n.region + 1]; ++u) {
+                    if (boundary && inBox[u] && (onA == 0 || !(parts[u] >> partB & 1))) continue;
+                    if (meets(u)) return found;
                 }
             }
         }
@@ -476,7 +574,7 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
     if (threads > 1 && toCheck.size() >= 8 && !reg.debug) {
         std::atomic<size_t> first{SIZE_MAX};
         tbb::parallel_for(tbb::blocked_range<size_t>(0, toCheck.size(), 2), [&](const tbb::blocked_range<size_t>& range) {
-            std::vector<Neighbour> around;
+            std::array<Neighbour, 27> around;
             for (size_t i = range.begin(); i != range.end(); ++i) {
                 if (i > first.load(std::memory_order_relaxed)) return; // a lower cell has failed already
                 size_t x, y;
@@ -488,10 +586,10 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
             }
         });
         failed = first.load();
-        std::vector<Neighbour> around;
+        std::array<Neighbour, 27> around;
         if (failed != SIZE_MAX) contact = firstContact(toCheck[failed], around, ta, tb);
     } else {
-        std::vector<Neighbour> around;
+        std::array<Neighbour, 27> around;
         for (size_t i = 0; i < toCheck.size() && failed == SIZE_MAX; ++i)
             if ((contact = firstContact(toCheck[i], around, ta, tb)) != Contact::None) failed = i;
     }

@@ -327,6 +327,20 @@ struct Judge
     }
 };
 
+/// Coplanar triangles t (orientation `orient` in (i, j)) and o are apart
+/// when an edge of t has all of o strictly outside its line (separating
+/// axes of two triangles).
+bool separates(Judge& judge, const std::array<glm::vec3, 3>& t, int orient, const std::array<glm::vec3, 3>& o, int i, int j)
+{
+    for (int k = 0; k < 3; ++k) {
+        const glm::vec3 &p = t[size_t(k)], &q = t[size_t((k + 1) % 3)];
+        if (judge.o2(p, q, o[0], i, j) * orient < 0 && judge.o2(p, q, o[1], i, j) * orient < 0 &&
+            judge.o2(p, q, o[2], i, j) * orient < 0)
+            return true;
+    }
+    return false;
+}
+
 Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane* planeA,
                   const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane* planeB)
 {
@@ -417,16 +431,7 @@ Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 
             if (!judge.projection(a, planeA, pi, pj, sign)) return Contact::Undecided;
             const int signB = judge.o2(b[0], b[1], b[2], pi, pj);
             if (signB == 0) return Contact::Undecided; // b has zero area
-            auto separates = [&](const std::array<glm::vec3, 3>& t, int orient, const std::array<glm::vec3, 3>& o) {
-                for (int k = 0; k < 3; ++k) {
-                    const glm::vec3 &p = t[size_t(k)], &q = t[size_t((k + 1) % 3)];
-                    if (judge.o2(p, q, o[0], pi, pj) * orient < 0 && judge.o2(p, q, o[1], pi, pj) * orient < 0 &&
-                        judge.o2(p, q, o[2], pi, pj) * orient < 0)
-                        return true;
-                }
-                return false;
-            };
-            hit = !separates(a, sign, b) && !separates(b, signB, a);
+            hit = !separates(judge, a, sign, b, pi, pj) && !separates(judge, b, signB, a, pi, pj);
         } else {
             // Two closed triangles meet exactly when an edge of one meets the
             // other (their common part is bounded by points of their edges).
@@ -487,6 +492,155 @@ Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint3
                        const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane& pb)
 {
     return cross(a, ia, &pa, b, ib, &pb);
+}
+
+bool hasArea(const std::array<glm::vec3, 3>& t, const TrianglePlane& plane)
+{
+    // plane.n[k] is orient2d's determinant in the axes (k + 1, k + 2), and
+    // plane.perm[k] the terms of its bound: where the filter decides, done.
+    for (int k = 0; k < 3; ++k)
+        if (std::abs(plane.n[k]) > kCcwErrBound * plane.perm[k]) return true;
+    for (int k = 0; k < 3; ++k) {
+        const Sign s = orient2d(t[0], t[1], t[2], (k + 1) % 3, (k + 2) % 3);
+        if (s == Sign::Positive || s == Sign::Negative) return true;
+    }
+    return false;
+}
+
+namespace {
+
+/// The corners of a triangle on the common part (trianglesCrossOnBoundary).
+struct Part
+{
+    std::array<const glm::vec3*, 3> p{};
+    int n = 0;
+    void add(const glm::vec3& x) { p[size_t(n++)] = &x; }
+};
+
+/// The corners of `t` of mask `on`, but corner `skip` (-1: none).
+Part partOf(const std::array<glm::vec3, 3>& t, unsigned on, int skip)
+{
+    Part part;
+    for (int k = 0; k < 3; ++k)
+        if ((on >> k & 1) && k != skip) part.add(t[size_t(k)]);
+    return part;
+}
+
+/// -1, 0, 1: the sign of y - x.
+int signOfDifference(float x, float y) { return y > x ? 1 : y < x ? -1 : 0; }
+
+/// Two convex sets of one plane (the hulls of the Parts in (i, j)) with a
+/// common corner v: do they share a point other than v? `ra`, `rb`: each
+/// set's other corners (none: the set is v alone; one: a segment from v; two:
+/// a triangle's corner at v, of non-zero area). Their cones at v share a
+/// direction exactly when a ray bounding one lies in the other's closed
+/// cone (each under 180 degrees).
+std::optional<bool> conesMeet(Judge& judge, const glm::vec3& v, const Part& ra, const Part& rb, int i, int j)
+{
+    if (ra.n == 0 || rb.n == 0) return false;
+    if (ra.n == 1 && rb.n == 1) {
+        const glm::vec3 &x = *ra.p[0], &y = *rb.p[0];
+        return judge.o2(v, x, y, i, j) == 0 && signOfDifference(v[i], x[i]) == signOfDifference(v[i], y[i]) &&
+               signOfDifference(v[j], x[j]) == signOfDifference(v[j], y[j]);
+    }
+    // Does the closed cone (v; c.p[0], c.p[1]) hold the direction x - v?
+    auto holds = [&](const Part& c, int orient, const glm::vec3& x) {
+        return judge.o2(v, *c.p[0], x, i, j) * orient >= 0 && judge.o2(v, x, *c.p[1], i, j) * orient >= 0;
+    };
+    int orientA = 0, orientB = 0;
+    if (ra.n == 2 && (orientA = judge.o2(v, *ra.p[0], *ra.p[1], i, j)) == 0) return std::nullopt;
+    if (rb.n == 2 && (orientB = judge.o2(v, *rb.p[0], *rb.p[1], i, j)) == 0) return std::nullopt;
+    bool hit = false;
+    if (rb.n == 2)
+        for (int k = 0; k < ra.n && !hit; ++k) hit = holds(rb, orientB, *ra.p[size_t(k)]);
+    if (ra.n == 2)
+        for (int k = 0; k < rb.n && !hit; ++k) hit = holds(ra, orientA, *rb.p[size_t(k)]);
+    return hit;
+}
+
+/// The hulls of two Parts in (i, j) (one to three points each, a triangle
+/// of non-zero area there) share a point.
+std::optional<bool> hullsMeet(Judge& judge, const Part& a, const Part& b, int i, int j)
+{
+    if (a.n == 0 || b.n == 0) return false;
+    if (a.n > b.n) return hullsMeet(judge, b, a, i, j);
+    auto triangle = [](const Part& x) { return std::array<glm::vec3, 3>{*x.p[0], *x.p[1], *x.p[2]}; };
+    if (a.n == 1) {
+        const glm::vec3& x = *a.p[0];
+        if (b.n == 1) return x == *b.p[0];
+        if (b.n == 2) return judge.o2(*b.p[0], *b.p[1], x, i, j) == 0 && Judge::onSegment2d(*b.p[0], *b.p[1], x, i, j);
+        const int orient = judge.o2(*b.p[0], *b.p[1], *b.p[2], i, j);
+        if (orient == 0) return std::nullopt;
+        for (int k = 0; k < 3; ++k) {
+            const int o = judge.o2(*b.p[size_t(k)], *b.p[size_t((k + 1) % 3)], x, i, j);
+            if (o != 0 && o != orient) return false;
+        }
+        return true;
+    }
+    if (a.n == 2) {
+        if (b.n == 2) return judge.segmentsMeet2d(*a.p[0], *a.p[1], *b.p[0], *b.p[1], i, j);
+        const int orient = judge.o2(*b.p[0], *b.p[1], *b.p[2], i, j);
+        if (orient == 0) return std::nullopt;
+        return judge.segmentMeetsTriangle2d(*a.p[0], *a.p[1], triangle(b), i, j, orient);
+    }
+    const std::array<glm::vec3, 3> ta = triangle(a), tb = triangle(b);
+    const int orientA = judge.o2(ta[0], ta[1], ta[2], i, j), orientB = judge.o2(tb[0], tb[1], tb[2], i, j);
+    if (orientA == 0 || orientB == 0) return std::nullopt;
+    return !separates(judge, ta, orientA, tb, i, j) && !separates(judge, tb, orientB, ta, i, j);
+}
+
+} // namespace
+
+std::optional<Contact> trianglesCrossOnBoundary(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                                                unsigned onA, const std::array<glm::vec3, 3>& b,
+                                                const std::array<uint32_t, 3>& ib, unsigned onB, int i, int j)
+{
+    Judge judge;
+    int sa[3] = {-1, -1, -1}, shared = 0;
+    for (int k = 0; k < 3; ++k)
+        for (int m = 0; m < 3; ++m)
+            if (ia[size_t(k)] == ib[size_t(m)]) {
+                sa[k] = m;
+                ++shared;
+            }
+    if (shared >= 3) return std::nullopt;
+    for (int k = 0; k < 3; ++k)
+        if (sa[k] >= 0 && (!(onA >> k & 1) || !(onB >> sa[k] & 1))) return std::nullopt; // (in both boxes: on the part)
+    std::optional<bool> hit;
+    if (shared == 2) {
+        // Adjacent along an edge: they overlap beyond it only when both lie
+        // in the part (a face; coplanar) with their third corners on one side.
+        if (onA != 7 || onB != 7) return Contact::None;
+        const int other = sa[0] < 0 ? 0 : sa[1] < 0 ? 1 : 2;
+        const glm::vec3& e0 = a[size_t((other + 1) % 3)];
+        const glm::vec3& e1 = a[size_t((other + 2) % 3)];
+        const int m = 3 - sa[(other + 1) % 3] - sa[(other + 2) % 3];
+        const int sideA = judge.o2(e0, e1, a[size_t(other)], i, j), sideB = judge.o2(e0, e1, b[size_t(m)], i, j);
+        hit = sideA != 0 && sideA == sideB;
+    } else if (shared == 1) {
+        const int ka = sa[0] >= 0 ? 0 : sa[1] >= 0 ? 1 : 2;
+        hit = conesMeet(judge, a[size_t(ka)], partOf(a, onA, ka), partOf(b, onB, sa[ka]), i, j);
+    } else {
+        hit = hullsMeet(judge, partOf(a, onA, -1), partOf(b, onB, -1), i, j);
+        if (hit && *hit) {
+            // trianglesCross: two corners at one float position, no other
+            // pair, meet as one vertex (do they meet anywhere else?).
+            int same = 0, ka = -1, kb = -1;
+            for (int k = 0; k < 3; ++k)
+                for (int m = 0; m < 3; ++m)
+                    if (a[size_t(k)] == b[size_t(m)]) {
+                        ++same;
+                        ka = k;
+                        kb = m;
+                    }
+            if (same == 1) {
+                if (!(onA >> ka & 1) || !(onB >> kb & 1)) return std::nullopt;
+                hit = conesMeet(judge, a[size_t(ka)], partOf(a, onA, ka), partOf(b, onB, kb), i, j);
+            }
+        }
+    }
+    if (!hit || judge.unknown) return std::nullopt;
+    return *hit ? Contact::Intersect : Contact::None;
 }
 
 } // namespace mtcut::cutter

@@ -24,6 +24,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 
 namespace mtcut::cutter {
 
@@ -93,5 +94,24 @@ Contact trianglesIntersect(const std::array<glm::vec3, 3>& a, const std::array<u
                            const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane& pb);
 Contact trianglesCross(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane& pa,
                        const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane& pb);
+
+/// Whether triangle t has non-zero area (its points are not collinear),
+/// decided exactly; `plane` is t's (trianglePlane). False for a non-finite point.
+bool hasArea(const std::array<glm::vec3, 3>& t, const TrianglePlane& plane);
+
+/// trianglesCross for two triangles of non-zero area (hasArea) that lie,
+/// exactly in float, in two closed axis-aligned boxes which meet only in a
+/// common face, edge or corner (two neighbouring cells of the local check):
+/// their common points lie there, so only the corners of each on it decide.
+/// Bit k of `onA` says that a[k] lies on the common part (its coordinates
+/// equal the part's fixed ones), likewise `onB`. Axes i, j span the part
+/// (for an edge: its axis first, then any other; for a corner: any two).
+/// The answer equals trianglesCross's; std::nullopt where this shortcut does
+/// not apply (the same three vertex ids; a shared vertex id off the part):
+/// then ask trianglesCross. A pair with no corner on the part is apart: the
+/// caller need not ask.
+std::optional<Contact> trianglesCrossOnBoundary(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia,
+                                                unsigned onA, const std::array<glm::vec3, 3>& b,
+                                                const std::array<uint32_t, 3>& ib, unsigned onB, int i, int j);
 
 } // namespace mtcut::cutter

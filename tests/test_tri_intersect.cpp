@@ -24,6 +24,7 @@ using namespace mtcut::cutter;
 using K = CGAL::Exact_predicates_exact_constructions_kernel;
 using Tri = std::array<glm::vec3, 3>;
 using Ids = std::array<uint32_t, 3>;
+using Coord3 = std::array<int, 3>;
 
 K::Point_3 cg(const glm::vec3& p) { return K::Point_3(double(p.x), double(p.y), double(p.z)); }
 
@@ -334,6 +335,97 @@ TEST(TriangleIntersect, ExactAcrossAnyRangeOfExponents)
     EXPECT_NE(trianglesIntersect({nan, glm::vec3(1, 0, 0), glm::vec3(0, 1, 0)}, {0, 1, 2},
                                  {glm::vec3(0, 0, 1), glm::vec3(1, 0, 1), glm::vec3(0, 1, 1)}, {3, 4, 5}),
               Contact::None);
+}
+
+
+TEST(TriangleIntersect, OnACommonCellBoundaryItsCornersThereDecideAsTheWholeTestDoes)
+{
+    // Two cells of a head's 1 mm grid (at 1000 mm: float steps of 6e-5 mm)
+    // that share a face, an edge or a corner; a triangle in each, on a 0.25
+    // mm lattice with corners often on the common part, sharing one or two
+    // vertices or a position there, or a few coordinates off the lattice.
+    // Wherever the boundary shortcut answers, its answer is the whole test's;
+    // a pair with no corner on the part is apart.
+    PairMaker m(37);
+    const glm::vec3 origin(1000.0f, -200.0f, 1227.0f);
+    const float step = 0.25f;
+    int decided = 0, apart = 0, pairs = 0;
+    int hits[3] = {0, 0, 0}, nones[3] = {0, 0, 0}; // by shared vertex count
+    for (int n = 0; n < 100000; ++n) {
+        Coord3 o;
+        do {
+            o = {m.integer(-1, 1), m.integer(-1, 1), m.integer(-1, 1)};
+        } while (o[0] == 0 && o[1] == 0 && o[2] == 0);
+        // Lattice index 0..4 across cell a, 4 o .. 4 o + 4 across cell b.
+        auto corner = [&](int cellOffsetSign) {
+            glm::vec3 p;
+            for (int k = 0; k < 3; ++k) {
+                const int base = cellOffsetSign * 4 * o[k];
+                const int part = o[k] > 0 ? 4 : 0; // the common part's index, if fixed on k
+                int idx = base + m.integer(0, 4);
+                if (o[k] != 0 && m.integer(0, 1)) idx = part;
+                p[k] = origin[k] + step * float(idx);
+                if (m.integer(0, 7) == 0 && idx != part) // off the lattice, still inside
+                    p[k] = origin[k] + step * (float(idx) + (idx < base + 4 ? 0.37f : -0.37f));
+            }
+            return p;
+        };
+        Tri a{corner(0), corner(0), corner(0)}, b{corner(1), corner(1), corner(1)};
+        Ids ia{0, 1, 2}, ib{3, 4, 5};
+        auto onPart = [&](const glm::vec3& p) {
+            for (int k = 0; k < 3; ++k)
+                if (o[k] != 0 && p[k] != origin[k] + step * float(o[k] > 0 ? 4 : 0)) return false;
+            return true;
+        };
+        // b takes one or two of a's corners on the part (by id or only by position).
+        const int share = m.integer(0, 5);
+        for (int k = 0, taken = 0; k < 3 && taken < (share >= 4 ? 2 : share >= 1 ? 1 : 0); ++k) {
+            if (!onPart(a[size_t(k)])) continue;
+            b[size_t(taken)] = a[size_t(k)];
+            if (share != 3) ib[size_t(taken)] = ia[size_t(k)];
+            ++taken;
+        }
+        if (m.integer(0, 1)) std::swap(b[0], b[2]), std::swap(ib[0], ib[2]);
+        const TrianglePlane pa = trianglePlane(a), pb = trianglePlane(b);
+        if (!hasArea(a, pa) || !hasArea(b, pb)) {
+            EXPECT_TRUE(collinear(a) || collinear(b)) << "pair " << n;
+            continue;
+        }
+        ++pairs;
+        unsigned onA = 0, onB = 0;
+        for (unsigned k = 0; k < 3; ++k) {
+            onA |= unsigned(onPart(a[k])) << k;
+            onB |= unsigned(onPart(b[k])) << k;
+        }
+        int axes[3], count = 0;
+        for (int k = 0; k < 3; ++k)
+            if (o[k] == 0) axes[count++] = k;
+        for (int k = 0; k < 3; ++k)
+            if (o[k] != 0) axes[count++] = k;
+        const Contact whole = trianglesCross(a, ia, pa, b, ib, pb);
+        int shared = 0;
+        for (uint32_t x : ia) shared += int(std::count(ib.begin(), ib.end(), x));
+        if (onA == 0 || onB == 0) {
+            EXPECT_EQ(int(whole), int(Contact::None)) << "pair " << n;
+            ++apart;
+            continue;
+        }
+        const std::optional<Contact> quick = trianglesCrossOnBoundary(a, ia, onA, b, ib, onB, axes[0], axes[1]);
+        if (!quick) continue;
+        ++decided;
+        ASSERT_EQ(int(*quick), int(whole)) << "pair " << n << " offset " << o[0] << " " << o[1] << " " << o[2]
+                                           << " shared " << shared;
+        if (whole == Contact::None) nones[std::min(shared, 2)]++;
+        else hits[std::min(shared, 2)]++;
+    }
+    // Every kind met often: the test can tell.
+    EXPECT_GT(pairs, 60000);
+    EXPECT_GT(apart, 10000);
+    EXPECT_GT(decided, pairs / 2);
+    for (int s = 0; s < 3; ++s) {
+        EXPECT_GT(hits[s], 400) << "shared " << s;
+        EXPECT_GT(nones[s], 400) << "shared " << s;
+    }
 }
 
 } // namespace
