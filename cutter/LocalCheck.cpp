@@ -337,7 +337,11 @@ void describeVertex(const LocalRegion& reg, uint32_t v)
 /// triangles are the isosurface's and are not asked. A triangle lies in its
 /// cell's closed box (up to rounding), so only the 27 cells around a
 /// changed cell's triangle are searched, and of those only triangles whose
-/// float boxes overlap its.
+/// float boxes overlap its. Two triangles each exactly inside its cell's
+/// box (nearly all) meet only on the cells' common face, edge or corner:
+/// such a pair is decided by their corners there
+/// (trianglesCrossOnBoundary, the same answer), and a neighbour is asked
+/// only when the triangle has a corner on the common part.
 /// `tris` are in `region` order. Throws std::runtime_error("remesh: the
 /// surface crosses or touches itself ...") naming the changed cell.
 void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
