@@ -2882,6 +2882,16 @@ void RemeshKernel::markCorners(SmallVector<char, 64>& corner)
         }
         return false;
     };
+    // joinedSurfaceId per label, asked once (the surfaces are final here;
+    // a tet's loops hold a few labels, asked twice per node).
+    SmallVector<std::pair<uint64_t, uint64_t>, 16> joinedOf;
+    auto joined = [&](uint64_t id) {
+        for (const auto& e : joinedOf)
+            if (e.first == id) return e.second;
+        const uint64_t j = joinedSurfaceId(id);
+        joinedOf.push_back({id, j});
+        return j;
+    };
     corner.assign(nodes.size(), 0);
     for (const Region& r : regions) {
         for (const Loop& l : r.loops) {
@@ -2894,7 +2904,7 @@ void RemeshKernel::markCorners(SmallVector<char, 64>& corner)
                 // region runs straight through that point, and the tet
                 // beside may hold either (a rim face on a grid plane cut by
                 // a level stroke's offset faces: the sphere's third stroke).
-                bool c = in != outL && (!mPrism || joinedSurfaceId(in) != joinedSurfaceId(outL));
+                bool c = in != outL && (!mPrism || joined(in) != joined(outL));
                 if (!c) {
                     const dvec3& a = mVerts[size_t(nodes[size_t(l.nodes[(i + n - 1) % n])].vert)].pos;
                     const dvec3& b = mVerts[size_t(nodes[size_t(l.nodes[i])].vert)].pos;
