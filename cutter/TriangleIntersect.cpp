@@ -341,18 +341,28 @@ bool separates(Judge& judge, const std::array<glm::vec3, 3>& t, int orient, cons
     return false;
 }
 
-Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane* planeA,
-                  const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane* planeB)
+/// Shared vertex ids: sa[k] is the position in b of a's vertex k (-1:
+/// none); returns how many.
+int sharedIds(const std::array<uint32_t, 3>& ia, const std::array<uint32_t, 3>& ib, int (&sa)[3])
 {
-    Judge judge;
-    // Shared vertex ids: sa[k] is the position in b of a's vertex k (-1: none).
-    int sa[3] = {-1, -1, -1}, shared = 0;
-    for (int k = 0; k < 3; ++k)
+    int shared = 0;
+    for (int k = 0; k < 3; ++k) {
+        sa[k] = -1;
         for (int m = 0; m < 3; ++m)
             if (ia[size_t(k)] == ib[size_t(m)]) {
                 sa[k] = m;
                 ++shared;
             }
+    }
+    return shared;
+}
+
+Contact intersect(const std::array<glm::vec3, 3>& a, const std::array<uint32_t, 3>& ia, const TrianglePlane* planeA,
+                  const std::array<glm::vec3, 3>& b, const std::array<uint32_t, 3>& ib, const TrianglePlane* planeB)
+{
+    Judge judge;
+    int sa[3];
+    const int shared = sharedIds(ia, ib, sa);
     bool hit = false;
     if (shared >= 3) {
         hit = true; // the same three vertices
@@ -596,13 +606,8 @@ std::optional<Contact> trianglesCrossOnBoundary(const std::array<glm::vec3, 3>& 
                                                 const std::array<uint32_t, 3>& ib, unsigned onB, int i, int j)
 {
     Judge judge;
-    int sa[3] = {-1, -1, -1}, shared = 0;
-    for (int k = 0; k < 3; ++k)
-        for (int m = 0; m < 3; ++m)
-            if (ia[size_t(k)] == ib[size_t(m)]) {
-                sa[k] = m;
-                ++shared;
-            }
+    int sa[3];
+    const int shared = sharedIds(ia, ib, sa);
     if (shared >= 3) return std::nullopt;
     for (int k = 0; k < 3; ++k)
         if (sa[k] >= 0 && (!(onA >> k & 1) || !(onB >> sa[k] & 1))) return std::nullopt; // (in both boxes: on the part)
