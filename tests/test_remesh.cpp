@@ -1040,6 +1040,103 @@ TEST(Remesh, ParallelSelfContactTestNamesTheSerialCell)
     for (int round = 0; round < 5; ++round) EXPECT_EQ(run(4), serial) << "round " << round;
 }
 
+// With a width, a triangle of a changed cell and one of its neighbour,
+// each inside its cell's box, are judged by their corners on the common
+// face (trianglesCrossOnBoundary). Two tiny closed tetrahedra, one in each
+// of two face-adjacent cut cells, their bases lying in the common face and
+// overlapping there, away from every other triangle: only that pair across
+// the face meets. One of them alone is accepted; both are refused, naming
+// the lower cell (a shortcut that skipped the pair would accept them).
+TEST(Remesh, TwoShellsMeetingOnlyInACommonCellFaceAreRefused)
+{
+    const BallAndTwoStrokes ball;
+    const CutMask mask = ball.bothStrokes(0.5);
+    // Each cut cell's triangles' index-space boxes.
+    std::map<Coord, std::vector<std::pair<dvec3, dvec3>>> boxes;
+    {
+        CutRemesher probe(ball.vol, 0.0f, ball.uncut);
+        probe.setCellHookForTesting([&](const Coord& c, CutCellGeometry& g) {
+            auto& list = boxes[c];
+            for (size_t t = 0; t + 2 < g.indices.size(); t += 3) {
+                dvec3 lo(1e300), hi(-1e300);
+                for (size_t k = 0; k < 3; ++k) {
+                    lo = glm::min(lo, g.indexPositions[g.indices[t + k]]);
+                    hi = glm::max(hi, g.indexPositions[g.indices[t + k]]);
+                }
+                list.push_back({lo, hi});
+            }
+        });
+        probe.update(mask);
+    }
+    // Two cut cells c and c + x with triangles, and a point P of their
+    // common face whose neighbourhood (0.05 voxel) no triangle of either reaches.
+    constexpr double kNear = 0.05;
+    Coord lower(0);
+    dvec3 at(0.0);
+    bool found = false;
+    for (const auto& [c, list] : boxes) {
+        if (found || list.empty()) continue;
+        const Coord upper = c + Coord(1, 0, 0);
+        const auto next = boxes.find(upper);
+        if (next == boxes.end() || next->second.empty()) continue;
+        for (double y : {0.5, 0.25, 0.75})
+            for (double z : {0.5, 0.25, 0.75}) {
+                if (found) continue;
+                const dvec3 p(c.x() + 1, c.y() + y, c.z() + z);
+                bool clear = true;
+                for (const auto* l : {&list, static_cast<const decltype(list)*>(&next->second)})
+                    for (const auto& [lo, hi] : *l)
+                        clear = clear && (glm::any(glm::lessThan(hi, p - kNear)) || glm::any(glm::greaterThan(lo, p + kNear)));
+                if (clear) {
+                    lower = c;
+                    at = p;
+                    found = true;
+                }
+            }
+    }
+    ASSERT_TRUE(found) << "no clear point on a face between two cut cells";
+    const Coord upper = lower + Coord(1, 0, 0);
+    // A closed tetrahedron: base in the face x = at.x around `at` (turned by
+    // `turn` radians), apex `side` (-1: into the lower cell, +1: the upper).
+    auto addTet = [&](CutCellGeometry& g, double side, double turn, uint64_t tag) {
+        std::array<dvec3, 4> corner;
+        for (int k = 0; k < 3; ++k) {
+            const double a = turn + 2.0943951023931953 * k;
+            corner[size_t(k)] = at + dvec3(0.0, 0.02 * std::cos(a), 0.02 * std::sin(a));
+        }
+        corner[3] = at + dvec3(0.02 * side, 0.0, 0.0);
+        const uint32_t base = uint32_t(g.vertexIds.size());
+        for (int k = 0; k < 4; ++k) {
+            CutVertexId id;
+            id.dim = 3;
+            id.feature = {uint64_t(0xfeed), tag, uint64_t(k)};
+            id.planeCount = 1;
+            id.planes[0] = 0xdead0 + uint64_t(k);
+            g.vertexIds.push_back(id);
+            g.indexPositions.push_back(corner[size_t(k)]);
+        }
+        for (std::array<uint32_t, 4> f : {std::array<uint32_t, 4>{0, 1, 2, 3}, {0, 3, 1, 2}, {0, 2, 3, 1}, {1, 3, 2, 0}}) {
+            // Outward: away from the fourth corner.
+            const dvec3 n = glm::cross(corner[f[1]] - corner[f[0]], corner[f[2]] - corner[f[0]]);
+            if (glm::dot(n, corner[f[3]] - corner[f[0]]) > 0) std::swap(f[1], f[2]);
+            for (int k = 0; k < 3; ++k) g.indices.push_back(base + f[size_t(k)]);
+        }
+        g.cap.insert(g.cap.end(), 4, 0);
+    };
+    auto run = [&](bool both) {
+        return refusalOf(ball, mask, 1, [&](const Coord& c, CutCellGeometry& g) {
+            if (c == lower) addTet(g, -1.0, 0.0, 1);
+            if (both && c == upper) addTet(g, 1.0, 0.5, 2);
+        });
+    };
+    EXPECT_EQ(run(false), "") << "a tetrahedron alone in the lower cell";
+    const std::string refused = run(true);
+    EXPECT_NE(refused.find("remesh: the surface crosses or touches itself"), std::string::npos) << refused;
+    const std::string where = "cell (" + std::to_string(lower.x()) + ", " + std::to_string(lower.y()) + ", " +
+                              std::to_string(lower.z()) + ")";
+    EXPECT_NE(refused.find(where), std::string::npos) << refused << " (expected " << where << ")";
+}
+
 // With a width and two threads or more, the self-contact test runs beside
 // the edge, fan and area tests (they read the same region); a step both
 // break is refused as the serial order refuses it: by the open edge, even
