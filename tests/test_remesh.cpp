@@ -670,11 +670,10 @@ struct BallAndTwoStrokes
 /// Breaks cell geometry `g` so that only the exact self-contact check sees
 /// it: a closed tetrahedron of edge ~0.1 voxel centred on the first
 /// triangle's centroid, its vertices named inside the cell only (by `tag`).
-void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
+/// Appends four vertices at `at` (index space) to `g`, named inside the
+/// cell only (by `tag`); returns the first one's index.
+uint32_t appendTetrahedronCorners(CutCellGeometry& g, const std::array<dvec3, 4>& at, uint64_t tag)
 {
-    const dvec3 centre =
-        (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] + g.indexPositions[g.indices[2]]) / 3.0;
-    const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
     const uint32_t base = uint32_t(g.vertexIds.size());
     for (int k = 0; k < 4; ++k) {
         CutVertexId id;
@@ -683,8 +682,19 @@ void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
         id.planeCount = 1;
         id.planes[0] = 0xdead0 + uint64_t(k);
         g.vertexIds.push_back(id);
-        g.indexPositions.push_back(centre + 0.03 * corner[k]);
+        g.indexPositions.push_back(at[size_t(k)]);
     }
+    return base;
+}
+
+void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
+{
+    const dvec3 centre =
+        (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] + g.indexPositions[g.indices[2]]) / 3.0;
+    const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+    std::array<dvec3, 4> at;
+    for (int k = 0; k < 4; ++k) at[size_t(k)] = centre + 0.03 * corner[k];
+    const uint32_t base = appendTetrahedronCorners(g, at, tag);
     for (auto [a, b, c] : {std::array<uint32_t, 3>{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}})
         for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
     g.cap.insert(g.cap.end(), 4, 0);
@@ -1105,16 +1115,7 @@ TEST(Remesh, TwoShellsMeetingOnlyInACommonCellFaceAreRefused)
             corner[size_t(k)] = at + dvec3(0.0, 0.02 * std::cos(a), 0.02 * std::sin(a));
         }
         corner[3] = at + dvec3(0.02 * side, 0.0, 0.0);
-        const uint32_t base = uint32_t(g.vertexIds.size());
-        for (int k = 0; k < 4; ++k) {
-            CutVertexId id;
-            id.dim = 3;
-            id.feature = {uint64_t(0xfeed), tag, uint64_t(k)};
-            id.planeCount = 1;
-            id.planes[0] = 0xdead0 + uint64_t(k);
-            g.vertexIds.push_back(id);
-            g.indexPositions.push_back(corner[size_t(k)]);
-        }
+        const uint32_t base = appendTetrahedronCorners(g, corner, tag);
         for (std::array<uint32_t, 4> f : {std::array<uint32_t, 4>{0, 1, 2, 3}, {0, 3, 1, 2}, {0, 2, 3, 1}, {1, 3, 2, 0}}) {
             // Outward: away from the fourth corner.
             const dvec3 n = glm::cross(corner[f[1]] - corner[f[0]], corner[f[2]] - corner[f[0]]);
