@@ -600,8 +600,39 @@ private:
         const double t = edgeCrossing(mT.value[lo], mT.value[hi], mIso);
         return mT.p[lo] + t * (mT.p[hi] - mT.p[lo]);
     }
+    /// faceIsoLine's answers for the tet's faces (by the corner not on the
+    /// face), each worked out once per tet (loadTet forgets them): naming a
+    /// face point asks its face's line several times over.
+    struct FaceIsoLine
+    {
+        int8_t known = 0; ///< 0: not yet; 1: crossed; -1: not crossed
+        dvec3 p1, p2, normal;
+        double inSign = 0, scale = 0; ///< scale: |p2 - p1| |normal| (faceIsoDistance)
+    };
+    mutable std::array<FaceIsoLine, 4> mFaceIsoLines;
+    const FaceIsoLine& faceIsoLineOf(uint8_t mask) const
+    {
+        int missing = 0;
+        while (mask >> missing & 1) ++missing;
+        FaceIsoLine& f = mFaceIsoLines[size_t(missing)];
+        if (f.known == 0) {
+            f.known = faceIsoLineNow(mask, f.p1, f.p2, f.normal, f.inSign) ? 1 : -1;
+            if (f.known > 0) f.scale = glm::length(f.p2 - f.p1) * glm::length(f.normal);
+        }
+        return f;
+    }
     /// Face (tet-local vertex mask, 3 bits): canonical iso line p1, p2 and inside sign; false when not crossed.
     bool faceIsoLine(uint8_t mask, dvec3& p1, dvec3& p2, dvec3& normal, double& inSign) const
+    {
+        const FaceIsoLine& f = faceIsoLineOf(mask);
+        if (f.known < 0) return false;
+        p1 = f.p1;
+        p2 = f.p2;
+        normal = f.normal;
+        inSign = f.inSign;
+        return true;
+    }
+    bool faceIsoLineNow(uint8_t mask, dvec3& p1, dvec3& p2, dvec3& normal, double& inSign) const
     {
         int v[3], n = 0;
         for (int i = 0; i < 4; ++i)
@@ -624,15 +655,13 @@ private:
     /// Signed in-plane distance to the face's iso line (+ inside), or +-1e300 when uncrossed.
     double faceIsoDistance(uint8_t mask, const dvec3& x) const
     {
-        dvec3 p1, p2, nrm;
-        double s;
-        if (!faceIsoLine(mask, p1, p2, nrm, s)) {
+        const FaceIsoLine& f = faceIsoLineOf(mask);
+        if (f.known < 0) {
             int any = 0;
             while (!(mask >> any & 1)) ++any;
             return mT.inside[any] ? 1e300 : -1e300;
         }
-        const double l = glm::length(p2 - p1) * glm::length(nrm);
-        return s * glm::dot(glm::cross(p2 - p1, x - p1), nrm) / l;
+        return f.inSign * glm::dot(glm::cross(f.p2 - f.p1, x - f.p1), f.normal) / f.scale;
     }
     double edgeIsoDistance(uint8_t mask, const dvec3& x) const
     {
@@ -1347,11 +1376,12 @@ int RemeshKernel::signSlow(int vi, uint64_t id, size_t pidx)
         if (on) {
             r = 0;
         } else {
-            const double h = planeById(id)->h(v.pos);
+            const double h = (pidx != SIZE_MAX ? &mPlanes[pidx].second : planeById(id))->h(v.pos);
             r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
         }
     } else {
-        const Plane* p = planeById(id);
+        // (pidx, when known, is where planeById would find it.)
+        const Plane* p = pidx != SIZE_MAX ? &mPlanes[pidx].second : planeById(id);
         assert(p);
         const double h = p->h(v.pos);
         r = std::abs(h) <= epsAt(v.pos) ? 0 : (h > 0 ? 1 : -1);
@@ -1517,6 +1547,7 @@ void RemeshKernel::loadTet(int t)
         mT.value[i] = inBox ? value(g) : mBackground;
         mT.inside[i] = inBox && mT.value[i] >= mIso;
     }
+    for (FaceIsoLine& f : mFaceIsoLines) f.known = 0;
 }
 
 TetPhaseOne RemeshKernel::phaseOne(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, int t)
