@@ -1194,11 +1194,25 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
     // inside the quads); at the ends of the shared edge, on either rim side is
     // on both. `on`: the planes the point lies on (made by them, or within eps).
     sortUnique(planes);
-    PlaneList on(defining.begin(), defining.end());
-    for (const auto& pl : mPlanes)
-        if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
-    on.insert(on.end(), planes.begin(), planes.end());
-    sortUnique(on);
+    PlaneList on;
+    if (!mPrism) {
+        on.assign(defining.begin(), defining.end());
+        for (const auto& pl : mPlanes)
+            if (pl.first > kIsoB && std::abs(pl.second.h(pos0)) <= eps) on.push_back(pl.first);
+        on.insert(on.end(), planes.begin(), planes.end());
+        sortUnique(on);
+    }
+    // Kerf > 0 asks `on` only of a few planes (a mitre side, offset planes):
+    // whether the point is on one, answered per plane as `on` would hold it
+    // (made by it, active on it so far, or within eps of it).
+    const size_t activeCount = planes.size(); // planes[0, activeCount) sorted; the loop below appends
+    auto onPlane = [&](uint64_t id) {
+        if (std::binary_search(planes.begin(), planes.begin() + std::ptrdiff_t(activeCount), id)) return true;
+        if (std::find(defining.begin(), defining.end(), id) != defining.end()) return true;
+        if (id <= kIsoB) return false;
+        const Plane* pl = planeById(id);
+        return pl && std::abs(pl->h(pos0)) <= eps;
+    };
     // Prisms: the offset planes of two quads meet on their mitre (it bisects
     // them), so a point on the mitre and on one quad's offset plane is on the
     // partner's same-side offset plane too; a point in neither closed prism
@@ -1214,7 +1228,7 @@ int RemeshKernel::nameVertex(uint8_t support, PlaneList defining, const dvec3& p
     };
     for (const QuadGeom* q : mQuads) {
         if (!mPrism) break;
-        auto has = [&](uint64_t id) { return std::binary_search(on.begin(), on.end(), id); };
+        const auto& has = onPlane;
         for (const auto& sd : q->sides) {
             if (sd.partnerId == 0 || !has(sd.id)) continue;
             if (!inClosedPrism(q) && !inClosedPrism(quadById(sd.partnerId))) continue;
