@@ -84,15 +84,18 @@ bool bestTriangulation(const std::vector<int>& poly, const std::vector<Vec2>& pt
             }
         }
     if (!(best[0][n - 1] > 0.0)) return false;
-    std::vector<std::pair<size_t, size_t>> todo{{0, n - 1}};
-    while (!todo.empty()) {
-        const auto [i, j] = todo.back();
-        todo.pop_back();
+    // The chains still to emit, a stack: they are disjoint runs of the
+    // chain 0 .. n - 1, each of one side at least, so at most n - 1 at once.
+    std::pair<size_t, size_t> todo[kBestOfAllMax + 1];
+    size_t depth = 0;
+    todo[depth++] = {0, n - 1};
+    while (depth > 0) {
+        const auto [i, j] = todo[--depth];
         if (j - i < 2) continue;
         const size_t k = split[i][j];
         tris.insert(tris.end(), {poly[i], poly[k], poly[j]});
-        todo.push_back({i, k});
-        todo.push_back({k, j});
+        todo[depth++] = {i, k};
+        todo[depth++] = {k, j};
     }
     return true;
 }

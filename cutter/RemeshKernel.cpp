@@ -2149,42 +2149,47 @@ bool RemeshKernel::capOutside(const QuadGeom& q, uint64_t face, const SmallVecto
     // a tie (epsAt) could put inside.
     using Clip = SmallVector<dvec3, 16>;
     auto grow = [](const dvec3& x) { return kApart * (1.0 + std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)})); };
-    auto clip = [&](const Clip& in, const Plane& plane, double orient, Clip& out) {
-        out.clear();
+    // `in` clipped into `out`; *from points at the result: `in` itself
+    // when every corner is kept (no copy), else `out`.
+    auto clipInto = [&](const Clip& in, const Plane& plane, double orient, Clip& out, const Clip*& from) {
         const size_t n = in.size();
-        SmallVector<double, 16> hv(n); // each corner's grown value once
+        SmallVector<double, 16> h(n); // each corner's grown value once
         bool allIn = true;
         for (size_t i = 0; i < n; ++i) {
-            hv[i] = orient * plane.h(in[i]) + grow(in[i]);
-            allIn = allIn && hv[i] >= 0;
+            h[i] = orient * plane.h(in[i]) + grow(in[i]);
+            allIn = allIn && h[i] >= 0;
         }
         if (allIn) { // every corner kept, no crossing
-            out = in;
+            from = &in;
             return n > 0;
         }
+        out.clear();
         for (size_t i = 0; i < n; ++i) {
             const dvec3 &a = in[i], &b = in[(i + 1) % n];
-            const double ha = hv[i], hb = hv[(i + 1) % n];
+            const double ha = h[i], hb = h[(i + 1) % n];
             if (ha >= 0) out.push_back(a);
             if ((ha >= 0) != (hb >= 0)) out.push_back(a + (ha / (ha - hb)) * (b - a));
         }
+        from = &out;
         return !out.empty();
     };
     // The corners in their cyclic order: `at` lists four (a plane between
     // two pairs of tet corners) by edge, and the middle two then share no
     // tet face.
-    Clip p, tmp;
-    for (const auto& corner : at) p.push_back(corner.second);
-    if (p.size() == 4 && bits(uint8_t(at[1].first | at[2].first)) == 4) std::swap(p[2], p[3]);
+    Clip buffers[2];
+    for (const auto& corner : at) buffers[0].push_back(corner.second);
+    if (buffers[0].size() == 4 && bits(uint8_t(at[1].first | at[2].first)) == 4) std::swap(buffers[0][2], buffers[0][3]);
+    const Clip* cur = &buffers[0]; // the section so far, in one of the buffers
+    auto other = [&] { return cur == &buffers[0] ? &buffers[1] : &buffers[0]; };
     const QuadGeom::Side* mitre = nullptr;
     for (const auto& sd : q.sides) {
         if (sd.id == face) {
             mitre = sd.partnerId != 0 ? &sd : nullptr;
             continue;
         }
-        if (!clip(p, sd.plane, sd.orient, tmp)) return true;
-        p.swap(tmp);
+        if (!clipInto(*cur, sd.plane, sd.orient, *other(), cur)) return true;
     }
+    const Clip& p = *cur;
     // Kerf > 0, a mitre (the junction face q shares with the previous or
     // the next prism of the stroke, which faces the other way there): its
     // pieces are kept only outside every other closed prism, so none is when
@@ -2215,11 +2220,14 @@ bool RemeshKernel::capOutside(const QuadGeom& q, uint64_t face, const SmallVecto
         }
     }
     if (mTriCount == 0) return false; // solid throughout
-    Clip a;
-    const bool inA = clip(p, mTriPlane[0], 1.0, a);
+    Clip spare; // (p is one of the buffers; the other is free)
+    Clip& free = *other();
+    const Clip* a = nullptr;
+    const bool inA = clipInto(p, mTriPlane[0], 1.0, free, a);
     if (mTriCount == 1) return !inA;
-    if (mFoldConvex) return !inA || !clip(a, mTriPlane[1], 1.0, tmp);
-    return !inA && !clip(p, mTriPlane[1], 1.0, tmp);
+    const Clip* b = nullptr;
+    if (mFoldConvex) return !inA || !clipInto(*a, mTriPlane[1], 1.0, a == &free ? spare : free, b);
+    return !inA && !clipInto(p, mTriPlane[1], 1.0, spare, b);
 }
 
 void RemeshKernel::chooseSplitOrder()
