@@ -2617,6 +2617,7 @@ void RemeshKernel::classifyPieces(const Surface& s, SmallVector<char, 32>& kept)
 
 void RemeshKernel::insertSlitMidpoints(const SmallVector<char, 32>& kept)
 {
+    if (mPrism) return; // closed prisms have no slits (needsMidpoint and splitChord say no at once)
     std::vector<Poly>& pieces = mPieces;
     // Steiner midpoints on slit chords between rim points (see needsMidpoint),
     // found on the pieces as they are (splitChord walks them; the GPU reads
