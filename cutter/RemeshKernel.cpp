@@ -3328,12 +3328,30 @@ std::array<ArrangementProbe, kTetsPerCell> CellKernel::arrangementForTesting(con
 
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
-    mKernel->remesh(cell, quads, prism, out);
-    snapToGridVertices(mOrigin, mSpacing, out);
-    liftOffCellFaces(cell, mOrigin, mSpacing, out);
-    keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out, false, !prism); // zero kerf: folded tents flattened
-    if (prism) repairFloatFolds(cell, mOrigin, mSpacing, out, true); // then its crossings, in a second pass
+    // Built in mScratch, whose vectors have grown before, and copied out at
+    // their final sizes: `out` (a fresh cell record's) would otherwise grow
+    // a handful of times per vector, and keep up to twice what it holds.
+    CutCellGeometry& g = mScratch;
+    auto deliver = [&] {
+        out.vertexIds.assign(g.vertexIds.begin(), g.vertexIds.end());
+        out.indexPositions.assign(g.indexPositions.begin(), g.indexPositions.end());
+        out.indices.assign(g.indices.begin(), g.indices.end());
+        out.cap.assign(g.cap.begin(), g.cap.end());
+        out.intoFace.assign(g.intoFace.begin(), g.intoFace.end());
+        out.crossFree = g.crossFree;
+    };
+    try {
+        mKernel->remesh(cell, quads, prism, g);
+        snapToGridVertices(mOrigin, mSpacing, g);
+        liftOffCellFaces(cell, mOrigin, mSpacing, g);
+        keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, g);
+        repairFloatFolds(cell, mOrigin, mSpacing, g, false, !prism); // zero kerf: folded tents flattened
+        if (prism) repairFloatFolds(cell, mOrigin, mSpacing, g, true); // then its crossings, in a second pass
+    } catch (...) {
+        deliver(); // what was made before the refusal, as when built in place
+        throw;
+    }
+    deliver();
 }
 
 void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)

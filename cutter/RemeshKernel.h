@@ -273,6 +273,9 @@ public:
 private:
     std::unique_ptr<RemeshKernel> mKernel;
     openvdb::Vec3d mOrigin, mSpacing;
+    /// remesh()'s geometry as it grows, kept between cells for its
+    /// capacity; the caller's `out` gets it at its final size.
+    CutCellGeometry mScratch;
 };
 
 /// The quads of `cell` of `mask` as update() hands them to the kernel that
