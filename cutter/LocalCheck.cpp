@@ -408,10 +408,9 @@ void refuseSelfContact(const vdb::Volume& volume, const LocalRegion& reg)
                       hasArea(p, plane[t]);
             if (in)
                 for (size_t k = 0; k < 3; ++k) {
-                    uint8_t bits = 0;
-                    for (int a = 0; a < 3; ++a)
-                        bits = uint8_t(bits | (p[k][a] == face0[a]) << (2 * a) | (p[k][a] == face1[a]) << (2 * a + 1));
-                    onFaces[t][k] = bits;
+                    const glm::vec3& x = p[k];
+                    onFaces[t][k] = uint8_t(int(x.x == face0.x) | int(x.x == face1.x) << 1 | int(x.y == face0.y) << 2 |
+                                            int(x.y == face1.y) << 3 | int(x.z == face0.z) << 4 | int(x.z == face1.z) << 5);
                 }
             inBox[t] = in;
             if (!in) allInBox[r] = 0;
