@@ -3326,6 +3326,20 @@ std::array<ArrangementProbe, kTetsPerCell> CellKernel::arrangementForTesting(con
     return remeshCapturing(*mKernel, &RemeshKernel::mArrangeCapture, cell, quads, prism);
 }
 
+namespace {
+/// What follows the tets in a cell (remesh() and finish() alike): the
+/// snaps, then the float repairs.
+void repairCell(const Coord& cell, const openvdb::Vec3d& origin, const openvdb::Vec3d& spacing, bool prism,
+                CutCellGeometry& g)
+{
+    snapToGridVertices(origin, spacing, g);
+    liftOffCellFaces(cell, origin, spacing, g);
+    keepFaceSidesOnceWritten(cell, origin, spacing, g);
+    repairFloatFolds(cell, origin, spacing, g, false, !prism); // zero kerf: folded tents flattened
+    if (prism) repairFloatFolds(cell, origin, spacing, g, true); // then its crossings, in a second pass
+}
+} // namespace
+
 void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     // Built in mScratch, whose vectors have grown before, and copied out at
@@ -3342,11 +3356,7 @@ void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, b
     };
     try {
         mKernel->remesh(cell, quads, prism, g);
-        snapToGridVertices(mOrigin, mSpacing, g);
-        liftOffCellFaces(cell, mOrigin, mSpacing, g);
-        keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, g);
-        repairFloatFolds(cell, mOrigin, mSpacing, g, false, !prism); // zero kerf: folded tents flattened
-        if (prism) repairFloatFolds(cell, mOrigin, mSpacing, g, true); // then its crossings, in a second pass
+        repairCell(cell, mOrigin, mSpacing, prism, g);
     } catch (...) {
         deliver(); // what was made before the refusal, as when built in place
         throw;
@@ -3357,11 +3367,7 @@ void CellKernel::remesh(const Coord& cell, const std::vector<QuadGeom>& quads, b
 void CellKernel::finish(const Coord& cell, const std::vector<QuadGeom>& quads, bool prism, CutCellGeometry& out)
 {
     mKernel->finishCell(cell, quads, prism, out);
-    snapToGridVertices(mOrigin, mSpacing, out);
-    liftOffCellFaces(cell, mOrigin, mSpacing, out);
-    keepFaceSidesOnceWritten(cell, mOrigin, mSpacing, out);
-    repairFloatFolds(cell, mOrigin, mSpacing, out, false, !prism); // zero kerf: folded tents flattened
-    if (prism) repairFloatFolds(cell, mOrigin, mSpacing, out, true); // then its crossings, in a second pass
+    repairCell(cell, mOrigin, mSpacing, prism, out);
 }
 
 } // namespace mtcut::cutter::remesh_detail
