@@ -209,6 +209,7 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
     std::vector<std::pair<uint32_t, uint32_t>> cutRuns;
     size_t cutTriangles = 0;
     UncutAccessor uncutAcc(mUncutFirst);
+    VolumeAccessor volumeAcc(mVolume->grid->tree());
     for (const auto& entry : mCells) {
         const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, entry.first);
         if (run.second == 0) continue;
@@ -247,7 +248,7 @@ Mesh CutRemesher::fusedMesh(std::vector<uint32_t>* source) const
         // The uncut vertices of this cell's crossed edges (welding by key).
         edgeMap.clear();
         const std::pair<uint32_t, uint32_t> run = uncutRun(uncutAcc, cell);
-        uncutCornerEdges(cell, run, corners);
+        uncutCornerEdges(volumeAcc, cell, run, corners);
         for (size_t k = 0; k < corners.size(); ++k)
             edgeMap.push_back({corners[k], mUncut.indices[3 * size_t(run.first) + k]});
         index.resize(geom.vertexIds.size());

@@ -1108,9 +1108,10 @@ void CutRemesher::checkRegion(const std::vector<Coord>& changed, bool kerf) cons
         corners.reserve(3 * uncutTriangles);
         ids.reserve(cutVertices + uncutTriangles);
         tris.reserve(cutTriangles + uncutTriangles);
+        VolumeAccessor volumeAcc(mVolume->grid->tree());
         for (size_t i = 0; i < region.size(); ++i) {
             const Coord& c = region[i];
-            uncutCornerEdges(c, runOf[i], cellCorners);
+            uncutCornerEdges(volumeAcc, c, runOf[i], cellCorners);
             corners.insert(corners.end(), cellCorners.begin(), cellCorners.end());
             cornerStart[i + 1] = corners.size();
         }

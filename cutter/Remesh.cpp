@@ -1133,12 +1133,11 @@ std::pair<uint32_t, uint32_t> CutRemesher::uncutRun(UncutAccessor& acc, const Co
     return {uint32_t(first), uint32_t(e - size_t(first))};
 }
 
-void CutRemesher::uncutCornerEdges(const Coord& cell, std::pair<uint32_t, uint32_t> run,
+void CutRemesher::uncutCornerEdges(VolumeAccessor& acc, const Coord& cell, std::pair<uint32_t, uint32_t> run,
                                    std::vector<std::pair<uint64_t, uint64_t>>& out) const
 {
     out.clear();
     if (run.second == 0) return;
-    VolumeAccessor acc(mVolume->grid->tree());
     const uint8_t inside = insideCorners(*mVolume, mIso, acc, cell);
     const int parity = cellParity(cell.x(), cell.y(), cell.z());
     const CellCase& cc = cellCase(parity, inside);
