@@ -486,22 +486,22 @@ void CutSession::setKerf(double kerfMm)
 
 void CutSession::setRetrace(double voxels)
 {
-    post({"retrace", false, [this, voxels] {
-              char text[48];
-              std::snprintf(text, sizeof text, "retrace %g", voxels);
-              // The next stroke's filter takes it.
-              mState->filterOptions.retraceTolerance =
-                  cli::filterToleranceWith(voxels, text, cutter::PathFilterOptions{}.retraceTolerance);
-          }});
+    setFilterTolerance("retrace", &cutter::PathFilterOptions::retraceTolerance, voxels);
 }
 
 void CutSession::setSlide(double voxels)
 {
-    post({"slide", false, [this, voxels] {
+    setFilterTolerance("slide", &cutter::PathFilterOptions::slideTolerance, voxels);
+}
+
+void CutSession::setFilterTolerance(const char* name, double cutter::PathFilterOptions::*tolerance, double voxels)
+{
+    post({name, false, [this, name, tolerance, voxels] {
               char text[48];
-              std::snprintf(text, sizeof text, "slide %g", voxels);
-              mState->filterOptions.slideTolerance =
-                  cli::filterToleranceWith(voxels, text, cutter::PathFilterOptions{}.slideTolerance);
+              std::snprintf(text, sizeof text, "%s %g", name, voxels);
+              // The next stroke's filter takes it.
+              mState->filterOptions.*tolerance =
+                  cli::filterToleranceWith(voxels, text, cutter::PathFilterOptions{}.*tolerance);
           }});
 }
 

@@ -152,6 +152,8 @@ private:
         std::function<void()> work;
     };
     void post(Command command);
+    /// setRetrace and setSlide: `name` (a string literal) and the option they set.
+    void setFilterTolerance(const char* name, double cutter::PathFilterOptions::*tolerance, double voxels);
     void run();
     /// Worker: re-meshes what changed. mayDefer: a live stroke's refused
     /// update waits for its next poses (cutter::LiveStroke); else it is
