@@ -974,6 +974,68 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
     }
 }
 
+// The self-contact check takes a re-meshed cell's word that no two of its
+// own triangles cross (CutCellGeometry::crossFree: the kernel's float repair
+// asked every pair at the cell's float points) only while the fused mesh
+// puts each of the cell's vertices where the cell does (LocalCheck.cpp,
+// ownPairsClear). A cell source gives a cell with a tetrahedron poking
+// through its first triangle and that word: as given, the check relies on
+// the word and the cut goes through (the skip is real; the kernel never
+// gives the word for such a cell); with the cell's own position of one
+// grid-edge vertex moved off the uncut mesh's (which the fused mesh keeps),
+// its pairs are asked again and the cut is refused naming the cell. On one
+// thread and on two.
+TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereTheFusedMeshMovesOneOfItsVertices)
+{
+    const BallAndTwoStrokes ball;
+    const CutMask mask = ball.bothStrokes(0.5);
+    CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
+    cpu.update(mask);
+    const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
+    // The victim: a cell with cut triangles and a vertex on a grid edge.
+    Coord victim(0);
+    size_t edgeVertex = SIZE_MAX;
+    for (const auto& [c, g] : cells) {
+        if (g.indices.size() < 6) continue;
+        for (size_t v = 0; v < g.vertexIds.size() && edgeVertex == SIZE_MAX; ++v)
+            if (g.vertexIds[v].isIsoEdgeVertex()) edgeVertex = v;
+        if (edgeVertex == SIZE_MAX) continue;
+        victim = c;
+        break;
+    }
+    ASSERT_NE(edgeVertex, SIZE_MAX);
+    for (int threads : {1, 2}) {
+        for (bool moved : {false, true}) {
+            std::string message;
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+            tbb::task_arena arena(threads);
+            arena.execute([&] {
+                CutRemesher sourced(ball.vol, 0.0f, ball.uncut);
+                sourced.setCellSource([&](const Coord& c, CutCellGeometry& out) {
+                    out = cells.at(c);
+                    if (c != victim) return true;
+                    addTetrahedronThroughFirstTriangle(out, 0);
+                    out.crossFree = true;
+                    if (moved) out.indexPositions[edgeVertex] += dvec3(0.0, 0.0, 0.125);
+                    return true;
+                });
+                try {
+                    sourced.update(mask);
+                } catch (const std::runtime_error& e) {
+                    message = e.what();
+                }
+            });
+            if (!moved) {
+                EXPECT_EQ(message, "") << threads << " thread(s): the cell's word was not taken";
+                continue;
+            }
+            EXPECT_NE(message.find("crosses or touches itself"), std::string::npos)
+                << threads << " thread(s): " << message;
+            EXPECT_NE(message.find(remesh_detail::cellText(victim)), std::string::npos) << message;
+        }
+    }
+}
+
 // With a width, the float repair's last look at a cell asks every pair of
 // its triangles as the local check would (trianglesCross at the written
 // float points), and marks the cell crossFree when it finds none; the
