@@ -754,7 +754,7 @@ const QuadGeom& cachedQuadGeom(const CutMask& mask, const QuadRef& r, QuadGeomCa
     return e.geom;
 }
 
-using VolumeAccessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
+using VolumeAccessor = CutRemesher::VolumeAccessor;
 
 } // namespace
 
