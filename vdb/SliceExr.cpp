@@ -85,6 +85,11 @@ void writeSliceStack(const std::string& path, const Volume& volume, const openvd
         h.setName(sliceName(k));
         h.setType(Imf::SCANLINEIMAGE);
         h.compression() = Imf::ZIP_COMPRESSION;
+        // zlib's fastest level: on the 1 mm head (245 slices of 512 x 512)
+        // the stack took 3.5-3.9 s to write beside cut.vdb's level sets
+        // instead of 5.5-5.6 s at OpenEXR's default level, for a file 9 %
+        // larger (29.9 MB against 27.4). Readers need nothing different.
+        h.zipCompressionLevel() = 1;
         h.channels().insert("density", Imf::Channel(Imf::FLOAT));
         h.channels().insert("mask", Imf::Channel(Imf::UINT));
         h.insert("mtcut:spacing_mm", Imf::V3dAttribute(Imath::V3d(spacing.x(), spacing.y(), spacing.z())));

@@ -12,7 +12,7 @@
 //                                   inactive voxels included (carved = background)
 //                   mask     UINT   stroke id of the cut voxel, 0 = not cut
 //                                   (active voxels of the cut mask; ids are 1-based)
-//   compression     ZIP (16 scan lines per block), increasing y
+//   compression     ZIP (16 scan lines per block, zlib level 1), increasing y
 //   pixelAspectRatio spacing.x / spacing.y (EXR's width/height of a pixel)
 //   attributes, on every part:
 //     mtcut:spacing_mm  v3d     voxel spacing x, y, z, mm
