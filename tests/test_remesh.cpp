@@ -687,10 +687,10 @@ uint32_t appendTetrahedronCorners(CutCellGeometry& g, const std::array<dvec3, 4>
     return base;
 }
 
-void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
+void addTetrahedronThroughTriangle(CutCellGeometry& g, size_t triangle, uint64_t tag)
 {
-    const dvec3 centre =
-        (g.indexPositions[g.indices[0]] + g.indexPositions[g.indices[1]] + g.indexPositions[g.indices[2]]) / 3.0;
+    const uint32_t* v = &g.indices[3 * triangle];
+    const dvec3 centre = (g.indexPositions[v[0]] + g.indexPositions[v[1]] + g.indexPositions[v[2]]) / 3.0;
     const dvec3 corner[4] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
     std::array<dvec3, 4> at;
     for (int k = 0; k < 4; ++k) at[size_t(k)] = centre + 0.03 * corner[k];
@@ -699,6 +699,8 @@ void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag)
         for (uint32_t v : {a, b, c}) g.indices.push_back(base + v);
     g.cap.insert(g.cap.end(), 4, 0);
 }
+
+void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag) { addTetrahedronThroughTriangle(g, 0, tag); }
 
 /// The refusal message (empty: none) of a fresh remesher's update of `mask`
 /// over `ball`, with `hook` breaking cells, on `threads` threads.
@@ -974,17 +976,43 @@ TEST(Remesh, AKerfCutWhoseSurfaceCrossesItselfIsRefused)
     }
 }
 
+/// The refusal message (empty: none) of a fresh remesher's update of `mask`
+/// over `ball` on `threads` threads, a cell source giving every cell as
+/// `cells` holds it but `victim`, given as `change` makes it.
+std::string sourcedRefusal(const BallAndTwoStrokes& ball, const CutMask& mask,
+                           const std::map<Coord, CutCellGeometry>& cells, const Coord& victim,
+                           const std::function<void(CutCellGeometry&)>& change, int threads)
+{
+    std::string message;
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+        CutRemesher sourced(ball.vol, 0.0f, ball.uncut);
+        sourced.setCellSource([&](const Coord& c, CutCellGeometry& out) {
+            out = cells.at(c);
+            if (c == victim) change(out);
+            return true;
+        });
+        try {
+            sourced.update(mask);
+        } catch (const std::runtime_error& e) {
+            message = e.what();
+        }
+    });
+    return message;
+}
+
 // The self-contact check takes a re-meshed cell's word that no two of its
 // own triangles cross (CutCellGeometry::crossFree: the kernel's float repair
 // asked every pair at the cell's float points) only while the fused mesh
-// puts each of the cell's vertices where the cell does (LocalCheck.cpp,
-// ownPairsClear). A cell source gives a cell with a tetrahedron poking
-// through its first triangle and that word: as given, the check relies on
-// the word and the cut goes through (the skip is real; the kernel never
-// gives the word for such a cell); with the cell's own position of one
-// grid-edge vertex moved off the uncut mesh's (which the fused mesh keeps),
-// its pairs are asked again and the cut is refused naming the cell. On one
-// thread and on two.
+// puts each of the cell's vertices where the cell does, and snap rounding
+// joins none of them (LocalCheck.cpp, ownPairsClear). A cell source gives a
+// cell with a tetrahedron poking through one of its triangles and that
+// word: as given, the check relies on the word and the cut goes through
+// (the skip is real; the kernel never gives the word for such a cell); with
+// the cell's own position of one grid-edge vertex moved off the uncut
+// mesh's (which the fused mesh keeps), its pairs are asked again and the
+// cut is refused naming the cell. On one thread and on two.
 TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereTheFusedMeshMovesOneOfItsVertices)
 {
     const BallAndTwoStrokes ball;
@@ -1006,25 +1034,11 @@ TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereTheFusedMeshMovesOneOfItsVertices)
     ASSERT_NE(edgeVertex, SIZE_MAX);
     for (int threads : {1, 2}) {
         for (bool moved : {false, true}) {
-            std::string message;
-            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
-            tbb::task_arena arena(threads);
-            arena.execute([&] {
-                CutRemesher sourced(ball.vol, 0.0f, ball.uncut);
-                sourced.setCellSource([&](const Coord& c, CutCellGeometry& out) {
-                    out = cells.at(c);
-                    if (c != victim) return true;
-                    addTetrahedronThroughFirstTriangle(out, 0);
-                    out.crossFree = true;
-                    if (moved) out.indexPositions[edgeVertex] += dvec3(0.0, 0.0, 0.125);
-                    return true;
-                });
-                try {
-                    sourced.update(mask);
-                } catch (const std::runtime_error& e) {
-                    message = e.what();
-                }
-            });
+            const std::string message = sourcedRefusal(ball, mask, cells, victim, [&](CutCellGeometry& out) {
+                addTetrahedronThroughFirstTriangle(out, 0);
+                out.crossFree = true;
+                if (moved) out.indexPositions[edgeVertex] += dvec3(0.0, 0.0, 0.125);
+            }, threads);
             if (!moved) {
                 EXPECT_EQ(message, "") << threads << " thread(s): the cell's word was not taken";
                 continue;
@@ -1034,6 +1048,66 @@ TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereTheFusedMeshMovesOneOfItsVertices)
             EXPECT_NE(message.find(remesh_detail::cellText(victim)), std::string::npos) << message;
         }
     }
+}
+
+// As above, where snap rounding joins two of the cell's vertices (each at
+// the position the cell gives it): two vertices inside the cell's box, so
+// named by that cell alone, given at one position, are one vertex once
+// rounded, the triangles on the edge between them dropped. The first such
+// edge of the cut whose join alone is accepted (a closed 2-manifold still)
+// is joined again with a tetrahedron poking through a triangle away from
+// it (well inside the box, so it meets no neighbour's triangles), and the
+// word: refused naming the cell, on one thread and on two.
+TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereSnapRoundingJoinsTwoOfItsVertices)
+{
+    const BallAndTwoStrokes ball;
+    const CutMask mask = ball.bothStrokes(0.5);
+    CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
+    cpu.update(mask);
+    const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
+    auto insideBox = [](const Coord& c, const dvec3& p) {
+        return p.x > c.x() && p.x < c.x() + 1 && p.y > c.y() && p.y < c.y() + 1 && p.z > c.z() && p.z < c.z() + 1;
+    };
+    size_t tried = 0;
+    for (const auto& [c, g] : cells) {
+        const size_t n = g.indices.size() / 3;
+        for (size_t t = 0; t < n && tried < 40; ++t) {
+            const uint32_t a = g.indices[3 * t], b = g.indices[3 * t + 1];
+            if (!insideBox(c, g.indexPositions[a]) || !insideBox(c, g.indexPositions[b])) continue;
+            size_t away = n; // a triangle with neither end, the poke well inside the box
+            for (size_t u = 0; u < n && away == n; ++u) {
+                const uint32_t* w = &g.indices[3 * u];
+                const dvec3 centre = (g.indexPositions[w[0]] + g.indexPositions[w[1]] + g.indexPositions[w[2]]) / 3.0;
+                const dvec3 off = centre - dvec3(c.x(), c.y(), c.z());
+                const bool deep = glm::all(glm::greaterThan(off, dvec3(0.1))) && glm::all(glm::lessThan(off, dvec3(0.9)));
+                if (deep && w[0] != a && w[1] != a && w[2] != a && w[0] != b && w[1] != b && w[2] != b) away = u;
+            }
+            if (away == n) continue;
+            ++tried;
+            auto join = [&, a = a, b = b](CutCellGeometry& out) {
+                out.indexPositions[b] = out.indexPositions[a];
+                out.crossFree = true;
+            };
+            if (!sourcedRefusal(ball, mask, cells, c, join, 1).empty()) continue; // the join alone breaks the cell
+            // The poke alone, with the word, is taken (as in the test above).
+            EXPECT_EQ(sourcedRefusal(ball, mask, cells, c, [&](CutCellGeometry& out) {
+                addTetrahedronThroughTriangle(out, away, 0);
+                out.crossFree = true;
+            }, 1), "");
+            for (int threads : {1, 2}) {
+                const std::string message = sourcedRefusal(ball, mask, cells, c, [&](CutCellGeometry& out) {
+                    addTetrahedronThroughTriangle(out, away, 0);
+                    join(out);
+                }, threads);
+                EXPECT_NE(message.find("crosses or touches itself"), std::string::npos)
+                    << threads << " thread(s): " << message;
+                EXPECT_NE(message.find(remesh_detail::cellText(c)), std::string::npos)
+                    << message << " (expected " << remesh_detail::cellText(c) << ")";
+            }
+            return;
+        }
+    }
+    FAIL() << "no edge inside a cell whose join alone is accepted (" << tried << " tried)";
 }
 
 // With a width, the float repair's last look at a cell asks every pair of
