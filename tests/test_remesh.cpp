@@ -2016,7 +2016,8 @@ TEST(Remesh, APointOnAMitreAndOneOffsetPlaneIsNamedByThePartnersOffsetPlaneToo)
                 for (const auto& q : quads)
                     for (const auto& sd : q.sides) {
                         if (sd.partnerId == 0) continue;
-                        if (!inClosedPrism(&q, n.pos0) && !inClosedPrism(byId(sd.partnerId), n.pos0)) continue;
+                        const remesh_detail::QuadGeom* partner = byId(sd.partnerId);
+                        if (!inClosedPrism(&q, n.pos0) && !inClosedPrism(partner, n.pos0)) continue;
                         // On a plane by a tenth of the kernel's tie (epsAt), so on it for the kernel too.
                         const glm::dvec3 a = glm::abs(n.pos0);
                         const double tie = 1e-14 * (1.0 + std::max({a.x, a.y, a.z}));
@@ -2027,7 +2028,6 @@ TEST(Remesh, APointOnAMitreAndOneOffsetPlaneIsNamedByThePartnersOffsetPlaneToo)
                                     if (s.id == id) return std::abs(s.plane.h(n.pos0)) <= tie * glm::length(s.plane.n);
                             return false;
                         };
-                        const remesh_detail::QuadGeom* partner = byId(sd.partnerId);
                         if (!on(&q, sd.id)) continue;
                         for (int kind : {remesh_detail::kPlusKind, remesh_detail::kMinusKind}) {
                             const uint64_t mine = (q.id & ~uint64_t(15)) | uint64_t(kind);
