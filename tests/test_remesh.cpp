@@ -653,6 +653,13 @@ struct BallAndTwoStrokes
         addStroke(mask, second);
         return mask;
     }
+    /// The cut cells' geometry of a whole update of `mask` (CutRemesher::cells).
+    std::map<Coord, CutCellGeometry> cutCells(const CutMask& mask) const
+    {
+        CutRemesher remesher(vol, 0.0f, uncut);
+        remesher.update(mask);
+        return remesher.cells();
+    }
     /// The cells that a whole update of `mask` gives two or more triangles, sorted.
     std::vector<Coord> cellsWithGeometry(const CutMask& mask) const
     {
@@ -703,16 +710,16 @@ void addTetrahedronThroughTriangle(CutCellGeometry& g, size_t triangle, uint64_t
 void addTetrahedronThroughFirstTriangle(CutCellGeometry& g, uint64_t tag) { addTetrahedronThroughTriangle(g, 0, tag); }
 
 /// The refusal message (empty: none) of a fresh remesher's update of `mask`
-/// over `ball`, with `hook` breaking cells, on `threads` threads.
-std::string refusalOf(const BallAndTwoStrokes& ball, const CutMask& mask, int threads,
-                      const std::function<void(const Coord&, CutCellGeometry&)>& hook)
+/// over `ball` on `threads` threads, the remesher given to `setup` first.
+std::string refusalWith(const BallAndTwoStrokes& ball, const CutMask& mask, int threads,
+                        const std::function<void(CutRemesher&)>& setup)
 {
     std::string message;
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
     tbb::task_arena arena(threads);
     arena.execute([&] {
         CutRemesher remesher(ball.vol, 0.0f, ball.uncut);
-        remesher.setCellHookForTesting(hook);
+        setup(remesher);
         try {
             remesher.update(mask);
         } catch (const std::runtime_error& e) {
@@ -720,6 +727,13 @@ std::string refusalOf(const BallAndTwoStrokes& ball, const CutMask& mask, int th
         }
     });
     return message;
+}
+
+/// refusalWith, with `hook` breaking cells.
+std::string refusalOf(const BallAndTwoStrokes& ball, const CutMask& mask, int threads,
+                      const std::function<void(const Coord&, CutCellGeometry&)>& hook)
+{
+    return refusalWith(ball, mask, threads, [&](CutRemesher& remesher) { remesher.setCellHookForTesting(hook); });
 }
 
 TEST(Remesh, LocalCheckFiresOnABrokenCellAndKeepsTheLastGoodMesh)
@@ -983,23 +997,13 @@ std::string sourcedRefusal(const BallAndTwoStrokes& ball, const CutMask& mask,
                            const std::map<Coord, CutCellGeometry>& cells, const Coord& victim,
                            const std::function<void(CutCellGeometry&)>& change, int threads)
 {
-    std::string message;
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-        CutRemesher sourced(ball.vol, 0.0f, ball.uncut);
-        sourced.setCellSource([&](const Coord& c, CutCellGeometry& out) {
+    return refusalWith(ball, mask, threads, [&](CutRemesher& remesher) {
+        remesher.setCellSource([&](const Coord& c, CutCellGeometry& out) {
             out = cells.at(c);
             if (c == victim) change(out);
             return true;
         });
-        try {
-            sourced.update(mask);
-        } catch (const std::runtime_error& e) {
-            message = e.what();
-        }
     });
-    return message;
 }
 
 // The self-contact check takes a re-meshed cell's word that no two of its
@@ -1017,9 +1021,7 @@ TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereTheFusedMeshMovesOneOfItsVertices)
 {
     const BallAndTwoStrokes ball;
     const CutMask mask = ball.bothStrokes(0.5);
-    CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
-    cpu.update(mask);
-    const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
+    const std::map<Coord, CutCellGeometry> cells = ball.cutCells(mask);
     // The victim: a cell with cut triangles and a vertex on a grid edge.
     Coord victim(0);
     size_t edgeVertex = SIZE_MAX;
@@ -1062,9 +1064,7 @@ TEST(Remesh, ACellsOwnPairsAreAskedAgainWhereSnapRoundingJoinsTwoOfItsVertices)
 {
     const BallAndTwoStrokes ball;
     const CutMask mask = ball.bothStrokes(0.5);
-    CutRemesher cpu(ball.vol, 0.0f, ball.uncut);
-    cpu.update(mask);
-    const std::map<Coord, CutCellGeometry>& cells = cpu.cells();
+    const std::map<Coord, CutCellGeometry> cells = ball.cutCells(mask);
     auto insideBox = [](const Coord& c, const dvec3& p) {
         return p.x > c.x() && p.x < c.x() + 1 && p.y > c.y() && p.y < c.y() + 1 && p.z > c.z() && p.z < c.z() + 1;
     };
